@@ -1,0 +1,47 @@
+# Every target sets itself up: a virtual environment in .venv, PyTorch (CPU), the package
+# with its dev extras pinned by constraints.txt, and the MONA binary.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.noisybolt-installed
+PYTEST_ARGS ?=
+
+.PHONY: all setup mona test test-slow demo lint typecheck bench clean
+
+all: test
+
+$(STAMP): pyproject.toml constraints.txt
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV) || { \
+	  echo "error: could not create $(VENV); on Debian/Ubuntu run: apt-get install python3-venv" >&2; exit 1; }
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q "torch==2.13.0" -c constraints.txt
+	$(PY) -m pip install -q -e ".[dev]" -c constraints.txt
+	@touch $(STAMP)
+
+setup: $(STAMP) mona
+
+mona:
+	@sh scripts/ensure-mona.sh
+
+test: setup
+	$(PY) -m pytest -q -m "not slow" $(PYTEST_ARGS)
+
+test-slow: setup
+	$(PY) -m pytest -q -m slow $(PYTEST_ARGS)
+
+demo: setup
+	$(VENV)/bin/noisybolt demo
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/ruff format --check src tests benchmarks
+
+typecheck: $(STAMP)
+	$(VENV)/bin/mypy
+
+bench: setup
+	$(PY) benchmarks/bolt_step.py
+	$(PY) benchmarks/perception.py
+
+clean:
+	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,80 @@
+"""Named exceptions shared by every layer of noisybolt.
+
+Each message says what went wrong and what to do about it. They subclass the built-in
+exception a caller would naturally catch (``ValueError``, ``RuntimeError``) so generic
+handlers keep working.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "BackendUnavailableError",
+    "CompilationError",
+    "ConfigError",
+    "CorruptFileError",
+    "IncompatibleError",
+    "NoisyboltError",
+    "SpecSyntaxError",
+    "UnknownFluentError",
+    "UnknownNameError",
+]
+
+
+class NoisyboltError(Exception):
+    """Base class of every error raised on purpose by noisybolt."""
+
+
+class SpecSyntaxError(NoisyboltError, ValueError):
+    """An LTLf formula could not be parsed.
+
+    Attributes:
+        formula: the text that was parsed.
+        position: 0-based character offset of the problem, or None if unknown.
+    """
+
+    def __init__(self, message: str, *, formula: str, position: int | None = None) -> None:
+        super().__init__(message)
+        self.formula = formula
+        self.position = position
+
+
+class UnknownFluentError(NoisyboltError, ValueError):
+    """A formula, detector or config names a fluent outside the known vocabulary."""
+
+    def __init__(self, message: str, *, unknown: tuple[str, ...], known: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.unknown = unknown
+        self.known = known
+
+
+class UnknownNameError(NoisyboltError, ValueError):
+    """A world, noise model, algorithm, spec or other registry name is not known."""
+
+    def __init__(self, message: str, *, name: str, known: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.name = name
+        self.known = known
+
+
+class BackendUnavailableError(NoisyboltError, RuntimeError):
+    """A compiler backend was requested but cannot run here (e.g. MONA is not installed)."""
+
+
+class CompilationError(NoisyboltError, RuntimeError):
+    """A backend failed to compile a formula (timeout, crash, unreadable output)."""
+
+    def __init__(self, message: str, *, formula: str) -> None:
+        super().__init__(message)
+        self.formula = formula
+
+
+class ConfigError(NoisyboltError, ValueError):
+    """A configuration value is missing, unknown or out of range."""
+
+
+class IncompatibleError(NoisyboltError, ValueError):
+    """Two parts that must agree do not (e.g. a classifier trained for another camera)."""
+
+
+class CorruptFileError(NoisyboltError, ValueError):
+    """A saved file (dataset, classifier, checkpoint, cache entry) is truncated or corrupt."""
