@@ -1,0 +1,133 @@
+"""The paper's policy body: convolutions over the agent's image, then the one-hot DFA states.
+
+Section 2.2 of the paper decomposes the policy as ``π(s') = H(G(s) | Q)``: ``G`` is a stack
+of convolutions over the agent's image, ``Q`` the concatenated one-hot DFA states, and ``H``
+dense layers. With Stable-Baselines3, ``G | Q`` is a features extractor and ``H`` is the
+policy's ``net_arch``. SB3 already one-hot encodes ``MultiDiscrete`` entries of a ``Dict``
+observation and moves channel-last uint8 images to channel-first before the extractor, so
+this module only has to pick convolutions that suit the image size: MiniGrid-sized grids
+and 7×7 views are far below the 36×36 that SB3's ``NatureCNN`` needs.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import torch
+from stable_baselines3.common.preprocessing import get_flattened_obs_dim
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from torch import nn
+
+from noisybolt.errors import ConfigError
+
+__all__ = ["BoltFeaturesExtractor", "conv_stack"]
+
+#: Images with both sides at least this large get the Nature-DQN convolutions.
+LARGE_IMAGE_MIN_SIDE = 36
+
+
+def conv_stack(in_channels: int, height: int, width: int) -> nn.Sequential:
+    """Convolutions sized for the image: Nature-DQN for Atari frames, 2×2 ones for grids.
+
+    The small stack follows the paper's own code base (rl-starter-files: three 2×2
+    convolutions of 16, 32, 64 channels), without its max-pool so that a 6×6 room still
+    leaves a 3×3 map.
+    """
+    if min(height, width) >= LARGE_IMAGE_MIN_SIDE:
+        return nn.Sequential(
+            nn.Conv2d(in_channels, 32, kernel_size=8, stride=4),
+            nn.ReLU(),
+            nn.Conv2d(32, 64, kernel_size=4, stride=2),
+            nn.ReLU(),
+            nn.Conv2d(64, 64, kernel_size=3, stride=1),
+            nn.ReLU(),
+            nn.Flatten(),
+        )
+    if min(height, width) < 4:
+        raise ConfigError(f"the agent's image is {height}×{width}: at least 4×4 is needed")
+    return nn.Sequential(
+        nn.Conv2d(in_channels, 16, kernel_size=2),
+        nn.ReLU(),
+        nn.Conv2d(16, 32, kernel_size=2),
+        nn.ReLU(),
+        nn.Conv2d(32, 64, kernel_size=2),
+        nn.ReLU(),
+        nn.Flatten(),
+    )
+
+
+def _channels_first(shape: tuple[int, ...]) -> bool:
+    # SB3 transposes channel-last uint8 images before they reach us; other image-like Boxes
+    # (float or non-0..255 bounds) arrive as declared, so decide from the shape: the
+    # channel axis is the smallest one.
+    return bool(np.argmin(shape) == 0)
+
+
+class BoltFeaturesExtractor(BaseFeaturesExtractor):
+    """Features ``G(image) | Q`` for ``Dict{"image": Box(H,W,C), "dfa": MultiDiscrete}``.
+
+    Args:
+        observation_space: the (possibly SB3-transposed) Dict observation space.
+        image_key: key of the agent's image.
+        dfa_key: key of the DFA states (absent or empty for an unbolted agent).
+        image_features: if given, a linear layer + ReLU projects the flattened
+            convolution output to this many features before the DFA states are appended.
+
+    Example:
+        >>> space = gym.spaces.Dict({
+        ...     "image": gym.spaces.Box(0, 255, (3, 6, 6), np.uint8),
+        ...     "dfa": gym.spaces.MultiDiscrete([3, 2])})
+        >>> extractor = BoltFeaturesExtractor(space)
+        >>> obs = {"image": torch.zeros(2, 3, 6, 6), "dfa": torch.zeros(2, 5)}
+        >>> extractor(obs).shape
+        torch.Size([2, 581])
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Dict,
+        *,
+        image_key: str = "image",
+        dfa_key: str = "dfa",
+        image_features: int | None = None,
+    ) -> None:
+        if not isinstance(observation_space, gym.spaces.Dict):
+            raise ConfigError(
+                f"BoltFeaturesExtractor needs a Dict observation space, got {observation_space}"
+            )
+        if image_key not in observation_space.spaces:
+            raise ConfigError(
+                f"observation has no {image_key!r} entry; it has {list(observation_space.spaces)}"
+            )
+        image_space = observation_space.spaces[image_key]
+        shape = tuple(int(s) for s in image_space.shape or ())
+        if len(shape) != 3:
+            raise ConfigError(f"the agent's image must be 3-D (H, W, C), got shape {shape}")
+        first = _channels_first(shape)
+        channels, height, width = shape if first else (shape[2], shape[0], shape[1])
+        convs = conv_stack(channels, height, width)
+        with torch.no_grad():
+            n_conv = int(convs(torch.zeros(1, channels, height, width)).shape[1])
+        projection: nn.Module = nn.Identity()
+        n_image = n_conv
+        if image_features is not None:
+            projection = nn.Sequential(nn.Linear(n_conv, image_features), nn.ReLU())
+            n_image = image_features
+        dfa_space = observation_space.spaces.get(dfa_key)
+        n_dfa = get_flattened_obs_dim(dfa_space) if dfa_space is not None else 0
+        super().__init__(observation_space, features_dim=n_image + n_dfa)
+        self.image_key = image_key
+        self.dfa_key = dfa_key if n_dfa else None
+        self.channels_first = first
+        self.convs = convs
+        self.projection = projection
+
+    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
+        """Concatenates the image features with the (already one-hot) DFA states."""
+        image = observations[self.image_key].float()
+        if not self.channels_first:
+            image = image.permute(0, 3, 1, 2)
+        features = self.projection(self.convs(image))
+        if self.dfa_key is None:
+            return features
+        return torch.cat([features, observations[self.dfa_key].float()], dim=1)

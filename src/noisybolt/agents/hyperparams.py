@@ -1,0 +1,139 @@
+"""Hyperparameters per world and algorithm (YAML, RL-Zoo style), with overrides.
+
+The built-in files live in ``noisybolt/configs/hyperparams/<world>.yaml``, one entry per
+algorithm. Overrides come from the command line as ``key=value`` strings (the value is read
+as YAML, so ``net_arch=[32,32]`` is a list) and may reach into nested mappings with dots
+(``policy_kwargs.net_arch=[32,32]``). Unknown keys are refused with the known ones listed.
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+from collections.abc import Iterable, Mapping
+from importlib import resources
+from typing import Any
+
+import yaml
+from stable_baselines3 import A2C, DQN, PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
+
+from noisybolt.errors import ConfigError, UnknownNameError
+
+__all__ = [
+    "ALGORITHMS",
+    "META_KEYS",
+    "algorithm_class",
+    "known_hyperparameters",
+    "load_hyperparams",
+    "parse_overrides",
+]
+
+ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN}
+
+#: noisybolt's own keys, consumed before the rest reaches the SB3 constructor.
+META_KEYS: frozenset[str] = frozenset({"n_envs", "normalize_reward", "image_features"})
+
+# Constructor arguments that noisybolt sets itself.
+_RESERVED = frozenset(
+    {"self", "policy", "env", "seed", "device", "verbose", "tensorboard_log", "_init_setup_model"}
+)
+
+
+def algorithm_class(algo: str) -> type[BaseAlgorithm]:
+    """The SB3 class of ``algo`` (``ppo``, ``a2c``, ``dqn``)."""
+    try:
+        return ALGORITHMS[algo.lower()]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown algorithm {algo!r}; known algorithms: {sorted(ALGORITHMS)}",
+            name=algo,
+            known=tuple(sorted(ALGORITHMS)),
+        ) from None
+
+
+def known_hyperparameters(algo: str) -> frozenset[str]:
+    """Keys accepted for ``algo``: its SB3 constructor's arguments plus :data:`META_KEYS`."""
+    params = inspect.signature(algorithm_class(algo).__init__).parameters
+    return frozenset(params) - _RESERVED | META_KEYS
+
+
+def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
+    """Parses ``key=value`` strings; values are read as YAML.
+
+    Example:
+        >>> parse_overrides(["learning_rate=3e-4", "policy_kwargs.net_arch=[32, 32]"])
+        {'learning_rate': 0.0003, 'policy_kwargs.net_arch': [32, 32]}
+    """
+    result: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"hyperparameter override {item!r} is not of the form key=value")
+        try:
+            parsed = yaml.safe_load(value)
+        except yaml.YAMLError as error:
+            raise ConfigError(f"cannot read the value of {item!r}: {error}") from None
+        # YAML 1.1 reads "3e-4" as a string; accept the float a user meant.
+        if isinstance(parsed, str):
+            try:
+                parsed = float(parsed)
+            except ValueError:
+                pass
+        result[key.strip()] = parsed
+    return result
+
+
+def _builtin(world: str) -> dict[str, Any]:
+    files = resources.files("noisybolt.configs").joinpath("hyperparams")
+    known = sorted(p.name.removesuffix(".yaml") for p in files.iterdir() if p.name.endswith(".yaml"))
+    if world not in known:
+        raise UnknownNameError(
+            f"no hyperparameters for world {world!r}; known worlds: {known}",
+            name=world,
+            known=tuple(known),
+        )
+    data = yaml.safe_load(files.joinpath(f"{world}.yaml").read_text())
+    return data if isinstance(data, dict) else {}
+
+
+def load_hyperparams(
+    world: str, algo: str, overrides: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """Resolved hyperparameters of ``algo`` on ``world``, with ``overrides`` applied.
+
+    Raises:
+        UnknownNameError: unknown world or algorithm.
+        ConfigError: an override names a key the algorithm does not have.
+
+    Example:
+        >>> params = load_hyperparams("gridworld", "ppo", {"n_epochs": 2})
+        >>> params["n_epochs"], params["n_envs"]
+        (2, 8)
+    """
+    algo = algo.lower()
+    algorithm_class(algo)
+    table = _builtin(world)
+    params = copy.deepcopy(table.get(algo) or {})
+    known = known_hyperparameters(algo)
+    for key, value in (overrides or {}).items():
+        head, *rest = key.split(".")
+        if head not in known:
+            raise ConfigError(
+                f"unknown hyperparameter {head!r} for {algo}; known: {sorted(known)}"
+            )
+        if not rest:
+            params[head] = value
+            continue
+        node = params.setdefault(head, {})
+        for part in rest[:-1]:
+            if not isinstance(node, dict):
+                raise ConfigError(f"{key!r}: {part!r} is not inside a mapping")
+            node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            raise ConfigError(f"{key!r}: cannot set a key inside a non-mapping value")
+        node[rest[-1]] = value
+    unknown = sorted(set(params) - known)
+    if unknown:
+        raise ConfigError(f"built-in hyperparameters for {world}/{algo} have unknown keys {unknown}")
+    return params

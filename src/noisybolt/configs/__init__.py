@@ -1,0 +1,1 @@
+"""Built-in configuration files (hyperparameters per world and algorithm)."""
