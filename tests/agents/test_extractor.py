@@ -1,0 +1,59 @@
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from stable_baselines3.common.preprocessing import preprocess_obs
+
+from noisybolt.agents import BoltFeaturesExtractor
+from noisybolt.errors import ConfigError
+
+
+def _space(image_shape: tuple[int, ...], dfa: list[int] | None) -> gym.spaces.Dict:
+    spaces: dict[str, gym.spaces.Space] = {
+        "image": gym.spaces.Box(0, 255, image_shape, np.uint8)
+    }
+    if dfa is not None:
+        spaces["dfa"] = gym.spaces.MultiDiscrete(dfa)
+    return gym.spaces.Dict(spaces)
+
+
+@pytest.mark.parametrize(
+    ("shape", "n_conv"),
+    [((3, 6, 6), 64 * 3 * 3), ((3, 7, 7), 64 * 4 * 4), ((4, 84, 84), 64 * 7 * 7)],
+)
+def test_features_are_convolutions_then_one_hot_dfa_states(
+    shape: tuple[int, int, int], n_conv: int
+) -> None:
+    space = _space(shape, [3, 2])
+    extractor = BoltFeaturesExtractor(space)
+    assert extractor.features_dim == n_conv + 3 + 2
+    obs = {"image": np.zeros((2, *shape), np.uint8), "dfa": np.array([[2, 0], [0, 1]])}
+    tensors = {k: torch.as_tensor(v) for k, v in obs.items()}
+    features = extractor(preprocess_obs(tensors, space, normalize_images=False))
+    # The last five features are exactly the one-hot DFA states, after the convolutions.
+    np.testing.assert_array_equal(
+        features[:, -5:].detach().numpy(), [[0, 0, 1, 1, 0], [1, 0, 0, 0, 1]]
+    )
+
+
+def test_channel_last_images_are_accepted() -> None:
+    space = _space((6, 6, 3), [2])
+    extractor = BoltFeaturesExtractor(space)
+    out = extractor({"image": torch.zeros(1, 6, 6, 3), "dfa": torch.tensor([[1.0, 0.0]])})
+    assert out.shape == (1, 64 * 9 + 2)
+
+
+def test_unbolted_agent_has_image_features_only_and_projection_works() -> None:
+    extractor = BoltFeaturesExtractor(_space((3, 6, 6), None), image_features=32)
+    assert extractor.features_dim == 32
+
+
+def test_bad_spaces_are_named_errors() -> None:
+    with pytest.raises(ConfigError, match="Dict"):
+        BoltFeaturesExtractor(gym.spaces.Box(0, 1, (3, 6, 6)))  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="no 'image' entry"):
+        BoltFeaturesExtractor(gym.spaces.Dict({"dfa": gym.spaces.MultiDiscrete([2])}))
+    with pytest.raises(ConfigError, match="at least 4"):
+        BoltFeaturesExtractor(_space((3, 3, 3), [2]))
