@@ -1,0 +1,66 @@
+"""The restraining bolt's reward engine: confidence bands, Algorithm 1, reward timing.
+
+Pure numpy; knows nothing of Gymnasium or torch.
+
+* :class:`Spec`: an LTLf formula with its terminal reward, low-confidence cost and
+  reward timing.
+* :class:`Thresholds` and the band functions: the paper's eq. 1.
+* :class:`BoltEngine`: Algorithm 1, stateless, batched over environments and specs.
+* :class:`RestrainingBolt`: the engine plus DFA states and episode timing (reset, the
+  carried first reward, auto-reset of vectorised environments).
+* :class:`AugmentedDFA`: the explicit augmented DFA of Fig. 2a, a reference to test and
+  benchmark Algorithm 1 against.
+
+Example:
+    >>> import numpy as np
+    >>> from noisybolt.logic import DFA
+    >>> always_e = DFA.from_function(["e"], n_states=2, initial_state=0,
+    ...     accepting=[True, False], delta=lambda q, m: 0 if q == 0 and m & 1 else 1)
+    >>> bolt = RestrainingBolt([Spec("G(e)", terminal_reward=1.0, low_confidence_cost=0.5)],
+    ...                        ["e"], dfas=[always_e])
+    >>> bolt.reset(np.array([[0.8]])).total.tolist()  # accepting, but e seen with low confidence
+    [0.5]
+    >>> bolt.step(np.array([[0.99]])).total.tolist()  # 1.0 + 0.5 carried from reset
+    [1.5]
+"""
+
+from __future__ import annotations
+
+from noisybolt.bolt.augmented import AugmentedDFA, AugmentedEdge, AugmentedStep
+from noisybolt.bolt.bands import (
+    DEFAULT_THRESHOLDS,
+    Band,
+    Thresholds,
+    check_probs,
+    confidence_bands,
+    high_confidence_mask,
+    low_confidence_mask,
+    proportional_weights,
+    truth_mask,
+)
+from noisybolt.bolt.engine import COST_MODES, BoltEngine, BoltStep, CostMode
+from noisybolt.bolt.restraining_bolt import RestrainingBolt
+from noisybolt.bolt.spec import REWARD_TIMINGS, RewardTiming, Spec
+
+__all__ = [
+    "COST_MODES",
+    "DEFAULT_THRESHOLDS",
+    "REWARD_TIMINGS",
+    "AugmentedDFA",
+    "AugmentedEdge",
+    "AugmentedStep",
+    "Band",
+    "BoltEngine",
+    "BoltStep",
+    "CostMode",
+    "RestrainingBolt",
+    "RewardTiming",
+    "Spec",
+    "Thresholds",
+    "check_probs",
+    "confidence_bands",
+    "high_confidence_mask",
+    "low_confidence_mask",
+    "proportional_weights",
+    "truth_mask",
+]

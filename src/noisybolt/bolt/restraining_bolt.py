@@ -1,0 +1,331 @@
+"""The restraining bolt: DFA states of a batch of environments, and the episode timing.
+
+Timing (DESIGN.md, "Semantics fixed here"): the trace starts at the first observation.
+
+* :meth:`RestrainingBolt.reset` reads the *first* observation of an episode: every DFA
+  starts in its initial state (the empty trace) and takes its first transition on those
+  probabilities. That transition's reward (terminal reward and low-confidence cost) is
+  not returned to the agent now (Gymnasium's ``reset`` has no reward); it is held as
+  ``pending`` and added to the reward of the episode's first :meth:`~RestrainingBolt.step`.
+* :meth:`RestrainingBolt.step` reads the observation that *follows* an action: each DFA
+  takes one transition on its probabilities. ``done`` marks the transitions that end an
+  episode (terminated or truncated); ``episode_end`` specs are paid on those. An ended
+  environment must be reset before its next step.
+
+Vectorised environments that reset automatically deliver the last observation of the old
+episode and the first observation of the new one together. Both kinds are handled:
+
+* **Same step** (Stable-Baselines3 ``VecEnv``; Gymnasium ``AutoresetMode.SAME_STEP``): the
+  step returns the new episode's first observation, and the old episode's last one in
+  ``infos[i]["terminal_observation"]`` (``infos["final_obs"]``). Call
+  ``out = bolt.step(final_probs, done=dones)`` with, for ended environments, the
+  probabilities of the *final* observation (for the others, of the returned one); the
+  agent's reward is ``env_reward + out.total``, and ``out.next_states`` are the ended
+  episodes' final DFA states (for the terminal observation). Then call
+  ``bolt.reset(first_probs, env_mask=dones)`` with the probabilities of the returned
+  observations: the ended environments restart on their new episode's first
+  observation, its reward is held for their next step, and :attr:`states` is what the
+  returned observation should carry.
+* **Next step** (Gymnasium ``AutoresetMode.NEXT_STEP``, the default of Gymnasium 1.x
+  vector envs): the step after ``done`` is a reset step for those environments (their
+  action is ignored and their observation is the new episode's first). Call
+  ``bolt.reset(probs, env_mask=autoreset)`` and ``bolt.step(probs, done=dones,
+  env_mask=~autoreset)`` with the same probabilities; the reset environments get no bolt
+  reward on that step (the env gives none either), their first transition's reward is
+  paid on their next step.
+
+Rows of ``probs`` outside ``env_mask`` are checked but not read.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs
+from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, _check_fluents, _env_flags
+from noisybolt.bolt.spec import Spec
+from noisybolt.errors import BackendUnavailableError, ConfigError
+from noisybolt.logic.dfa import DFA
+
+__all__ = ["RestrainingBolt"]
+
+
+def _compile(spec: Spec, fluents: tuple[str, ...]) -> DFA:
+    """Compiles a spec's formula over the bolt's whole vocabulary."""
+    from noisybolt import logic
+
+    compile_ltlf = getattr(logic, "compile_ltlf", None)
+    if compile_ltlf is None:  # pragma: no cover - until the compiler lands
+        raise BackendUnavailableError(
+            "noisybolt.logic.compile_ltlf is not available in this build; pass pre-built "
+            "automata with RestrainingBolt(..., dfas=[...])"
+        )
+    dfa = compile_ltlf(spec.formula, fluents)
+    assert isinstance(dfa, DFA)
+    return dfa
+
+
+class RestrainingBolt:
+    """Algorithm 1 with episode timing, for ``n_envs`` environments and several specs.
+
+    Args:
+        specs: the bolt's specifications; their rewards add up.
+        fluents: the bolt's fluent vocabulary, the column order of every ``probs``.
+        dfas: pre-built DFAs, one per spec (their vocabularies must be subsets of
+            ``fluents``); None compiles each ``spec.formula`` with
+            :func:`noisybolt.logic.compile_ltlf` over ``fluents``.
+        thresholds: the band thresholds of eq. 1.
+        cost_mode: ``"count"`` (the paper) or ``"proportional"``
+            (:func:`~noisybolt.bolt.bands.proportional_weights`).
+        n_envs: number of environments in the batch.
+        end_on_violation: when a DFA enters a rejecting sink, set ``terminate`` in the
+            step's result (the caller should end the episode) and pay ``episode_end`` specs
+            there. Off by default, as in the paper; ``violated`` is reported either way.
+
+    Raises:
+        UnknownFluentError: a spec reads a fluent outside ``fluents``.
+        ConfigError: see :class:`~noisybolt.bolt.engine.BoltEngine`; or a bad ``n_envs``.
+
+    Example:
+        >>> from noisybolt.logic import DFA
+        >>> f_e_and_t = DFA.from_function(["e", "t"], n_states=2, initial_state=0,
+        ...     accepting=[False, True], delta=lambda q, m: 1 if q == 1 or m == 0b11 else 0)
+        >>> bolt = RestrainingBolt(
+        ...     [Spec("F(e & t)", terminal_reward=10.0, low_confidence_cost=2.0)],
+        ...     ["e", "t"], dfas=[f_e_and_t], n_envs=2)
+        >>> bolt.n_states
+        (2,)
+        >>> first = bolt.reset(np.array([[0.1, 0.1], [0.7, 0.95]]))
+        >>> bolt.states.tolist(), bolt.pending.tolist()
+        ([[0], [1]], [0.0, 8.0])
+        >>> out = bolt.step(np.array([[0.95, 0.95], [0.2, 0.2]]), done=np.array([False, True]))
+        >>> out.total.tolist()  # env 1: 10 for being accepting + 8 carried from reset
+        [10.0, 18.0]
+    """
+
+    def __init__(
+        self,
+        specs: Sequence[Spec],
+        fluents: Sequence[str],
+        *,
+        dfas: Sequence[DFA] | None = None,
+        thresholds: Thresholds = DEFAULT_THRESHOLDS,
+        cost_mode: CostMode = "count",
+        n_envs: int = 1,
+        end_on_violation: bool = False,
+    ) -> None:
+        if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
+            raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
+        specs = tuple(specs)
+        vocabulary = _check_fluents(fluents)
+        if dfas is None:
+            for spec in specs:
+                if not isinstance(spec, Spec):
+                    raise ConfigError(f"expected Spec objects, got {spec!r}")
+            dfas = [_compile(spec, vocabulary) for spec in specs]
+        self._engine = BoltEngine(
+            specs, dfas, vocabulary, thresholds=thresholds, cost_mode=cost_mode
+        )
+        self._n_envs = int(n_envs)
+        self._end_on_violation = bool(end_on_violation)
+        self._states = self._engine.initial_states(self._n_envs)
+        self._pending = np.zeros(self._n_envs)
+        self._needs_reset = np.ones(self._n_envs, dtype=bool)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def engine(self) -> BoltEngine:
+        """The stateless Algorithm 1 engine."""
+        return self._engine
+
+    @property
+    def specs(self) -> tuple[Spec, ...]:
+        """The specifications, in order."""
+        return self._engine.specs
+
+    @property
+    def dfas(self) -> tuple[DFA, ...]:
+        """The specs' DFAs, in order."""
+        return self._engine.dfas
+
+    @property
+    def fluents(self) -> tuple[str, ...]:
+        """The bolt's vocabulary: the column order of ``probs``."""
+        return self._engine.fluents
+
+    @property
+    def n_envs(self) -> int:
+        """Number of environments."""
+        return self._n_envs
+
+    @property
+    def n_specs(self) -> int:
+        """Number of specs."""
+        return self._engine.n_specs
+
+    @property
+    def n_states(self) -> tuple[int, ...]:
+        """DFA states per spec: the ``nvec`` of a ``MultiDiscrete`` observation space."""
+        return self._engine.n_states
+
+    @property
+    def states(self) -> np.ndarray:
+        """int64 ``[n_envs, n_specs]``: a copy of the current DFA states."""
+        return self._states.copy()
+
+    @property
+    def pending(self) -> np.ndarray:
+        """float64 ``[n_envs]``: reward of the reset transitions, paid at the next step."""
+        return self._pending.copy()
+
+    @property
+    def needs_reset(self) -> np.ndarray:
+        """bool ``[n_envs]``: environments whose episode ended (or never started)."""
+        return self._needs_reset.copy()
+
+    @property
+    def thresholds(self) -> Thresholds:
+        """The band thresholds."""
+        return self._engine.thresholds
+
+    @property
+    def cost_mode(self) -> CostMode:
+        """``"count"`` or ``"proportional"``."""
+        return self._engine.cost_mode
+
+    @property
+    def end_on_violation(self) -> bool:
+        """Whether a violated spec sets ``terminate``."""
+        return self._end_on_violation
+
+    # ------------------------------------------------------------------ episode timing
+    def reset(self, probs: np.ndarray, env_mask: np.ndarray | None = None) -> BoltStep:
+        """Starts new episodes on their first observation.
+
+        Every DFA of the selected environments starts in its initial state and takes its
+        first transition on ``probs``; the transition's total reward becomes
+        :attr:`pending` (replacing any pending reward of an abandoned episode) and is
+        added to the next :meth:`step`.
+
+        Args:
+            probs: float ``[n_envs, n_fluents]``, probabilities of each selected
+                environment's *first* observation of its new episode.
+            env_mask: bool ``[n_envs]``, the environments to reset (None: all).
+
+        Returns:
+            The first transition as a :class:`BoltStep` whose ``total`` is the reward now
+            pending. Rows outside ``env_mask`` keep their states and have zero rewards.
+
+        Raises:
+            ValueError: bad ``probs`` or ``env_mask``.
+        """
+        probs = check_probs(
+            probs, n_envs=self._n_envs, n_fluents=self._engine.n_fluents, fluents=self.fluents
+        )
+        rows = self._rows(env_mask)
+        n_rows = self._n_envs if isinstance(rows, slice) else len(rows)
+        out = self._engine._step(
+            self._engine.initial_states(n_rows),
+            probs[rows],
+            done=np.zeros(n_rows, dtype=bool),
+            first=np.ones(n_rows, dtype=bool),
+            end_on_violation=False,
+        )
+        self._states[rows] = out.next_states
+        self._pending[rows] = out.total
+        self._needs_reset[rows] = False
+        return self._expand(out, rows)
+
+    def step(
+        self,
+        probs: np.ndarray,
+        done: np.ndarray | bool | None = None,
+        env_mask: np.ndarray | None = None,
+    ) -> BoltStep:
+        """One transition for every selected environment, on the observation after its action.
+
+        Args:
+            probs: float ``[n_envs, n_fluents]``, probabilities of the observation that
+                follows the action; for an environment whose episode ends here, of its
+                *final* observation (not the first one of the next episode).
+            done: bool ``[n_envs]`` (or one bool): the episode ends with this step
+                (terminated or truncated). Ended environments must be :meth:`reset`
+                before their next step.
+            env_mask: bool ``[n_envs]``, the environments that step (None: all).
+
+        Returns:
+            The :class:`BoltStep`; ``total`` includes the reward ``carried`` from reset.
+            Rows outside ``env_mask`` keep their states and have zero rewards.
+
+        Raises:
+            ValueError: bad ``probs``, ``done`` or ``env_mask``, or ``done`` set outside
+                ``env_mask``.
+            RuntimeError: a selected environment has not been reset since its episode
+                ended (or ever).
+        """
+        probs = check_probs(
+            probs, n_envs=self._n_envs, n_fluents=self._engine.n_fluents, fluents=self.fluents
+        )
+        done = _env_flags(done, self._n_envs, "done")
+        rows = self._rows(env_mask)
+        if not isinstance(rows, slice):
+            outside = done.copy()
+            outside[rows] = False
+            if outside.any():
+                raise ValueError(
+                    f"done is set for environments {np.flatnonzero(outside).tolist()} that "
+                    "are outside env_mask"
+                )
+        stale = self._needs_reset[rows]
+        if stale.any():
+            envs = np.arange(self._n_envs)[rows][stale].tolist()
+            raise RuntimeError(
+                f"environments {envs} have no episode in progress: call "
+                "reset(probs, env_mask=...) on the first observation of their new episode "
+                "before stepping them"
+            )
+        states = self._states[rows]
+        out = self._engine._step(
+            states,
+            probs[rows],
+            done=done[rows],
+            first=np.zeros(len(states), dtype=bool),
+            end_on_violation=self._end_on_violation,
+        )
+        carried = self._pending[rows]
+        out = out._replace(carried=carried, total=out.total + carried)
+        self._pending[rows] = 0.0
+        self._states[rows] = out.next_states
+        self._needs_reset[rows] = done[rows] | out.terminate
+        return self._expand(out, rows)
+
+    # ------------------------------------------------------------------ helpers
+    def _rows(self, env_mask: np.ndarray | None) -> slice | np.ndarray:
+        """The selected rows: a full slice, or the indices where ``env_mask`` is set."""
+        if env_mask is None:
+            return slice(None)
+        mask = _env_flags(env_mask, self._n_envs, "env_mask")
+        return slice(None) if mask.all() else np.flatnonzero(mask)
+
+    def _expand(self, out: BoltStep, rows: slice | np.ndarray) -> BoltStep:
+        """Scatters a result over selected rows into full ``[n_envs, ...]`` arrays."""
+        if isinstance(rows, slice):
+            return out
+        accepting, violated = self._engine.state_flags(self._states)
+        full = BoltStep(
+            next_states=self._states.copy(),
+            terminal=np.zeros(self._states.shape),
+            low_confidence=np.zeros(self._states.shape),
+            n_low=np.zeros(self._states.shape, dtype=np.int64),
+            accepting=accepting,
+            violated=violated,
+            reward=np.zeros(self._states.shape),
+            carried=np.zeros(self._n_envs),
+            total=np.zeros(self._n_envs),
+            terminate=np.zeros(self._n_envs, dtype=bool),
+        )
+        for name, part in zip(BoltStep._fields, out, strict=True):
+            getattr(full, name)[rows] = part
+        return full
