@@ -1,0 +1,482 @@
+"""Atari Breakout as a vectorised world for the restraining bolt.
+
+:class:`BreakoutWorld` runs ``num_envs`` Arcade Learning Environment (ale-py, ROM bundled,
+no download) instances of Breakout behind Gymnasium's vector API, with the standard Atari
+preprocessing for the agent: each action repeated for 4 frames with the last two frames
+max-pooled, grayscale, resized to 84x84 (``cv2.INTER_AREA``), a stack of the last 4 such
+frames, 1 to 30 random no-ops after each reset, sticky actions (0.25) and a 108,000-frame
+episode limit (truncation) as in ``ALE/Breakout-v5``. It computes the same observations
+as ``AtariPreprocessing(gym.make("ALE/Breakout-v5", frameskip=1))`` under
+``FrameStackObservation(4)`` (tested with sticky actions and no-ops off, where both are
+deterministic) but drives the ALE directly: about 1.3x the steps per second of the
+wrapped Gymnasium env on one core, and it gives the bolt direct access to RAM and colour
+frames, which ale-py's own threaded ``AtariVectorEnv`` does not expose.
+
+The bolt's side (:class:`~noisybolt.perception.protocols.BoltObservable`):
+
+* fluent ``brick_clear_left``: every brick of the leftmost ``left_columns`` brick
+  column(s) is gone, read from RAM (:func:`bricks_present`);
+* camera: the colour frame (210x160) resized to ``camera_size`` squared with
+  ``cv2.INTER_AREA``, then the camera's own seeded noise.
+
+RAM layout of the wall (verified by poking every bit with ``ale.setRAM`` and diffing the
+rendered frame; ``tests/envs/test_breakout.py`` re-checks it brick by brick). Bytes 0-35
+hold the wall (OCAtari's Breakout reads ``ram[0:36]``; the AtariARI map of Anand et al.
+2019 lists only bytes 0-29 and so misses the leftmost column). They form six groups of six
+bytes, one byte per brick row, the row's byte at ``group_base + 5 - row`` (row 0 is the
+top, red row at y 57-62; row 5 the bottom, blue row at y 87-92; 6 pixels per row). Each
+brick is 8 pixels wide and owns two bits, one per 4-pixel playfield cell; the columns,
+left to right (x = 8 + 8 * column), are in :data:`BRICK_BITS`. The leftmost column is
+bits 6-7 of bytes 30-35, so it is clear iff ``ram[30 + i] & 0xC0 == 0`` for i in 0..5.
+Caveat: during the first 36 frames after ``reset_game`` the game is still setting up
+the wall and overwrites any pokes (measured: pokes at frame 36 are undone, at frame 37
+they stay); :meth:`BreakoutWorld.sample_collection_states` waits for that.
+
+Example:
+    >>> world = make_breakout_world(num_envs=2, seed=0)
+    >>> obs, info = world.reset(seed=0)
+    >>> obs.shape, world.bolt_images().shape, world.true_fluents().tolist()
+    ((2, 4, 84, 84), (2, 84, 84, 3), [[False], [False]])
+    >>> world.close()
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import ale_py
+import cv2
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode
+
+from noisybolt.errors import ConfigError
+from noisybolt.perception.protocols import CameraSpec
+
+__all__ = [
+    "BRICK_BITS",
+    "BRICK_COLUMNS",
+    "BRICK_ROWS",
+    "FLUENT_NAMES",
+    "BreakoutWorld",
+    "NoiseFn",
+    "brick_box",
+    "bricks_present",
+    "left_columns_clear",
+    "make_breakout_world",
+    "set_bricks",
+]
+
+FLUENT_NAMES: tuple[str, ...] = ("brick_clear_left",)
+BRICK_ROWS = 6
+BRICK_COLUMNS = 18
+
+#: ``(byte group base, bit mask)`` of each brick column, left to right; a brick of row
+#: ``r`` (0 = top) lives in ``ram[base + 5 - r] & mask``. Measured, see the module doc.
+BRICK_BITS: tuple[tuple[int, int], ...] = (
+    (30, 0xC0),
+    (24, 0xC0), (24, 0x30), (24, 0x0C), (24, 0x03),
+    (18, 0x03), (18, 0x0C), (18, 0x30), (18, 0xC0),
+    (12, 0x30), (12, 0xC0),
+    (6, 0xC0), (6, 0x30), (6, 0x0C), (6, 0x03),
+    (0, 0x03), (0, 0x0C), (0, 0x30),
+)  # fmt: skip
+
+# byte index and mask of every brick, as [rows, columns] arrays for vectorised reads.
+_BRICK_BYTE = np.array(
+    [[base + 5 - row for base, _ in BRICK_BITS] for row in range(BRICK_ROWS)], dtype=np.intp
+)
+_BRICK_MASK = np.array(
+    [[mask for _, mask in BRICK_BITS] for _ in range(BRICK_ROWS)], dtype=np.uint8
+)
+_WALL_SETTLE_FRAMES = 40  # the game sets its wall up during the first 36 frames of a game
+
+NoiseFn = Callable[[np.ndarray, np.random.Generator], np.ndarray]
+"""A camera noise model: uint8 images ``[n, H, W, C]`` and a generator -> noisy images."""
+
+
+def brick_box(row: int, column: int) -> tuple[slice, slice]:
+    """``(y slice, x slice)`` of a brick in the 210x160 frame."""
+    if not (0 <= row < BRICK_ROWS and 0 <= column < BRICK_COLUMNS):
+        raise ValueError(f"no brick at row {row}, column {column}")
+    return slice(57 + 6 * row, 63 + 6 * row), slice(8 + 8 * column, 16 + 8 * column)
+
+
+def bricks_present(ram: np.ndarray) -> np.ndarray:
+    """bool ``[..., 6, 18]``: which bricks are (at least partly) standing.
+
+    Args:
+        ram: uint8 ``[..., 128]`` Breakout RAM (one or a batch of consoles).
+    """
+    ram = np.asarray(ram)
+    return (ram[..., _BRICK_BYTE] & _BRICK_MASK) != 0
+
+
+def left_columns_clear(ram: np.ndarray, left_columns: int = 1) -> np.ndarray:
+    """bool ``[...]``: every brick of the leftmost ``left_columns`` columns is gone.
+
+    Example:
+        >>> ram = np.zeros(128, np.uint8)
+        >>> ram[30:36] = 0xC0  # the leftmost column standing
+        >>> bool(left_columns_clear(ram)), bool(left_columns_clear(ram & 0x3F))
+        (False, True)
+    """
+    if not 1 <= left_columns <= BRICK_COLUMNS:
+        raise ConfigError(f"left_columns must be in 1..{BRICK_COLUMNS}, got {left_columns}")
+    return np.asarray(~bricks_present(ram)[..., :left_columns].any(axis=(-1, -2)))
+
+
+def set_bricks(ale: ale_py.ALEInterface, present: np.ndarray) -> None:
+    """Writes a whole wall (bool ``[6, 18]``) into a console's RAM.
+
+    The frame shows it from the next emulated frame on; during the first 36 frames of a
+    game the game's own wall set-up overwrites it.
+    """
+    present = np.asarray(present, dtype=bool)
+    if present.shape != (BRICK_ROWS, BRICK_COLUMNS):
+        raise ValueError(f"a wall is bool [{BRICK_ROWS}, {BRICK_COLUMNS}], got {present.shape}")
+    ram = ale.getRAM()
+    values = {int(b): int(ram[b]) for b in np.unique(_BRICK_BYTE)}
+    for (row, column), mask in np.ndenumerate(_BRICK_MASK):
+        byte = int(_BRICK_BYTE[row, column])
+        values[byte] = (
+            (values[byte] | int(mask))
+            if present[row, column]
+            else (values[byte] & ~int(mask) & 0xFF)
+        )
+    for byte, value in values.items():
+        if value != ram[byte]:
+            ale.setRAM(byte, value)
+
+
+def _noise_description(noise: NoiseFn | None) -> dict[str, Any]:
+    if noise is None:
+        return {}
+    for attribute in ("to_dict", "describe", "spec"):
+        method = getattr(noise, attribute, None)
+        if callable(method):
+            description = method()
+            if isinstance(description, dict):
+                return description
+    return {"name": getattr(noise, "__name__", type(noise).__name__)}
+
+
+class BreakoutWorld(gym.vector.VectorEnv):
+    """``num_envs`` Breakout games stepped together, seen by the agent and by the bolt.
+
+    Gymnasium vector API with next-step autoreset (the Gymnasium default): the step after
+    an episode ends resets that game and ignores its action. Observations: uint8
+    ``[num_envs, frame_stack, 84, 84]``; actions: ``Discrete(4)`` per game (NOOP, FIRE,
+    RIGHT, LEFT); rewards: the game score gained.
+
+    Args:
+        num_envs: number of games.
+        seed: seeds the games (sticky actions, no-ops) and the camera noise; ``reset(seed=)``
+            re-seeds.
+        noise: the bolt camera's noise, ``noise(images, rng) -> images`` (None: clean).
+        left_columns: how many brick columns, from the left, ``brick_clear_left`` covers.
+        camera_size: side of the bolt's square colour image.
+        frame_skip: frames per action.
+        noop_max: a reset is followed by 1..``noop_max`` random no-ops (0: none).
+        repeat_action_probability: sticky-action probability of the ALE.
+        frame_stack: frames in the agent's observation.
+        screen_size: side of the agent's square grayscale frames.
+        max_episode_frames: emulator frames after which an episode is truncated.
+    """
+
+    def __init__(
+        self,
+        *,
+        num_envs: int = 8,
+        seed: int | None = None,
+        noise: NoiseFn | None = None,
+        left_columns: int = 1,
+        camera_size: int = 84,
+        frame_skip: int = 4,
+        noop_max: int = 30,
+        repeat_action_probability: float = 0.25,
+        frame_stack: int = 4,
+        screen_size: int = 84,
+        max_episode_frames: int = 108_000,
+    ) -> None:
+        if num_envs < 1:
+            raise ConfigError(f"num_envs must be >= 1, got {num_envs}")
+        if not 1 <= left_columns <= BRICK_COLUMNS:
+            raise ConfigError(f"left_columns must be in 1..{BRICK_COLUMNS}, got {left_columns}")
+        if camera_size < 8 or screen_size < 8:
+            raise ConfigError(
+                f"camera_size and screen_size must be >= 8, got {camera_size}, {screen_size}"
+            )
+        if frame_skip < 1 or frame_stack < 1 or noop_max < 0 or max_episode_frames < 1:
+            raise ConfigError(
+                "frame_skip, frame_stack and max_episode_frames must be >= 1 and noop_max "
+                f">= 0, got {frame_skip}, {frame_stack}, {max_episode_frames}, {noop_max}"
+            )
+        if not 0.0 <= repeat_action_probability <= 1.0:
+            raise ConfigError(
+                f"repeat_action_probability must be in [0, 1], got {repeat_action_probability}"
+            )
+        if noise is not None and not callable(noise):
+            raise ConfigError(f"noise must be a callable noise(images, rng), got {noise!r}")
+        self.metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+        self.num_envs = num_envs
+        self.left_columns = left_columns
+        self.camera_size = camera_size
+        self.frame_skip = frame_skip
+        self.noop_max = noop_max
+        self.repeat_action_probability = repeat_action_probability
+        self.frame_stack = frame_stack
+        self.screen_size = screen_size
+        self.max_episode_frames = max_episode_frames
+        self._noise = noise
+        self._seed = seed
+
+        ale_py.ALEInterface.setLoggerMode(ale_py.LoggerMode.Error)
+        rom = ale_py.roms.get_rom_path("breakout")
+        if rom is None:  # pragma: no cover - ale-py ships the ROM
+            raise RuntimeError("ale-py has no Breakout ROM; reinstall ale-py >= 0.9")
+        self._rom = rom
+        self._ales = [ale_py.ALEInterface() for _ in range(num_envs)]
+        self._np_rngs = [np.random.default_rng() for _ in range(num_envs)]
+        self._camera_rng = np.random.default_rng()
+        self._seed_all(seed)
+        self._actions = self._ales[0].getMinimalActionSet()
+
+        self.single_observation_space = spaces.Box(
+            0, 255, (frame_stack, screen_size, screen_size), np.uint8
+        )
+        self.single_action_space = spaces.Discrete(len(self._actions))
+        self.observation_space = gym.vector.utils.batch_space(
+            self.single_observation_space, num_envs
+        )
+        self.action_space = gym.vector.utils.batch_space(self.single_action_space, num_envs)
+        self._camera_spec = CameraSpec(
+            world="breakout",
+            height=camera_size,
+            width=camera_size,
+            channels=3,
+            noise=_noise_description(noise),
+            extra={
+                "source": "ALE RGB frame 210x160, cv2.INTER_AREA",
+                # Changes what the fluent means, so a classifier must not cross it.
+                "fluents": {"brick_clear_left": {"left_columns": left_columns}},
+            },
+        )
+
+        self._grey = np.zeros((num_envs, 2, 210, 160), np.uint8)  # last two frames
+        self._stack = np.zeros((num_envs, frame_stack, screen_size, screen_size), np.uint8)
+        self._needs_reset = np.zeros(num_envs, dtype=bool)
+        self._lives = np.zeros(num_envs, dtype=np.int64)
+        self._images: np.ndarray | None = None  # bolt images of the current step, cached
+        self._started = False
+
+    # -- seeding and resets ---------------------------------------------------------------
+    def _seed_all(self, seed: int | None) -> None:
+        root = np.random.SeedSequence(seed)
+        children = root.spawn(self.num_envs + 1)
+        for i, ale in enumerate(self._ales):
+            np_seed, ale_seed = children[i].generate_state(2)
+            self._np_rngs[i] = np.random.default_rng(int(np_seed))
+            ale.setInt("random_seed", int(np.int32(ale_seed)))
+            ale.setFloat("repeat_action_probability", self.repeat_action_probability)
+            ale.setInt("max_num_frames_per_episode", self.max_episode_frames)
+            ale.setInt("frame_skip", 1)
+            ale.loadROM(self._rom)
+        self._camera_rng = np.random.default_rng(children[-1])
+
+    def _processed(self, i: int) -> np.ndarray:
+        frame = self._grey[i, 0]
+        if self.frame_skip > 1:
+            np.maximum(self._grey[i, 0], self._grey[i, 1], out=frame)
+        return cv2.resize(frame, (self.screen_size, self.screen_size), interpolation=cv2.INTER_AREA)
+
+    def _reset_one(self, i: int) -> None:
+        ale = self._ales[i]
+        ale.reset_game()
+        if self.noop_max > 0:
+            for _ in range(int(self._np_rngs[i].integers(1, self.noop_max + 1))):
+                ale.act(self._actions[0])
+                if ale.game_over():
+                    ale.reset_game()
+        ale.getScreenGrayscale(self._grey[i, 0])
+        self._grey[i, 1].fill(0)
+        self._stack[i] = self._processed(i)
+        self._lives[i] = ale.lives()
+
+    def reset(
+        self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Resets every game (re-seeding them and the camera noise if ``seed`` is given).
+
+        Options: ``reset_mask`` (bool ``[num_envs]``) resets only those games.
+        """
+        if isinstance(seed, list):
+            raise ConfigError("BreakoutWorld.reset takes one int seed for the whole batch")
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+            if mask.shape != (self.num_envs,):
+                raise ValueError(f"reset_mask must be bool [{self.num_envs}], got {mask.shape}")
+        if seed is not None:
+            self._seed = seed
+            self._seed_all(seed)
+            mask[:] = True
+        for i in np.flatnonzero(mask):
+            self._reset_one(int(i))
+        self._needs_reset[mask] = False
+        self._images = None
+        self._started = True
+        return self._stack.copy(), self._info()
+
+    def _info(self) -> dict[str, Any]:
+        return {"lives": self._lives.copy(), "_lives": np.ones(self.num_envs, dtype=bool)}
+
+    # -- stepping -------------------------------------------------------------------------
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Advances every game by one agent step (``frame_skip`` frames)."""
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        actions = np.asarray(actions)
+        if actions.shape != (self.num_envs,):
+            raise ValueError(f"actions must be [{self.num_envs}], got {actions.shape}")
+        if (
+            not np.issubdtype(actions.dtype, np.integer)
+            or actions.min() < 0
+            or (actions.max() >= len(self._actions))
+        ):
+            raise ValueError(f"actions must be integers in [0, {len(self._actions)})")
+        rewards = np.zeros(self.num_envs, dtype=np.float64)
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        last, second = self.frame_skip - 1, self.frame_skip - 2
+        for i, ale in enumerate(self._ales):
+            if self._needs_reset[i]:
+                self._reset_one(i)
+                continue
+            action = self._actions[int(actions[i])]
+            total = 0
+            for t in range(self.frame_skip):
+                total += ale.act(action)
+                if ale.game_over():  # terminal or truncated: keep the last processed frames
+                    break
+                if t == second:
+                    ale.getScreenGrayscale(self._grey[i, 1])
+                elif t == last:
+                    ale.getScreenGrayscale(self._grey[i, 0])
+            rewards[i] = total
+            terminated[i] = ale.game_over(with_truncation=False)
+            truncated[i] = ale.game_truncated() and not terminated[i]
+            self._stack[i, :-1] = self._stack[i, 1:]
+            self._stack[i, -1] = self._processed(i)
+            self._lives[i] = ale.lives()
+        self._needs_reset = terminated | truncated
+        self._images = None
+        return self._stack.copy(), rewards, terminated, truncated, self._info()
+
+    # -- the bolt's view ------------------------------------------------------------------
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """``("brick_clear_left",)``."""
+        return FLUENT_NAMES
+
+    @property
+    def camera_spec(self) -> CameraSpec:
+        """The bolt camera's size and noise."""
+        return self._camera_spec
+
+    def rams(self) -> np.ndarray:
+        """uint8 ``[num_envs, 128]``: every console's RAM now."""
+        return np.stack([ale.getRAM() for ale in self._ales])
+
+    def frames(self) -> np.ndarray:
+        """uint8 ``[num_envs, 210, 160, 3]``: the raw colour frames now."""
+        return np.stack([ale.getScreenRGB() for ale in self._ales])
+
+    def true_fluents(self) -> np.ndarray:
+        """bool ``[num_envs, 1]``: ``brick_clear_left`` from RAM."""
+        return left_columns_clear(self.rams(), self.left_columns)[:, None]
+
+    def bolt_images(self) -> np.ndarray:
+        """uint8 ``[num_envs, S, S, 3]``: the camera's noisy view (same until the next step)."""
+        if self._images is None:
+            size = (self.camera_size, self.camera_size)
+            images = np.stack(
+                [
+                    cv2.resize(ale.getScreenRGB(), size, interpolation=cv2.INTER_AREA)
+                    for ale in self._ales
+                ]
+            )
+            if self._noise is not None:
+                images = np.asarray(self._noise(images, self._camera_rng))
+                if images.dtype != np.uint8 or images.shape != (self.num_envs, *size, 3):
+                    raise ValueError(
+                        f"the camera noise returned {images.dtype} {images.shape}; it must "
+                        "keep uint8 images of the same shape"
+                    )
+            self._images = images
+        return self._images.copy()
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """The raw colour frames, one per game."""
+        return tuple(self.frames())
+
+    # -- scripted exploration for sample collection ------------------------------------------
+    def sample_collection_states(self, rng: np.random.Generator) -> None:
+        """Pokes a random wall into every game so both fluent values are common.
+
+        In random play the left column is almost never cleared, so for collection each
+        game gets a fresh wall written into RAM: with probability 1/2 the left
+        ``left_columns`` column(s) are empty (a positive), otherwise a random non-empty
+        subset of their bricks stands (a negative, down to a single brick: the hard
+        case); every other brick is kept with a probability drawn uniformly per game, and
+        at least one always stays (an empty wall would start the next level). One NOOP
+        frame is then emulated so the frame shows the new wall, and the agent's frame
+        stack is refilled with that frame.
+        """
+        for i, ale in enumerate(self._ales):
+            if self._needs_reset[i]:
+                self._reset_one(i)
+                self._needs_reset[i] = False
+            while ale.getEpisodeFrameNumber() < _WALL_SETTLE_FRAMES and not ale.game_over():
+                ale.act(self._actions[0])
+            keep = rng.random()
+            wall = rng.random((BRICK_ROWS, BRICK_COLUMNS)) < keep
+            left = wall[:, : self.left_columns]
+            if rng.random() < 0.5:
+                left[:] = False
+            else:
+                left[:] = rng.random(left.shape) < rng.random()
+                if not left.any():
+                    left.flat[rng.integers(left.size)] = True
+            rest = wall[:, self.left_columns :]
+            if rest.size and not rest.any():
+                rest.flat[rng.integers(rest.size)] = True
+            set_bricks(ale, wall)
+            ale.act(self._actions[0])
+            ale.getScreenGrayscale(self._grey[i, 0])
+            self._grey[i, 1].fill(0)
+            self._stack[i] = self._processed(i)
+            self._lives[i] = ale.lives()
+            self._needs_reset[i] = ale.game_over()
+        self._images = None
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Releases the consoles."""
+        self._ales = []
+
+
+def make_breakout_world(
+    *, num_envs: int = 8, seed: int | None = None, noise: NoiseFn | None = None, **kwargs: Any
+) -> BreakoutWorld:
+    """The registry's constructor for ``"breakout"``; ``kwargs`` go to :class:`BreakoutWorld`.
+
+    Example:
+        >>> world = make_breakout_world(num_envs=1, seed=3, left_columns=2)
+        >>> world.fluent_names, world.camera_spec.shape
+        (('brick_clear_left',), (84, 84, 3))
+    """
+    return BreakoutWorld(num_envs=num_envs, seed=seed, noise=noise, **kwargs)

@@ -1,0 +1,242 @@
+"""Breakout world: RAM wall layout vs the rendered frame, preprocessing, seeding, bolt view."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import ale_py
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.wrappers import AtariPreprocessing, FrameStackObservation
+
+from noisybolt.envs import breakout
+from noisybolt.envs.breakout import (
+    BRICK_COLUMNS,
+    BRICK_ROWS,
+    BreakoutWorld,
+    brick_box,
+    bricks_present,
+    left_columns_clear,
+    make_breakout_world,
+    set_bricks,
+)
+from noisybolt.errors import ConfigError
+from noisybolt.perception.dataset import SupportsCollectionStates, collect_samples
+from noisybolt.perception.protocols import BoltObservable
+
+ROM = ale_py.roms.get_rom_path("breakout") or Path("ale-py ships no Breakout ROM")
+
+
+@pytest.fixture(scope="module")
+def settled_ale() -> tuple[ale_py.ALEInterface, ale_py.ALEState]:
+    """A console past the game's own wall drawing, ball not yet served."""
+    ale_py.ALEInterface.setLoggerMode(ale_py.LoggerMode.Error)
+    ale = ale_py.ALEInterface()
+    ale.setInt("random_seed", 0)
+    ale.setFloat("repeat_action_probability", 0.0)
+    ale.loadROM(ROM)
+    ale.reset_game()
+    for _ in range(40):
+        ale.act(ale_py.Action.NOOP)
+    return ale, ale.cloneState()
+
+
+def _frame_bricks(frame: np.ndarray) -> np.ndarray:
+    """bool [6, 18]: which brick boxes of an RGB frame hold any coloured pixel."""
+    shown = np.zeros((BRICK_ROWS, BRICK_COLUMNS), dtype=bool)
+    for row in range(BRICK_ROWS):
+        for column in range(BRICK_COLUMNS):
+            ys, xs = brick_box(row, column)
+            shown[row, column] = frame[ys, xs].any()
+    return shown
+
+
+def _show(ale: ale_py.ALEInterface, state: ale_py.ALEState, wall: np.ndarray) -> np.ndarray:
+    ale.restoreState(state)
+    set_bricks(ale, wall)
+    ale.act(ale_py.Action.NOOP)  # the frame shows RAM from the next frame on
+    return ale.getScreenRGB()
+
+
+def test_full_wall_at_start(settled_ale):
+    ale, state = settled_ale
+    ale.restoreState(state)
+    assert bricks_present(ale.getRAM()).all()
+    assert _frame_bricks(ale.getScreenRGB()).all()
+
+
+def test_every_brick_bit_map_matches_the_frame(settled_ale):
+    """Each brick's RAM bits, and only they, draw that brick (108 bricks, both ways)."""
+    ale, state = settled_ale
+    full = np.ones((BRICK_ROWS, BRICK_COLUMNS), dtype=bool)
+    for row in range(BRICK_ROWS):
+        for column in range(BRICK_COLUMNS):
+            one_gone = full.copy()
+            one_gone[row, column] = False
+            frame = _show(ale, state, one_gone)
+            np.testing.assert_array_equal(_frame_bricks(frame), one_gone)
+            np.testing.assert_array_equal(bricks_present(ale.getRAM()), one_gone)
+
+
+def test_random_walls_match_the_frame(settled_ale):
+    ale, state = settled_ale
+    rng = np.random.default_rng(0)
+    for keep in (0.1, 0.5, 0.9):
+        wall = rng.random((BRICK_ROWS, BRICK_COLUMNS)) < keep
+        frame = _show(ale, state, wall)
+        np.testing.assert_array_equal(_frame_bricks(frame), wall)
+        np.testing.assert_array_equal(bricks_present(ale.getRAM()), wall)
+
+
+@pytest.mark.parametrize("left_columns", [1, 2, 3])
+def test_left_column_fluent_follows_the_pixels(settled_ale, left_columns):
+    """Clearing the left column(s) in RAM makes their pixels vanish and the fluent true;
+    any single brick put back shows up and makes it false."""
+    ale, state = settled_ale
+    x_end = 8 + 8 * left_columns
+    wall = np.ones((BRICK_ROWS, BRICK_COLUMNS), dtype=bool)
+    wall[:, :left_columns] = False
+    frame = _show(ale, state, wall)
+    assert not frame[57:93, 8:x_end].any()
+    assert frame[57:93, x_end : x_end + 8].any()
+    assert left_columns_clear(ale.getRAM(), left_columns)
+    for row in range(BRICK_ROWS):
+        back = wall.copy()
+        back[row, left_columns - 1] = True
+        frame = _show(ale, state, back)
+        assert frame[57:93, 8:x_end].any()
+        assert not left_columns_clear(ale.getRAM(), left_columns)
+
+
+def test_leftmost_column_is_bits_6_7_of_bytes_30_to_35(settled_ale):
+    """The formula quoted in FACTS.md agrees with the brick map on random walls."""
+    ale, state = settled_ale
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        wall = rng.random((BRICK_ROWS, BRICK_COLUMNS)) < 0.5
+        wall[:, 0] &= rng.random() < 0.5  # often a cleared left column
+        ale.restoreState(state)
+        set_bricks(ale, wall)
+        ram = ale.getRAM()
+        formula = all(ram[30 + i] & 0xC0 == 0 for i in range(6))
+        assert bool(left_columns_clear(ram, 1)) == formula == (not wall[:, 0].any())
+
+
+def test_game_redraws_the_wall_in_its_first_frames():
+    """Why collection waits: pokes in the first 36 frames after reset_game are undone."""
+    ale_py.ALEInterface.setLoggerMode(ale_py.LoggerMode.Error)
+    ale = ale_py.ALEInterface()
+    ale.loadROM(ROM)
+    wall = np.zeros((BRICK_ROWS, BRICK_COLUMNS), dtype=bool)
+    wall[0, 9] = True
+    for frames, undone in ((30, True), (36, True), (37, False)):
+        ale.reset_game()
+        for _ in range(frames):
+            ale.act(ale_py.Action.NOOP)
+        set_bricks(ale, wall)
+        for _ in range(40):
+            ale.act(ale_py.Action.NOOP)
+        assert bricks_present(ale.getRAM()).all() == undone
+
+
+def test_same_observations_as_gymnasium_atari_preprocessing():
+    """With sticky actions and no-ops off both are deterministic and must agree exactly,
+    autoreset included."""
+    gym.register_envs(ale_py)
+
+    def make() -> gym.Env:
+        env = gym.make("ALE/Breakout-v5", frameskip=1, repeat_action_probability=0.0)
+        return FrameStackObservation(AtariPreprocessing(env, frame_skip=4, noop_max=0), 4)
+
+    reference = gym.vector.SyncVectorEnv([make, make])
+    world = BreakoutWorld(num_envs=2, seed=0, noop_max=0, repeat_action_probability=0.0)
+    obs_ref, _ = reference.reset(seed=0)
+    obs, _ = world.reset(seed=0)
+    np.testing.assert_array_equal(obs, obs_ref)
+    rng = np.random.default_rng(0)
+    ended = 0
+    for _ in range(1200):
+        actions = rng.integers(0, 4, size=2)
+        expected = reference.step(actions)
+        got = world.step(actions)
+        for want, have in zip(expected[:4], got[:4], strict=True):
+            np.testing.assert_array_equal(np.asarray(have), np.asarray(want))
+        ended += int(got[2].sum())
+    assert ended >= 1  # autoreset was exercised
+    reference.close()
+
+
+def test_seeded_runs_repeat_with_sticky_actions_noops_and_noise():
+    def noise(images: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        return (images ^ rng.integers(0, 8, images.shape, dtype=np.uint8)).astype(np.uint8)
+
+    runs = []
+    for _ in range(2):
+        world = make_breakout_world(num_envs=2, seed=7, noise=noise)
+        world.reset(seed=7)
+        rng = np.random.default_rng(3)
+        trace = []
+        for _ in range(30):
+            obs, reward, *_ = world.step(rng.integers(0, 4, size=2))
+            trace += [obs, reward, world.bolt_images(), world.true_fluents()]
+        runs.append(trace)
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_bolt_view_meets_the_protocol():
+    world = make_breakout_world(num_envs=3, seed=0, camera_size=64)
+    assert isinstance(world, BoltObservable)
+    assert isinstance(world, SupportsCollectionStates)
+    world.reset(seed=0)
+    images = world.bolt_images()
+    assert images.dtype == np.uint8 and images.shape == (3, 64, 64, 3)
+    np.testing.assert_array_equal(images, world.bolt_images())  # cached until the next step
+    truth = world.true_fluents()
+    assert truth.dtype == np.bool_ and truth.shape == (3, 1)
+    assert world.camera_spec.shape == (64, 64, 3)
+    assert world.camera_spec.extra["fluents"] == {"brick_clear_left": {"left_columns": 1}}
+
+
+def test_collection_states_give_both_values_and_true_labels():
+    world = make_breakout_world(num_envs=4, seed=0)
+    world.reset(seed=0)
+    rng = np.random.default_rng(0)
+    labels = []
+    for _ in range(10):
+        world.sample_collection_states(rng)
+        truth = world.true_fluents()[:, 0]
+        shown = ~world.frames()[:, 57:93, 8:16].any(axis=(1, 2, 3))  # left column empty
+        np.testing.assert_array_equal(truth, shown)
+        labels.append(truth)
+    frac = np.mean(labels)
+    assert 0.25 < frac < 0.75
+
+
+def test_collect_samples_from_breakout_is_balanced():
+    world = make_breakout_world(num_envs=4, seed=0, camera_size=32)
+    data = collect_samples(world, num_samples=48, seed=0)
+    assert len(data) == 48
+    assert data.images.shape == (48, 32, 32, 3)
+    assert 16 <= data.positives["brick_clear_left"] <= 32
+
+
+def test_bad_settings_are_refused():
+    with pytest.raises(ConfigError, match="left_columns"):
+        BreakoutWorld(num_envs=1, left_columns=0)
+    with pytest.raises(ConfigError, match="left_columns"):
+        left_columns_clear(np.zeros(128, np.uint8), 19)
+    with pytest.raises(ConfigError, match="noise"):
+        BreakoutWorld(num_envs=1, noise="gaussian")  # type: ignore[arg-type]
+    world = BreakoutWorld(num_envs=1, noise=lambda images, rng: images[:, :10])
+    world.reset(seed=0)
+    with pytest.raises(ValueError, match="noise"):
+        world.bolt_images()
+    with pytest.raises(ValueError, match="actions"):
+        world.step(np.array([4]))
+
+
+def test_public_api():
+    for name in breakout.__all__:
+        assert hasattr(breakout, name)
