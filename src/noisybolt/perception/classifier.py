@@ -1,0 +1,320 @@
+"""The trained fluent classifier: a small CNN with one sigmoid output per fluent.
+
+:class:`FluentNet` shares one convolutional trunk between all fluents (three strided 3x3
+convolutions, an adaptive average pool to a fixed grid so the position of things survives,
+then a small dense head with ``k`` logits). :class:`ClassifierDetector` wraps a trained
+net with the fluent names and the :class:`CameraSpec` it was trained for, and meets the
+:class:`~noisybolt.perception.protocols.FluentDetector` protocol.
+
+File format (one ``.safetensors`` file, written atomically): the network's tensors, and in
+the safetensors header's ``__metadata__`` one entry ``"noisybolt"`` holding a JSON object
+with ``format`` (``"noisybolt.fluent_classifier"``), ``version`` (1), ``fluent_names``,
+``camera_spec`` (world, size, noise settings), ``config`` (the architecture),
+``training`` (free-form JSON notes) and ``tensor_sha256`` (a digest of every tensor's
+bytes, so a flipped bit in the weights is caught at load). Nothing is pickled.
+
+Example:
+    >>> import numpy as np, tempfile, pathlib, torch
+    >>> from noisybolt.perception.protocols import CameraSpec
+    >>> _ = torch.manual_seed(0)
+    >>> spec = CameraSpec("toy", 16, 16)
+    >>> detector = ClassifierDetector.untrained(fluent_names=("a", "b"), camera_spec=spec)
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "c.safetensors"
+    >>> detector.save(path)
+    >>> again = ClassifierDetector.load(path, fluent_names=("a", "b"), camera_spec=spec)
+    >>> images = np.zeros((3, 16, 16, 3), np.uint8)
+    >>> bool(np.array_equal(detector.predict(images), again.predict(images)))
+    True
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import struct
+from collections.abc import Collection, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from safetensors.torch import load as load_safetensors
+from safetensors.torch import save as save_safetensors
+from torch import nn
+
+from noisybolt.errors import ConfigError, CorruptFileError
+from noisybolt.io import atomic_write_bytes
+from noisybolt.perception.compat import (
+    camera_spec_from_dict,
+    camera_spec_to_dict,
+    check_compatible,
+)
+from noisybolt.perception.protocols import CameraSpec
+
+__all__ = [
+    "CLASSIFIER_FORMAT",
+    "CLASSIFIER_VERSION",
+    "ClassifierConfig",
+    "ClassifierDetector",
+    "FluentNet",
+    "images_to_tensor",
+    "load_classifier",
+]
+
+CLASSIFIER_FORMAT = "noisybolt.fluent_classifier"
+CLASSIFIER_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ClassifierConfig:
+    """The architecture of a :class:`FluentNet`.
+
+    Attributes:
+        channels: output channels of each stride-2 3x3 convolution.
+        pool: side of the grid the trunk's features are averaged to before the head.
+        hidden: width of the dense hidden layer.
+    """
+
+    channels: tuple[int, ...] = (16, 32, 32)
+    pool: int = 4
+    hidden: int = 64
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
+        if not self.channels or min(self.channels) < 1:
+            raise ConfigError(
+                f"channels must be a non-empty tuple of positive ints, got {self.channels}"
+            )
+        if self.pool < 1 or self.hidden < 1:
+            raise ConfigError(f"pool and hidden must be positive, got {self.pool}, {self.hidden}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ClassifierConfig:
+        """The config from :func:`dataclasses.asdict` output (as saved in a file)."""
+        return cls(
+            channels=tuple(data["channels"]), pool=int(data["pool"]), hidden=int(data["hidden"])
+        )
+
+
+class FluentNet(nn.Module):
+    """CNN trunk shared by all fluents, one logit per fluent.
+
+    Input: float ``[n, C, H, W]`` in [0, 1]. Output: logits ``[n, k]``.
+    """
+
+    def __init__(self, *, in_channels: int, n_fluents: int, config: ClassifierConfig) -> None:
+        super().__init__()
+        layers: list[nn.Module] = []
+        previous = in_channels
+        for channels in config.channels:
+            layers += [nn.Conv2d(previous, channels, 3, stride=2, padding=1), nn.ReLU()]
+            previous = channels
+        # Average to a fixed grid rather than globally: where a thing is in the image
+        # (a corner, the left column) is what most fluents are about.
+        layers += [nn.AdaptiveAvgPool2d(config.pool), nn.Flatten()]
+        self.trunk = nn.Sequential(*layers)
+        self.head = nn.Sequential(
+            nn.Linear(previous * config.pool * config.pool, config.hidden),
+            nn.ReLU(),
+            nn.Linear(config.hidden, n_fluents),
+        )
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Logits ``[n, k]`` for float images ``[n, C, H, W]``."""
+        out: torch.Tensor = self.head(self.trunk(x))
+        return out
+
+
+def images_to_tensor(images: np.ndarray) -> torch.Tensor:
+    """uint8 ``[n, H, W, C]`` numpy images to float ``[n, C, H, W]`` in [0, 1]."""
+    return torch.from_numpy(np.ascontiguousarray(images)).permute(0, 3, 1, 2).float().div_(255.0)
+
+
+def _tensor_digest(tensors: dict[str, torch.Tensor]) -> str:
+    digest = hashlib.sha256()
+    for name in sorted(tensors):
+        digest.update(name.encode("utf-8"))
+        digest.update(tensors[name].detach().cpu().contiguous().numpy().tobytes())
+    return digest.hexdigest()
+
+
+@dataclass(eq=False)
+class ClassifierDetector:
+    """A trained :class:`FluentNet` as a fluent detector for one camera.
+
+    Attributes:
+        model: the network (kept in eval mode by :meth:`predict`).
+        fluent_names: the fluents of its outputs, in column order.
+        camera_spec: the camera it was trained on; :meth:`predict` refuses other shapes.
+        config: the network's architecture.
+        training: JSON-able notes on how it was trained (saved with it).
+        batch_size: images per forward pass in :meth:`predict`.
+    """
+
+    model: FluentNet
+    fluent_names: tuple[str, ...]
+    camera_spec: CameraSpec
+    config: ClassifierConfig = field(default_factory=ClassifierConfig)
+    training: dict[str, Any] = field(default_factory=dict)
+    batch_size: int = 256
+
+    def __post_init__(self) -> None:
+        self.fluent_names = tuple(self.fluent_names)
+        if len(set(self.fluent_names)) != len(self.fluent_names) or not self.fluent_names:
+            raise ConfigError(f"fluent names must be non-empty and distinct: {self.fluent_names}")
+
+    @classmethod
+    def untrained(
+        cls,
+        *,
+        fluent_names: Sequence[str],
+        camera_spec: CameraSpec,
+        config: ClassifierConfig | None = None,
+    ) -> ClassifierDetector:
+        """A freshly initialised (torch's global RNG) detector, e.g. to train."""
+        config = config or ClassifierConfig()
+        model = FluentNet(
+            in_channels=camera_spec.channels, n_fluents=len(fluent_names), config=config
+        )
+        return cls(
+            model=model, fluent_names=tuple(fluent_names), camera_spec=camera_spec, config=config
+        )
+
+    @property
+    def needs_truth(self) -> bool:
+        """Always False: it looks at the images only."""
+        return False
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        """float32 ``[n, k]`` probabilities for uint8 images ``[n, H, W, C]``.
+
+        ``truth`` is ignored (it is part of the detector protocol for cheating detectors).
+
+        Raises:
+            ValueError: if the images are not uint8 of the camera's shape.
+        """
+        del truth
+        images = np.asarray(images)
+        if (
+            images.dtype != np.uint8
+            or images.ndim != 4
+            or images.shape[1:] != (self.camera_spec.shape)
+        ):
+            raise ValueError(
+                f"expected uint8 images [n, {', '.join(map(str, self.camera_spec.shape))}] "
+                f"from camera {self.camera_spec.world!r}, got {images.dtype} {images.shape}"
+            )
+        self.model.eval()
+        out = np.empty((images.shape[0], len(self.fluent_names)), dtype=np.float32)
+        with torch.inference_mode():
+            for start in range(0, images.shape[0], self.batch_size):
+                batch = images_to_tensor(images[start : start + self.batch_size])
+                out[start : start + batch.shape[0]] = torch.sigmoid(self.model(batch)).numpy()
+        return out
+
+    def save(self, path: str | Path) -> None:
+        """Writes the detector to one ``.safetensors`` file, atomically."""
+        tensors = {k: v.detach().cpu().contiguous() for k, v in self.model.state_dict().items()}
+        header = {
+            "format": CLASSIFIER_FORMAT,
+            "version": CLASSIFIER_VERSION,
+            "fluent_names": list(self.fluent_names),
+            "camera_spec": camera_spec_to_dict(self.camera_spec),
+            "config": asdict(self.config),
+            "training": self.training,
+            "tensor_sha256": _tensor_digest(tensors),
+        }
+        data = save_safetensors(tensors, metadata={"noisybolt": json.dumps(header)})
+        atomic_write_bytes(path, data)
+
+    @classmethod
+    def load(
+        cls,
+        path: str | Path,
+        *,
+        fluent_names: Sequence[str] | None = None,
+        camera_spec: CameraSpec | None = None,
+        ignore: Collection[str] = (),
+    ) -> ClassifierDetector:
+        """Reads a detector written by :meth:`save`; see :func:`load_classifier`."""
+        return load_classifier(
+            path, fluent_names=fluent_names, camera_spec=camera_spec, ignore=ignore
+        )
+
+
+def _read_header(data: bytes) -> dict[str, Any]:
+    if len(data) < 8:
+        raise ValueError("shorter than a safetensors header")
+    (length,) = struct.unpack("<Q", data[:8])
+    if length > len(data) - 8:
+        raise ValueError(f"header of {length} bytes does not fit in {len(data)} bytes")
+    header = json.loads(data[8 : 8 + length].decode("utf-8"))
+    meta = header.get("__metadata__") or {}
+    if "noisybolt" not in meta:
+        raise ValueError("a safetensors file without a noisybolt header")
+    ours = json.loads(meta["noisybolt"])
+    if not isinstance(ours, dict) or ours.get("format") != CLASSIFIER_FORMAT:
+        raise ValueError("not a noisybolt fluent classifier")
+    if ours.get("version") != CLASSIFIER_VERSION:
+        raise ValueError(f"unsupported version {ours.get('version')!r}")
+    return ours
+
+
+def load_classifier(
+    path: str | Path,
+    *,
+    fluent_names: Sequence[str] | None = None,
+    camera_spec: CameraSpec | None = None,
+    ignore: Collection[str] = (),
+) -> ClassifierDetector:
+    """Reads a classifier file and, if given the world's fluents and camera, checks them.
+
+    Args:
+        path: the ``.safetensors`` file written by :meth:`ClassifierDetector.save`.
+        fluent_names: the world's fluents; with ``camera_spec``, the classifier must have
+            been trained for exactly these, in this order.
+        camera_spec: the world's camera spec (world, size and noise settings).
+        ignore: camera fields not to compare (e.g. ``{"noise"}`` to evaluate a classifier
+            trained on clean images under noise, on purpose).
+
+    Raises:
+        FileNotFoundError: if there is no such file.
+        CorruptFileError: if the file is truncated, corrupt or not a noisybolt classifier.
+        IncompatibleError: if it was trained for other fluents or another camera.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no classifier file at {path}")
+    data = path.read_bytes()
+    try:
+        header = _read_header(data)
+        tensors = load_safetensors(data)
+        if _tensor_digest(tensors) != header["tensor_sha256"]:
+            raise ValueError("the weights do not match their recorded SHA-256")
+        names = tuple(header["fluent_names"])
+        spec = camera_spec_from_dict(header["camera_spec"])
+        config = ClassifierConfig.from_dict(header["config"])
+        model = FluentNet(in_channels=spec.channels, n_fluents=len(names), config=config)
+        model.load_state_dict(tensors, strict=True)
+        training = header.get("training", {})
+    except Exception as error:  # safetensors raises its own error types; all mean corrupt
+        raise CorruptFileError(
+            f"classifier file {path} is truncated or corrupt ({type(error).__name__}: "
+            f"{error}); train it again (noisybolt classifiers train)"
+        ) from error
+    detector = ClassifierDetector(
+        model=model, fluent_names=names, camera_spec=spec, config=config, training=training
+    )
+    if (fluent_names is None) != (camera_spec is None):
+        raise ValueError("give both fluent_names and camera_spec, or neither")
+    if fluent_names is not None and camera_spec is not None:
+        check_compatible(
+            f"classifier {path}",
+            fluent_names=names,
+            camera_spec=spec,
+            expected_fluents=fluent_names,
+            expected_camera=camera_spec,
+            ignore=ignore,
+        )
+    return detector

@@ -1,0 +1,271 @@
+"""Fluent detectors that read the ground truth: the oracle and a synthetic noisy one.
+
+Both set ``needs_truth`` and get the true fluents through ``predict(..., truth=...)``; the
+images are only counted. They make experiments fast and controlled: the oracle is perfect
+perception; the :class:`SyntheticDetector` passes the truth through a seeded noise model of
+probabilities, one Beta distribution for positives and one for negatives per fluent, so a
+fluent can be made mostly low-band (seen only dimly, like the paper's
+``bottom_left_corner``) while the others stay crisp. It can also be *calibrated* to a
+trained classifier by :meth:`SyntheticDetector.fit`, matching the mean and variance of the
+classifier's probabilities on positives and on negatives.
+
+The trained image classifier is :class:`noisybolt.perception.classifier.ClassifierDetector`.
+
+Example:
+    >>> import numpy as np
+    >>> truth = np.array([[True, False], [False, True]])
+    >>> OracleDetector(("t", "b")).predict(np.zeros((2, 1, 1, 3), np.uint8), truth=truth)
+    array([[1., 0.],
+           [0., 1.]], dtype=float32)
+    >>> dim = SyntheticDetector(("t", "b"), seed=0,
+    ...                         fluents={"b": BetaNoise.low_confidence()})
+    >>> probs = dim.predict(np.zeros((2, 1, 1, 3), np.uint8), truth=truth)
+    >>> probs.shape, probs.dtype
+    ((2, 2), dtype('float32'))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from noisybolt.errors import ConfigError, UnknownFluentError
+
+__all__ = ["BetaNoise", "OracleDetector", "SyntheticDetector"]
+
+
+def _check_truth(
+    names: tuple[str, ...], images: np.ndarray | None, truth: np.ndarray | None
+) -> np.ndarray:
+    if truth is None:
+        raise ValueError("this detector reads the ground truth: pass truth=world.true_fluents()")
+    truth = np.asarray(truth)
+    if truth.ndim != 2 or truth.shape[1] != len(names):
+        raise ValueError(f"truth must be [n, {len(names)}] for fluents {names}, got {truth.shape}")
+    if truth.dtype != np.bool_:
+        if not np.isin(truth, (0, 1)).all():
+            raise ValueError("truth must be booleans or 0/1")
+        truth = truth.astype(bool)
+    if images is not None and len(images) != truth.shape[0]:
+        raise ValueError(f"{len(images)} images but {truth.shape[0]} rows of truth")
+    return truth
+
+
+def _check_names(fluent_names: Sequence[str]) -> tuple[str, ...]:
+    names = tuple(fluent_names)
+    if not names or len(set(names)) != len(names):
+        raise ConfigError(f"fluent names must be non-empty and distinct: {names}")
+    return names
+
+
+class OracleDetector:
+    """Perfect perception: the ground truth as probabilities 0 and 1.
+
+    Args:
+        fluent_names: the fluents, in the column order of the truth it will be given.
+    """
+
+    def __init__(self, fluent_names: Sequence[str]) -> None:
+        self._names = _check_names(fluent_names)
+
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """The fluents it predicts, in column order."""
+        return self._names
+
+    @property
+    def needs_truth(self) -> bool:
+        """Always True."""
+        return True
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        """float32 ``[n, k]``: 1 where ``truth`` is true, else 0."""
+        return _check_truth(self._names, images, truth).astype(np.float32)
+
+
+@dataclass(frozen=True)
+class BetaNoise:
+    """Beta distributions of a detector's probability for one fluent.
+
+    A probability for a true fluent is drawn from ``Beta(m c, (1 - m) c)`` with mean
+    ``m = positive_mean`` and concentration ``c``; for a false one with
+    ``m = negative_mean``. Larger concentration means less spread.
+
+    Attributes:
+        positive_mean: mean probability when the fluent is true, in (0, 1).
+        negative_mean: mean probability when it is false, in (0, 1).
+        positive_concentration: ``a + b`` of the positives' Beta, > 0.
+        negative_concentration: ``a + b`` of the negatives' Beta, > 0.
+    """
+
+    positive_mean: float = 0.97
+    negative_mean: float = 0.03
+    positive_concentration: float = 60.0
+    negative_concentration: float = 60.0
+
+    def __post_init__(self) -> None:
+        for name in ("positive_mean", "negative_mean"):
+            value = getattr(self, name)
+            if not 0.0 < value < 1.0:
+                raise ConfigError(f"BetaNoise.{name} must be in (0, 1), got {value}")
+        for name in ("positive_concentration", "negative_concentration"):
+            value = getattr(self, name)
+            if not value > 0.0 or not np.isfinite(value):
+                raise ConfigError(f"BetaNoise.{name} must be positive and finite, got {value}")
+
+    @classmethod
+    def high_confidence(cls) -> BetaNoise:
+        """Crisp: about 99% of positives above 0.9 and of negatives below 0.1."""
+        return cls()
+
+    @classmethod
+    def low_confidence(cls, mean: float = 0.72) -> BetaNoise:
+        """Dim: about 99% of positives in the low band [0.5, 0.9] with the default mean."""
+        return cls(
+            positive_mean=mean,
+            negative_mean=0.1,
+            positive_concentration=30.0,
+            negative_concentration=30.0,
+        )
+
+    def beta_parameters(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """``((a_pos, b_pos), (a_neg, b_neg))`` of the two Beta distributions."""
+        pm, pc = self.positive_mean, self.positive_concentration
+        nm, nc = self.negative_mean, self.negative_concentration
+        return (pm * pc, (1.0 - pm) * pc), (nm * nc, (1.0 - nm) * nc)
+
+    def to_dict(self) -> dict[str, float]:
+        """JSON-able parameters."""
+        return {
+            "positive_mean": self.positive_mean,
+            "negative_mean": self.negative_mean,
+            "positive_concentration": self.positive_concentration,
+            "negative_concentration": self.negative_concentration,
+        }
+
+
+def _moments(values: np.ndarray, fallback_mean: float) -> tuple[float, float]:
+    """(mean, concentration) of a Beta matching the sample's first two moments."""
+    eps = 1e-4
+    if values.size < 2:
+        return fallback_mean, 60.0
+    mean = float(np.clip(values.mean(), eps, 1.0 - eps))
+    var = float(values.var())
+    ceiling = mean * (1.0 - mean)
+    if var <= 0.0:
+        return mean, 1e4
+    concentration = ceiling / var - 1.0 if var < ceiling else eps
+    return mean, float(np.clip(concentration, eps, 1e4))
+
+
+class SyntheticDetector:
+    """Ground truth turned into probabilities by seeded per-fluent Beta noise.
+
+    Reproducible: two detectors with the same seed, given the same truths in the same
+    order, return the same probabilities. Vectorised: one draw per call for the batch.
+
+    Args:
+        fluent_names: the fluents, in the column order of the truth it will be given.
+        seed: seeds the detector's own generator.
+        default: the noise of every fluent not named in ``fluents``.
+        fluents: per-fluent noise, keyed by fluent name.
+
+    Raises:
+        UnknownFluentError: if ``fluents`` names a fluent not in ``fluent_names``.
+    """
+
+    def __init__(
+        self,
+        fluent_names: Sequence[str],
+        *,
+        seed: int,
+        default: BetaNoise | None = None,
+        fluents: Mapping[str, BetaNoise] | None = None,
+    ) -> None:
+        self._names = _check_names(fluent_names)
+        fluents = dict(fluents or {})
+        unknown = tuple(sorted(set(fluents) - set(self._names)))
+        if unknown:
+            raise UnknownFluentError(
+                f"noise given for unknown fluent(s) {list(unknown)}; known: {list(self._names)}",
+                unknown=unknown,
+                known=self._names,
+            )
+        default = default or BetaNoise()
+        self._noise = tuple(fluents.get(name, default) for name in self._names)
+        params = np.array([n.beta_parameters() for n in self._noise])  # [k, 2 (pos,neg), 2]
+        self._a_pos, self._b_pos = params[:, 0, 0], params[:, 0, 1]
+        self._a_neg, self._b_neg = params[:, 1, 0], params[:, 1, 1]
+        self._seed = seed
+        self._rng = np.random.default_rng(seed)
+
+    @classmethod
+    def fit(
+        cls,
+        probs: np.ndarray,
+        truth: np.ndarray,
+        *,
+        fluent_names: Sequence[str],
+        seed: int,
+    ) -> SyntheticDetector:
+        """A synthetic detector calibrated to another detector's outputs.
+
+        Matches, per fluent, the mean and variance of ``probs`` on true positives and on
+        true negatives (method of moments), so it reproduces that detector's band
+        frequencies approximately, at no cost per image.
+
+        Args:
+            probs: float ``[n, k]`` probabilities of the detector to imitate.
+            truth: bool ``[n, k]`` ground truth for the same samples.
+            fluent_names: the ``k`` fluents.
+            seed: seeds the new detector.
+        """
+        names = _check_names(fluent_names)
+        probs = np.asarray(probs, dtype=np.float64)
+        truth = _check_truth(names, None, truth)
+        if probs.shape != truth.shape:
+            raise ValueError(f"probs {probs.shape} and truth {truth.shape} differ")
+        noise = {}
+        for j, name in enumerate(names):
+            pm, pc = _moments(probs[truth[:, j], j], 0.97)
+            nm, nc = _moments(probs[~truth[:, j], j], 0.03)
+            noise[name] = BetaNoise(pm, nm, pc, nc)
+        return cls(names, seed=seed, fluents=noise)
+
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """The fluents it predicts, in column order."""
+        return self._names
+
+    @property
+    def needs_truth(self) -> bool:
+        """Always True."""
+        return True
+
+    @property
+    def noise(self) -> dict[str, BetaNoise]:
+        """The noise model of each fluent."""
+        return dict(zip(self._names, self._noise, strict=True))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able settings (fluents, seed, per-fluent Beta parameters)."""
+        return {
+            "fluent_names": list(self._names),
+            "seed": self._seed,
+            "noise": {name: n.to_dict() for name, n in self.noise.items()},
+        }
+
+    def reset(self, seed: int | None = None) -> None:
+        """Restarts the random stream (from ``seed``, or the constructor's seed)."""
+        self._seed = self._seed if seed is None else seed
+        self._rng = np.random.default_rng(self._seed)
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        """float32 ``[n, k]`` probabilities drawn around the ``truth``."""
+        truth = _check_truth(self._names, images, truth)
+        a = np.where(truth, self._a_pos, self._a_neg)
+        b = np.where(truth, self._b_pos, self._b_neg)
+        return self._rng.beta(a, b).astype(np.float32)
