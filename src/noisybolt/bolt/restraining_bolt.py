@@ -294,7 +294,7 @@ class RestrainingBolt:
             first=np.zeros(len(states), dtype=bool),
             end_on_violation=self._end_on_violation,
         )
-        carried = self._pending[rows]
+        carried = self._pending[rows].copy()  # a view when rows is a slice
         out = out._replace(carried=carried, total=out.total + carried)
         self._pending[rows] = 0.0
         self._states[rows] = out.next_states
