@@ -12,6 +12,7 @@ __all__ = [
     "CompilationError",
     "ConfigError",
     "CorruptFileError",
+    "DenseTableError",
     "IncompatibleError",
     "NoisyboltError",
     "SpecSyntaxError",
@@ -66,6 +67,10 @@ class CompilationError(NoisyboltError, RuntimeError):
     def __init__(self, message: str, *, formula: str) -> None:
         super().__init__(message)
         self.formula = formula
+
+
+class DenseTableError(NoisyboltError, ValueError):
+    """A dense transition table was asked of a DFA held compactly (see ``DFA.is_compact``)."""
 
 
 class ConfigError(NoisyboltError, ValueError):

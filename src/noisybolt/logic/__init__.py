@@ -1,7 +1,31 @@
-"""LTLf formulas to DFAs over an ordered fluent vocabulary."""
+"""LTLf formulas to DFAs over an ordered fluent vocabulary.
+
+``compile_ltlf`` reads ltlf2dfa's LTLf syntax and builds the minimal DFA with MONA or, with
+no binary, with a pure-Python BDD backend; both give identical automata. ``holds`` is an
+independent evaluator of the same logic on finite traces, used to test the compilers.
+"""
 
 from __future__ import annotations
 
-from noisybolt.logic.dfa import DFA, Edge, assignment_to_mask, masks_from_bool_matrix
+from noisybolt.logic.compiler import BACKENDS, compile_ltlf
+from noisybolt.logic.dfa import (
+    DENSE_TABLE_LIMIT,
+    DFA,
+    Edge,
+    GuardDiagram,
+    assignment_to_mask,
+    masks_from_bool_matrix,
+)
+from noisybolt.logic.evaluator import holds
 
-__all__ = ["DFA", "Edge", "assignment_to_mask", "masks_from_bool_matrix"]
+__all__ = [
+    "BACKENDS",
+    "DENSE_TABLE_LIMIT",
+    "DFA",
+    "Edge",
+    "GuardDiagram",
+    "assignment_to_mask",
+    "compile_ltlf",
+    "holds",
+    "masks_from_bool_matrix",
+]

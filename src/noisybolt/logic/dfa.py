@@ -6,26 +6,32 @@ an array lookup, ``next_state[q, mask]``, and ``support[q, mask]`` is the bitmas
 fluents that the guard of the edge taken from ``q`` *depends on* (its boolean support, not
 how a backend happened to print it). Algorithm 1 of the paper charges for exactly those.
 
-Dense tables have ``n_states * 2**n_fluents`` cells. Backends build DFAs whose vocabulary
-is too large for that (see :data:`DENSE_TABLE_LIMIT`) in a compact form instead; every
-public method works on both.
+Every DFA holds its transitions as a :class:`GuardDiagram` (a shared multi-terminal BDD,
+the form MONA prints). Dense tables have ``n_states * 2**n_fluents`` cells; they are built
+only while that is at most :data:`DENSE_TABLE_LIMIT`. Beyond it the DFA is *compact*
+(:attr:`DFA.is_compact`): :attr:`DFA.next_state` and :attr:`DFA.support` raise
+:class:`~noisybolt.errors.DenseTableError`, and :meth:`DFA.step_batch` uses a dense table
+over just the fluents the diagram tests when that fits, else walks the diagram with
+exact supports computed per edge on first use. Every other method works on both forms.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import NamedTuple
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from noisybolt.errors import UnknownFluentError
+from noisybolt.errors import DenseTableError, UnknownFluentError
+from noisybolt.logic import _diagram
+from noisybolt.logic._diagram import GuardDiagram
 
 __all__ = [
     "DENSE_TABLE_LIMIT",
     "DFA",
     "MAX_FLUENTS",
     "Edge",
+    "GuardDiagram",
     "assignment_to_mask",
     "masks_from_bool_matrix",
     "support_from_table",
@@ -35,6 +41,8 @@ __all__ = [
 MAX_FLUENTS = 63
 #: Largest dense transition table (cells) built eagerly.
 DENSE_TABLE_LIMIT = 1 << 22
+
+support_from_table = _diagram.support_from_table
 
 
 class Edge(NamedTuple):
@@ -94,49 +102,31 @@ def masks_from_bool_matrix(truth: np.ndarray) -> np.ndarray:
     return (truth.astype(np.uint64) * weights).sum(axis=1, dtype=np.uint64)
 
 
-def support_from_table(next_state: np.ndarray) -> np.ndarray:
-    """Computes the guard support of every cell of a dense transition table.
-
-    For a cell ``(q, a)`` with ``t = next_state[q, a]``, fluent ``v`` is in the support iff
-    the guard ``{b : next_state[q, b] == t}`` changes when bit ``v`` of ``b`` is flipped.
-
-    Args:
-        next_state: int array ``[n_states, 2**n_fluents]``.
-
-    Returns:
-        uint64 array of the same shape.
-    """
-    n_states, n_letters = next_state.shape
-    n_fluents = int(n_letters).bit_length() - 1
-    if 1 << n_fluents != n_letters:
-        raise ValueError(f"table width {n_letters} is not a power of two")
-    letters = np.arange(n_letters)
-    support = np.zeros(next_state.shape, dtype=np.uint64)
-    for q in range(n_states):
-        row = next_state[q]
-        for t in np.unique(row):
-            guard = row == t
-            mask = np.uint64(0)
-            for v in range(n_fluents):
-                if np.any(guard != guard[letters ^ (1 << v)]):
-                    mask |= np.uint64(1 << v)
-            support[q, guard] = mask
-    return support
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
 
 
-@dataclass(frozen=True, eq=False)
+class _Dense(NamedTuple):
+    """Dense tables over the letters ``gather(mask)`` (``gather`` None: the mask itself)."""
+
+    next_state: np.ndarray
+    support: np.ndarray
+    gather: Callable[[np.ndarray], np.ndarray] | None
+
+
 class DFA:
     """A complete deterministic finite automaton over truth assignments of ``fluents``.
 
     Build one with :func:`noisybolt.logic.compile_ltlf` or, for tests and hand-made
-    automata, :meth:`DFA.from_table` / :meth:`DFA.from_function`.
+    automata, :meth:`DFA.from_table` / :meth:`DFA.from_function` /
+    :meth:`DFA.from_diagram`. Instances are immutable (their arrays are read-only).
 
     Attributes:
         fluents: ordered vocabulary; bit ``i`` of an assignment mask is ``fluents[i]``.
         initial_state: the state before any letter (the empty trace).
         accepting: bool ``[n_states]``.
-        next_state: int64 ``[n_states, 2**n_fluents]``.
-        support: uint64 ``[n_states, 2**n_fluents]``, the support mask of each cell's guard.
+        diagram: the transitions as a :class:`GuardDiagram`.
         formula: the formula the DFA was compiled from ("" for hand-made automata).
 
     Example:
@@ -149,40 +139,81 @@ class DFA:
         0
     """
 
-    fluents: tuple[str, ...]
-    initial_state: int
-    accepting: np.ndarray
-    next_state: np.ndarray
-    support: np.ndarray
-    formula: str = ""
-    _index: dict[str, int] = field(init=False, repr=False, compare=False)
+    def __init__(
+        self,
+        *,
+        fluents: Sequence[str],
+        initial_state: int,
+        accepting: Sequence[bool] | np.ndarray,
+        diagram: GuardDiagram,
+        formula: str = "",
+        next_state: np.ndarray | None = None,
+    ) -> None:
+        """Checks and freezes the parts; prefer the ``from_*`` constructors.
 
-    def __post_init__(self) -> None:
-        fluents = tuple(self.fluents)
-        if len(fluents) > MAX_FLUENTS:
+        Args:
+            fluents: ordered vocabulary.
+            initial_state: state of the empty trace.
+            accepting: bool ``[n_states]``.
+            diagram: reduced ordered diagram of the transitions (see :mod:`._diagram`).
+            formula: source formula, for display.
+            next_state: the dense table when the caller already has it (it must agree
+                with ``diagram``).
+
+        Raises:
+            ValueError: the parts are inconsistent.
+        """
+        if isinstance(fluents, str):
+            raise TypeError("fluents must be a sequence of names, not one string")
+        self.fluents: tuple[str, ...] = tuple(fluents)
+        if len(self.fluents) > MAX_FLUENTS:
             raise ValueError(f"at most {MAX_FLUENTS} fluents are supported, got {len(fluents)}")
-        if len(set(fluents)) != len(fluents):
-            raise ValueError(f"duplicate fluent names in {list(fluents)}")
-        accepting = np.asarray(self.accepting, dtype=bool)
-        next_state = np.asarray(self.next_state, dtype=np.int64)
-        support = np.asarray(self.support, dtype=np.uint64)
-        n_states = accepting.shape[0]
-        if next_state.shape != (n_states, 1 << len(fluents)):
+        if len(set(self.fluents)) != len(self.fluents):
+            raise ValueError(f"duplicate fluent names in {list(self.fluents)}")
+        self.accepting = _read_only(np.array(accepting, dtype=bool).reshape(-1))
+        self.diagram = GuardDiagram(
+            *(_read_only(np.array(a, dtype=np.int64).reshape(-1)) for a in diagram)
+        )
+        if self.diagram.n_states != self.n_states:
             raise ValueError(
-                f"next_state has shape {next_state.shape}, expected {(n_states, 1 << len(fluents))}"
+                f"the diagram has {self.diagram.n_states} states, accepting has {self.n_states}"
             )
-        if support.shape != next_state.shape:
-            raise ValueError(f"support has shape {support.shape}, expected {next_state.shape}")
-        if next_state.size and (next_state.min() < 0 or next_state.max() >= n_states):
-            raise ValueError("next_state refers to a state that does not exist")
-        if not 0 <= self.initial_state < n_states:
-            raise ValueError(f"initial_state {self.initial_state} is not in 0..{n_states - 1}")
-        for name, array in (("accepting", accepting), ("next_state", next_state), ("support", support)):
-            array.setflags(write=False)
-            object.__setattr__(self, name, array)
-        object.__setattr__(self, "fluents", fluents)
-        object.__setattr__(self, "initial_state", int(self.initial_state))
-        object.__setattr__(self, "_index", {name: i for i, name in enumerate(fluents)})
+        _diagram.validate(self.diagram, self.n_fluents)
+        if not 0 <= int(initial_state) < self.n_states:
+            raise ValueError(f"initial_state {initial_state} is not in 0..{self.n_states - 1}")
+        self.initial_state = int(initial_state)
+        self.formula = str(formula)
+        self._index = {name: i for i, name in enumerate(self.fluents)}
+        self._tested = sorted(set(self.diagram.var[self.n_states :].tolist()))
+        self._depth = _diagram.max_depth(self.diagram)
+        self._inspector: _diagram.EdgeInspector | None = None
+        self._full: _Dense | None = None
+        self._projected: _Dense | None = None
+        if next_state is not None:
+            table = _read_only(np.array(next_state, dtype=np.int64))
+            if table.shape != (self.n_states, 1 << self.n_fluents):
+                raise ValueError(
+                    f"next_state has shape {table.shape}, "
+                    f"expected {(self.n_states, 1 << self.n_fluents)}"
+                )
+            self._full = _Dense(table, _read_only(support_from_table(table)), None)
+        elif self.n_states << self.n_fluents <= DENSE_TABLE_LIMIT:
+            bits = {v: v for v in self._tested}
+            table = _diagram.dense_table(self.diagram, bits, self.n_fluents)
+            self._full = _Dense(_read_only(table), _read_only(support_from_table(table)), None)
+        elif self.n_states << len(self._tested) <= DENSE_TABLE_LIMIT:
+            bits = {v: j for j, v in enumerate(self._tested)}
+            table = _diagram.dense_table(self.diagram, bits, len(bits))
+            support = self._unproject(support_from_table(table))
+            gather = _diagram.letter_lookup(self._tested)
+            self._projected = _Dense(_read_only(table), _read_only(support), gather)
+
+    def _unproject(self, support: np.ndarray) -> np.ndarray:
+        """Maps supports over projected bits back to vocabulary bits."""
+        out = np.zeros_like(support)
+        for j, v in enumerate(self._tested):
+            out |= ((support >> np.uint64(j)) & np.uint64(1)) << np.uint64(v)
+        return out
 
     # ----------------------------------------------------------------- construction
     @classmethod
@@ -195,15 +226,25 @@ class DFA:
         next_state: np.ndarray,
         formula: str = "",
     ) -> DFA:
-        """Builds a DFA from a dense table ``[n_states, 2**n_fluents]``, computing supports."""
-        next_state = np.asarray(next_state, dtype=np.int64)
+        """Builds a DFA from a dense table ``[n_states, 2**n_fluents]``, computing supports.
+
+        The states keep their numbers (no minimisation).
+        """
+        table = np.asarray(next_state, dtype=np.int64)
+        n_states = np.asarray(accepting).reshape(-1).shape[0]
+        if table.ndim != 2 or table.shape != (n_states, 1 << len(fluents)):
+            raise ValueError(
+                f"next_state has shape {table.shape}, expected {(n_states, 1 << len(fluents))}"
+            )
+        if table.size and (table.min() < 0 or table.max() >= n_states):
+            raise ValueError("next_state refers to a state that does not exist")
         return cls(
-            fluents=tuple(fluents),
+            fluents=fluents,
             initial_state=initial_state,
-            accepting=np.asarray(accepting, dtype=bool),
-            next_state=next_state,
-            support=support_from_table(next_state),
+            accepting=accepting,
+            diagram=_diagram.from_table(table),
             formula=formula,
+            next_state=table,
         )
 
     @classmethod
@@ -221,13 +262,67 @@ class DFA:
         n_letters = 1 << len(fluents)
         table = np.array(
             [[delta(q, a) for a in range(n_letters)] for q in range(n_states)], dtype=np.int64
-        )
+        ).reshape(n_states, n_letters)
         return cls.from_table(
             fluents,
             initial_state=initial_state,
             accepting=accepting,
             next_state=table,
             formula=formula,
+        )
+
+    @classmethod
+    def from_diagram(
+        cls,
+        fluents: Sequence[str],
+        *,
+        initial_state: int,
+        accepting: Sequence[bool] | np.ndarray,
+        diagram: GuardDiagram,
+        formula: str = "",
+        minimise: bool = False,
+    ) -> DFA:
+        """Builds a DFA from a guard diagram (the form backends produce).
+
+        Args:
+            fluents: ordered vocabulary; the diagram's ``var`` indexes it.
+            initial_state: state of the empty trace.
+            accepting: bool ``[n_states]``.
+            diagram: ordered diagram (reduced unless ``minimise``).
+            formula: source formula, for display.
+            minimise: minimise, drop unreachable states and number the states
+                canonically (breadth-first from the initial state, successors by
+                smallest letter), so equal languages give equal arrays.
+        """
+        if minimise:
+            diagram, accepting, initial_state = _diagram.canonicalise(
+                GuardDiagram(*(np.asarray(a, dtype=np.int64) for a in diagram)),
+                np.asarray(accepting, dtype=bool),
+                int(initial_state),
+            )
+        return cls(
+            fluents=fluents,
+            initial_state=initial_state,
+            accepting=accepting,
+            diagram=diagram,
+            formula=formula,
+        )
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Lazily built caches are dropped; the dense table travels only if it was given.
+        table = self._full.next_state if self._full is not None else None
+        if table is not None and self.n_states << self.n_fluents <= DENSE_TABLE_LIMIT:
+            table = None
+        return (
+            _restore,
+            (self.fluents, self.initial_state, self.accepting, self.diagram, self.formula, table),
+        )
+
+    def __repr__(self) -> str:
+        form = "compact" if self.is_compact else "dense"
+        return (
+            f"DFA(formula={self.formula!r}, fluents={list(self.fluents)}, "
+            f"n_states={self.n_states}, {form})"
         )
 
     # ----------------------------------------------------------------- properties
@@ -242,6 +337,44 @@ class DFA:
         return len(self.fluents)
 
     @property
+    def is_compact(self) -> bool:
+        """Whether the dense tables are too large to hold (see :data:`DENSE_TABLE_LIMIT`)."""
+        return self._full is None
+
+    @property
+    def relevant_fluents(self) -> tuple[str, ...]:
+        """The fluents some transition depends on, in vocabulary order."""
+        return tuple(self.fluents[v] for v in self._tested)
+
+    @property
+    def next_state(self) -> np.ndarray:
+        """int64 ``[n_states, 2**n_fluents]``: successor of each (state, assignment mask).
+
+        Raises:
+            DenseTableError: the DFA is compact.
+        """
+        return self._dense().next_state
+
+    @property
+    def support(self) -> np.ndarray:
+        """uint64 ``[n_states, 2**n_fluents]``: support mask of each cell's guard.
+
+        Raises:
+            DenseTableError: the DFA is compact.
+        """
+        return self._dense().support
+
+    def _dense(self) -> _Dense:
+        if self._full is None:
+            raise DenseTableError(
+                f"this DFA has {self.n_states} states over {self.n_fluents} fluents: a dense "
+                f"table would have {self.n_states << self.n_fluents} cells, over "
+                f"DENSE_TABLE_LIMIT={DENSE_TABLE_LIMIT}, so it is held compactly. Use step, "
+                "step_batch, accepts, edges or the diagram instead of next_state/support."
+            )
+        return self._full
+
+    @property
     def accepting_sinks(self) -> np.ndarray:
         """bool ``[n_states]``: accepting states no letter leaves (satisfied for good)."""
         return self._sinks() & self.accepting
@@ -252,7 +385,8 @@ class DFA:
         return self._sinks() & ~self.accepting
 
     def _sinks(self) -> np.ndarray:
-        return np.all(self.next_state == np.arange(self.n_states)[:, None], axis=1)
+        # The diagram is reduced: a constant transition function is a bare leaf.
+        return self.diagram.root == np.arange(self.n_states)
 
     # ----------------------------------------------------------------- stepping
     def mask(self, assignment: Mapping[str, bool]) -> int:
@@ -263,7 +397,16 @@ class DFA:
         """Returns the state reached from ``q`` on one letter."""
         if not 0 <= q < self.n_states:
             raise ValueError(f"state {q} is not in 0..{self.n_states - 1}")
-        return int(self.next_state[q, self.mask(assignment)])
+        return self._successor(q, self.mask(assignment))
+
+    def _successor(self, q: int, mask: int) -> int:
+        if self._full is not None:
+            return int(self._full.next_state[q, mask])
+        var, lo, hi, root = self.diagram.var, self.diagram.lo, self.diagram.hi, self.diagram.root
+        node = int(root[q])
+        while node >= self.n_states:
+            node = int(hi[node] if mask >> int(var[node]) & 1 else lo[node])
+        return node
 
     def step_batch(self, states: np.ndarray, masks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Steps many (state, letter) pairs at once.
@@ -277,8 +420,36 @@ class DFA:
             mask of the guard of the edge taken.
         """
         states = np.asarray(states, dtype=np.int64)
-        letters = np.asarray(masks).astype(np.int64)
-        return self.next_state[states, letters], self.support[states, letters]
+        if self._full is not None:
+            letters = np.asarray(masks).astype(np.int64)
+            return self._full.next_state[states, letters], self._full.support[states, letters]
+        masks = np.asarray(masks).astype(np.uint64)
+        if self._projected is not None:
+            assert self._projected.gather is not None
+            letters = self._projected.gather(masks)
+            dense = self._projected
+            return dense.next_state[states, letters], dense.support[states, letters]
+        return self._walk(states, masks)
+
+    def _walk(self, states: np.ndarray, masks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        var, lo, hi, root = self.diagram.var, self.diagram.lo, self.diagram.hi, self.diagram.root
+        node = root[states]
+        for _ in range(self._depth):
+            bit = (masks >> np.maximum(var[node], 0).astype(np.uint64)) & np.uint64(1)
+            node = np.where(bit.astype(bool), hi[node], lo[node])
+        edges = states * np.int64(self.n_states) + node
+        unique, inverse = np.unique(edges, return_inverse=True)
+        inspector = self._edge_inspector()
+        support = np.array(
+            [inspector.support(int(e) // self.n_states, int(e) % self.n_states) for e in unique],
+            dtype=np.uint64,
+        )
+        return node, support[inverse.reshape(-1)]
+
+    def _edge_inspector(self) -> _diagram.EdgeInspector:
+        if self._inspector is None:
+            self._inspector = _diagram.EdgeInspector(self.diagram)
+        return self._inspector
 
     def run(self, trace: Iterable[Mapping[str, bool]], *, start: int | None = None) -> int:
         """Returns the state reached after reading ``trace`` from ``start`` (default initial)."""
@@ -292,44 +463,82 @@ class DFA:
         return bool(self.accepting[self.run(trace)])
 
     # ----------------------------------------------------------------- display
-    def edges(self) -> list[Edge]:
-        """The edges ``(src, dst)`` with their guards, for people to read."""
-        result = []
-        for q in range(self.n_states):
-            row = self.next_state[q]
-            for t in np.unique(row):
-                letters = np.flatnonzero(row == t)
-                supp = int(self.support[q, letters[0]])
-                names = tuple(f for i, f in enumerate(self.fluents) if supp >> i & 1)
-                result.append(Edge(q, int(t), self._guard_text(letters, supp), names))
-        return result
+    def iter_edges(self, states: Iterable[int] | None = None) -> Iterator[Edge]:
+        """Yields the edges ``(src, dst)`` with exact guards, state by state.
 
-    def _guard_text(self, letters: np.ndarray, supp: int) -> str:
-        """A sum of products over the support fluents (one product per distinct minterm)."""
-        positions = [i for i in range(self.n_fluents) if supp >> i & 1]
-        if not positions:
+        Successors of a state come by the smallest letter leading to them. A compact DFA
+        may have very many edges: iterate and stop, or pass ``states``.
+        """
+        inspector = self._edge_inspector()
+        for q in range(self.n_states) if states is None else states:
+            for t in inspector.targets(int(q)):
+                supp = inspector.support(int(q), t)
+                names = tuple(f for i, f in enumerate(self.fluents) if supp >> i & 1)
+                yield Edge(int(q), t, self._guard_text(inspector.cubes(int(q), t)), names)
+
+    def edges(self) -> list[Edge]:
+        """All edges ``(src, dst)`` with their guards, for people to read."""
+        return list(self.iter_edges())
+
+    def _guard_text(self, cubes: list[dict[int, bool]]) -> str:
+        """A disjoint sum of products, literals in vocabulary order."""
+        if cubes == [{}]:
             return "true"
-        minterms = sorted({tuple(int(a) >> i & 1 for i in positions) for a in letters})
-        products = []
-        for minterm in minterms:
-            literals = [
-                self.fluents[i] if bit else f"!{self.fluents[i]}"
-                for i, bit in zip(positions, minterm, strict=True)
-            ]
-            products.append(" & ".join(literals))
+        if not cubes:
+            return "false"
+        products = [
+            " & ".join(self.fluents[v] if cube[v] else f"!{self.fluents[v]}" for v in sorted(cube))
+            for cube in cubes
+        ]
         if len(products) == 1:
             return products[0]
-        return " | ".join(f"({p})" if len(positions) > 1 else p for p in products)
+        return " | ".join(f"({p})" if " & " in p else p for p in products)
 
-    def describe(self) -> str:
-        """A multi-line description: states, initial, accepting, sinks and edges."""
+    def describe(self, max_edges: int = 200) -> str:
+        """A multi-line description: states, initial, accepting, sinks and edges.
+
+        Args:
+            max_edges: print at most this many edges, then say how many were left out.
+        """
+        accepting = np.flatnonzero(self.accepting).tolist()
         lines = [
-            f"DFA for {self.formula or '<hand-made>'} over {list(self.fluents)}",
+            f"DFA for {self.formula or '<hand-made>'} over {list(self.fluents)}"
+            + (" (compact)" if self.is_compact else ""),
             f"  states: {self.n_states}, initial: {self.initial_state}, "
-            f"accepting: {np.flatnonzero(self.accepting).tolist()}",
-            f"  accepting sinks: {np.flatnonzero(self.accepting_sinks).tolist()}, "
-            f"rejecting sinks: {np.flatnonzero(self.rejecting_sinks).tolist()}",
+            f"accepting: {_abbreviate(accepting)}",
+            f"  accepting sinks: {_abbreviate(np.flatnonzero(self.accepting_sinks).tolist())}, "
+            f"rejecting sinks: {_abbreviate(np.flatnonzero(self.rejecting_sinks).tolist())}",
         ]
-        for edge in self.edges():
-            lines.append(f"  {edge.src} -> {edge.dst}  [{edge.guard}]  support={list(edge.support)}")
+        for shown, edge in enumerate(self.iter_edges()):
+            if shown == max_edges:
+                lines.append(f"  ... further edges left out (shown {max_edges})")
+                break
+            guard = edge.guard
+            if len(guard) > 160:  # a disjoint cover can have very many products
+                guard = f"{guard[:150]} ... ({guard.count(' | ') + 1} products)"
+            lines.append(f"  {edge.src} -> {edge.dst}  [{guard}]  support={list(edge.support)}")
         return "\n".join(lines)
+
+
+def _abbreviate(items: list[int], limit: int = 20) -> str:
+    if len(items) <= limit:
+        return str(items)
+    return f"[{', '.join(map(str, items[:limit]))}, ... ({len(items)} in all)]"
+
+
+def _restore(
+    fluents: tuple[str, ...],
+    initial_state: int,
+    accepting: np.ndarray,
+    diagram: GuardDiagram,
+    formula: str,
+    next_state: np.ndarray | None,
+) -> DFA:
+    return DFA(
+        fluents=fluents,
+        initial_state=initial_state,
+        accepting=accepting,
+        diagram=GuardDiagram(*diagram),
+        formula=formula,
+        next_state=next_state,
+    )

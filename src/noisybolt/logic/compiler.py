@@ -1,0 +1,113 @@
+"""``compile_ltlf``: LTLf text to a minimal DFA, through MONA or the BDD backend."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from typing import Literal
+
+from noisybolt.logic import cache as dfa_cache
+from noisybolt.logic.dfa import DFA
+from noisybolt.logic.mona import compile_mona, find_mona, mona_version, require_mona
+from noisybolt.logic.progression import bdd_backend_version, compile_progression
+from noisybolt.logic.syntax import normalise, parse_ltlf, resolve_vocabulary
+
+__all__ = ["BACKENDS", "Backend", "compile_ltlf", "resolve_backend"]
+
+Backend = Literal["auto", "mona", "bdd"]
+#: The backends ``compile_ltlf`` accepts.
+BACKENDS: tuple[str, ...] = ("auto", "mona", "bdd")
+
+
+def resolve_backend(backend: str) -> str:
+    """The backend that ``backend`` stands for here: ``"auto"`` is MONA if installed.
+
+    Raises:
+        ValueError: ``backend`` is not one of :data:`BACKENDS`.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    if backend == "auto":
+        return "mona" if find_mona() is not None else "bdd"
+    return backend
+
+
+def compile_ltlf(
+    formula: str,
+    fluents: Sequence[str] | None = None,
+    *,
+    backend: Backend = "auto",
+    timeout: float = 30.0,
+    cache: bool | str | os.PathLike[str] = True,
+) -> DFA:
+    """Compiles an LTLf formula into its minimal DFA over a fluent vocabulary.
+
+    Syntax and semantics are ltlf2dfa's (see :mod:`noisybolt.logic.syntax`): ``X`` strong
+    next, ``WX`` weak next, ``last``, ``U``, ``R``, ``F``, ``G``, ``!``, ``&``, ``|``,
+    ``->``, ``<->``, ``true``, ``false``, over non-empty finite traces. The initial state
+    stands for the empty trace, as in MONA's automaton (so it accepts for ``G(e)``);
+    states are numbered breadth-first from it, and both backends give identical arrays.
+
+    Args:
+        formula: the formula text.
+        fluents: the vocabulary, in mask-bit order. None: the formula's atoms, sorted.
+            Fluents the formula does not mention are don't-cares.
+        backend: ``"mona"`` (ltlf2dfa's encoding run by MONA), ``"bdd"`` (progression over
+            BDDs in Python; no binary needed) or ``"auto"`` (MONA when installed).
+        timeout: seconds the backend may take.
+        cache: True for the default cache directory (``$NOISYBOLT_CACHE_DIR`` or
+            ``~/.cache/noisybolt/dfa``), a directory, or False for no cache.
+
+    Returns:
+        The DFA (compact when its dense table would exceed ``DENSE_TABLE_LIMIT``).
+
+    Raises:
+        SpecSyntaxError: the formula cannot be parsed (the message points at the column).
+        UnknownFluentError: the formula uses a fluent outside ``fluents``.
+        ValueError: a fluent name is malformed, or an argument is out of range.
+        BackendUnavailableError: ``backend="mona"`` and MONA is not installed.
+        CompilationError: the backend timed out or failed.
+
+    Example:
+        >>> dfa = compile_ltlf("F(a & b)", ["a", "b", "c"], cache=False)
+        >>> dfa.n_states, dfa.accepts([{"a": True}, {"a": True, "b": True}])
+        (2, True)
+        >>> [(e.src, e.dst, e.guard) for e in dfa.edges() if e.src != e.dst]
+        [(0, 1, 'a & b')]
+    """
+    if not isinstance(timeout, int | float) or not math.isfinite(timeout) or timeout <= 0:
+        raise ValueError(f"timeout must be a positive number of seconds, got {timeout!r}")
+    parsed = parse_ltlf(formula)
+    vocabulary = resolve_vocabulary(formula, parsed, fluents)
+    chosen = resolve_backend(backend)
+    mona = require_mona() if chosen == "mona" else None
+    version = mona_version(mona) if mona is not None else bdd_backend_version()
+    key = normalise(parsed)
+    directory = dfa_cache.cache_directory(cache)
+    if directory is not None:
+        found = dfa_cache.load(
+            directory,
+            formula=key,
+            fluents=vocabulary,
+            backend=chosen,
+            backend_version=version,
+            source=formula,
+        )
+        if found is not None:
+            return found
+    if chosen == "mona":
+        raw = compile_mona(parsed, vocabulary, formula=formula, timeout=timeout, mona=mona)
+    else:
+        raw = compile_progression(parsed, vocabulary, formula=formula, timeout=timeout)
+    dfa = DFA.from_diagram(
+        vocabulary,
+        initial_state=raw.initial_state,
+        accepting=raw.accepting,
+        diagram=raw.diagram,
+        formula=formula,
+        minimise=True,
+    )
+    if directory is not None:
+        dfa_cache.store(directory, dfa, formula=key, backend=chosen, backend_version=version)
+    return dfa
