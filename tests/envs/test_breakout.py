@@ -8,6 +8,7 @@ import ale_py
 import gymnasium as gym
 import numpy as np
 import pytest
+from gymnasium.vector import AutoresetMode
 from gymnasium.wrappers import AtariPreprocessing, FrameStackObservation
 
 from noisybolt.envs import breakout
@@ -142,15 +143,16 @@ def test_game_redraws_the_wall_in_its_first_frames():
 
 def test_same_observations_as_gymnasium_atari_preprocessing():
     """With sticky actions and no-ops off both are deterministic and must agree exactly,
-    autoreset included."""
+    same-step autoreset and final observations included."""
     gym.register_envs(ale_py)
 
     def make() -> gym.Env:
         env = gym.make("ALE/Breakout-v5", frameskip=1, repeat_action_probability=0.0)
         return FrameStackObservation(AtariPreprocessing(env, frame_skip=4, noop_max=0), 4)
 
-    reference = gym.vector.SyncVectorEnv([make, make])
+    reference = gym.vector.SyncVectorEnv([make, make], autoreset_mode=AutoresetMode.SAME_STEP)
     world = BreakoutWorld(num_envs=2, seed=0, noop_max=0, repeat_action_probability=0.0)
+    assert world.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
     obs_ref, _ = reference.reset(seed=0)
     obs, _ = world.reset(seed=0)
     np.testing.assert_array_equal(obs, obs_ref)
@@ -162,9 +164,37 @@ def test_same_observations_as_gymnasium_atari_preprocessing():
         got = world.step(actions)
         for want, have in zip(expected[:4], got[:4], strict=True):
             np.testing.assert_array_equal(np.asarray(have), np.asarray(want))
-        ended += int(got[2].sum())
+        done = got[2] | got[3]
+        np.testing.assert_array_equal(world.dones, done)
+        if done.any():
+            ended += int(done.sum())
+            np.testing.assert_array_equal(got[4]["_final_obs"], expected[4]["_final_obs"])
+            for i in np.flatnonzero(done):
+                np.testing.assert_array_equal(got[4]["final_obs"][i], expected[4]["final_obs"][i])
     assert ended >= 1  # autoreset was exercised
     reference.close()
+
+
+def test_final_bolt_view_is_the_state_reached_before_autoreset():
+    """A game truncated after 10 steps: its final view is a twin's (untruncated) view."""
+    settings = {"num_envs": 2, "seed": 0, "noop_max": 0, "repeat_action_probability": 0.0}
+    short = BreakoutWorld(max_episode_frames=40, **settings)
+    twin = BreakoutWorld(**settings)
+    short.reset(seed=0)
+    twin.reset(seed=0)
+    fresh = short.bolt_images()
+    rng = np.random.default_rng(0)
+    for step in range(10):
+        actions = rng.integers(0, 4, size=2)
+        _, _, terminated, truncated, infos = short.step(actions)
+        twin.step(actions)
+        if step < 9:
+            assert not (truncated.any() or terminated.any())
+            np.testing.assert_array_equal(short.final_bolt_images(), short.bolt_images())
+    assert truncated.all() and "final_obs" in infos
+    np.testing.assert_array_equal(short.final_bolt_images(), twin.bolt_images())
+    np.testing.assert_array_equal(short.final_true_fluents(), twin.true_fluents())
+    np.testing.assert_array_equal(short.bolt_images(), fresh)  # the new episode's view
 
 
 def test_seeded_runs_repeat_with_sticky_actions_noops_and_noise():

@@ -166,10 +166,14 @@ def _noise_description(noise: NoiseFn | None) -> dict[str, Any]:
 class BreakoutWorld(gym.vector.VectorEnv):
     """``num_envs`` Breakout games stepped together, seen by the agent and by the bolt.
 
-    Gymnasium vector API with next-step autoreset (the Gymnasium default): the step after
-    an episode ends resets that game and ignores its action. Observations: uint8
-    ``[num_envs, frame_stack, 84, 84]``; actions: ``Discrete(4)`` per game (NOOP, FIRE,
-    RIGHT, LEFT); rewards: the game score gained.
+    Gymnasium vector API with **same-step autoreset**, like
+    :class:`~noisybolt.envs.gridworld_vec.VectorGridworld` and SB3: a step that ends an
+    episode returns the new episode's first observation, the ended one's last in
+    ``infos["final_obs"]`` (object array, mask ``infos["_final_obs"]``), and
+    :meth:`final_bolt_images` / :meth:`final_true_fluents` give the bolt the state each
+    game *reached* before the reset. Observations: uint8 ``[num_envs, frame_stack, 84,
+    84]``; actions: ``Discrete(4)`` per game (NOOP, FIRE, RIGHT, LEFT); rewards: the game
+    score gained.
 
     Args:
         num_envs: number of games.
@@ -220,7 +224,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
             )
         if noise is not None and not callable(noise):
             raise ConfigError(f"noise must be a callable noise(images, rng), got {noise!r}")
-        self.metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
+        self.metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
+        self.autoreset_mode = AutoresetMode.SAME_STEP
         self.num_envs = num_envs
         self.left_columns = left_columns
         self.camera_size = camera_size
@@ -267,7 +272,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
 
         self._grey = np.zeros((num_envs, 2, 210, 160), np.uint8)  # last two frames
         self._stack = np.zeros((num_envs, frame_stack, screen_size, screen_size), np.uint8)
-        self._needs_reset = np.zeros(num_envs, dtype=bool)
+        self._done = np.zeros(num_envs, dtype=bool)  # which games ended in the last step
+        self._final_rgb: dict[int, np.ndarray] = {}  # their last colour frame and RAM
+        self._final_ram: dict[int, np.ndarray] = {}
+        self._final_images: np.ndarray | None = None
         self._lives = np.zeros(num_envs, dtype=np.int64)
         self._images: np.ndarray | None = None  # bolt images of the current step, cached
         self._started = False
@@ -325,8 +333,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
             mask[:] = True
         for i in np.flatnonzero(mask):
             self._reset_one(int(i))
-        self._needs_reset[mask] = False
-        self._images = None
+        self._clear_step_state()
         self._started = True
         return self._stack.copy(), self._info()
 
@@ -352,11 +359,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
         rewards = np.zeros(self.num_envs, dtype=np.float64)
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
+        self._clear_step_state()
+        final_obs: np.ndarray | None = None
         last, second = self.frame_skip - 1, self.frame_skip - 2
         for i, ale in enumerate(self._ales):
-            if self._needs_reset[i]:
-                self._reset_one(i)
-                continue
             action = self._actions[int(actions[i])]
             total = 0
             for t in range(self.frame_skip):
@@ -369,13 +375,34 @@ class BreakoutWorld(gym.vector.VectorEnv):
                     ale.getScreenGrayscale(self._grey[i, 0])
             rewards[i] = total
             terminated[i] = ale.game_over(with_truncation=False)
-            truncated[i] = ale.game_truncated() and not terminated[i]
+            truncated[i] = ale.game_truncated()
             self._stack[i, :-1] = self._stack[i, 1:]
             self._stack[i, -1] = self._processed(i)
+            if terminated[i] or truncated[i]:
+                if final_obs is None:
+                    final_obs = np.full(self.num_envs, None, dtype=object)
+                final_obs[i] = self._stack[i].copy()
+                self._final_rgb[i] = ale.getScreenRGB()
+                self._final_ram[i] = ale.getRAM().copy()
+                self._reset_one(i)
             self._lives[i] = ale.lives()
-        self._needs_reset = terminated | truncated
+        self._done = terminated | truncated
+        infos = self._info()
+        if final_obs is not None:
+            infos.update(
+                final_obs=final_obs,
+                _final_obs=self._done.copy(),
+                final_info={},
+                _final_info=self._done.copy(),
+            )
+        return self._stack.copy(), rewards, terminated, truncated, infos
+
+    def _clear_step_state(self) -> None:
+        self._done = np.zeros(self.num_envs, dtype=bool)
+        self._final_rgb.clear()
+        self._final_ram.clear()
         self._images = None
-        return self._stack.copy(), rewards, terminated, truncated, self._info()
+        self._final_images = None
 
     # -- the bolt's view ------------------------------------------------------------------
     @property
@@ -400,25 +427,48 @@ class BreakoutWorld(gym.vector.VectorEnv):
         """bool ``[num_envs, 1]``: ``brick_clear_left`` from RAM."""
         return left_columns_clear(self.rams(), self.left_columns)[:, None]
 
+    def final_true_fluents(self) -> np.ndarray:
+        """Ground truth of the states the last step reached, before autoreset."""
+        rams = self.rams()
+        for i, ram in self._final_ram.items():
+            rams[i] = ram
+        return left_columns_clear(rams, self.left_columns)[:, None]
+
+    @property
+    def dones(self) -> np.ndarray:
+        """bool ``[num_envs]``: which games ended an episode in the last step."""
+        return self._done.copy()
+
+    def _capture(self, frames: list[np.ndarray]) -> np.ndarray:
+        size = (self.camera_size, self.camera_size)
+        images = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
+        if self._noise is not None:
+            images = np.asarray(self._noise(images, self._camera_rng))
+            if images.dtype != np.uint8 or images.shape != (len(frames), *size, 3):
+                raise ValueError(
+                    f"the camera noise returned {images.dtype} {images.shape}; it must "
+                    "keep uint8 images of the same shape"
+                )
+        return images
+
     def bolt_images(self) -> np.ndarray:
         """uint8 ``[num_envs, S, S, 3]``: the camera's noisy view (same until the next step)."""
         if self._images is None:
-            size = (self.camera_size, self.camera_size)
-            images = np.stack(
-                [
-                    cv2.resize(ale.getScreenRGB(), size, interpolation=cv2.INTER_AREA)
-                    for ale in self._ales
-                ]
-            )
-            if self._noise is not None:
-                images = np.asarray(self._noise(images, self._camera_rng))
-                if images.dtype != np.uint8 or images.shape != (self.num_envs, *size, 3):
-                    raise ValueError(
-                        f"the camera noise returned {images.dtype} {images.shape}; it must "
-                        "keep uint8 images of the same shape"
-                    )
-            self._images = images
+            self._images = self._capture([ale.getScreenRGB() for ale in self._ales])
         return self._images.copy()
+
+    def final_bolt_images(self) -> np.ndarray:
+        """The bolt's view of the states the last step *reached*, before autoreset.
+
+        Equal to :meth:`bolt_images` for games whose episode did not just end.
+        """
+        if self._final_images is None:
+            images = self.bolt_images()
+            if self._final_rgb:
+                idx = sorted(self._final_rgb)
+                images[idx] = self._capture([self._final_rgb[i] for i in idx])
+            self._final_images = images
+        return self._final_images.copy()
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """The raw colour frames, one per game."""
@@ -437,12 +487,14 @@ class BreakoutWorld(gym.vector.VectorEnv):
         frame is then emulated so the frame shows the new wall, and the agent's frame
         stack is refilled with that frame.
         """
+        self._clear_step_state()
         for i, ale in enumerate(self._ales):
-            if self._needs_reset[i]:
-                self._reset_one(i)
-                self._needs_reset[i] = False
             while ale.getEpisodeFrameNumber() < _WALL_SETTLE_FRAMES and not ale.game_over():
                 ale.act(self._actions[0])
+            if ale.game_over():
+                self._reset_one(i)
+                for _ in range(_WALL_SETTLE_FRAMES):
+                    ale.act(self._actions[0])
             keep = rng.random()
             wall = rng.random((BRICK_ROWS, BRICK_COLUMNS)) < keep
             left = wall[:, : self.left_columns]
@@ -461,8 +513,6 @@ class BreakoutWorld(gym.vector.VectorEnv):
             self._grey[i, 1].fill(0)
             self._stack[i] = self._processed(i)
             self._lives[i] = ale.lives()
-            self._needs_reset[i] = ale.game_over()
-        self._images = None
 
     def close_extras(self, **kwargs: Any) -> None:
         """Releases the consoles."""
