@@ -113,3 +113,35 @@ def test_bad_input_to_the_augmented_dfa() -> None:
         aug.step_batch(np.array([2]), np.array([[0.5, 0.5]]))
     with pytest.raises(ValueError, match="shape"):
         aug.step_batch(np.array([0, 0]), np.array([[0.5, 0.5]]))
+
+
+PAPER_FORMULAS = [
+    "G(e)",
+    "!F(t)",
+    "F(t & X(!(F(t))))",
+    "(F(t & X(!(F(t)))) & !F(b)) | (F(b & X(!(F(b)))) & !F(t))",
+]
+
+
+@pytest.mark.parametrize("formula", PAPER_FORMULAS)
+def test_augmented_dfa_agrees_with_algorithm_1_on_the_papers_gridworld_specs(
+    formula: str, monkeypatch: pytest.MonkeyPatch, tmp_path: object
+) -> None:
+    import noisybolt.logic as logic
+
+    compile_ltlf = getattr(logic, "compile_ltlf", None)
+    if compile_ltlf is None:
+        pytest.skip("noisybolt.logic.compile_ltlf is not available yet")
+    monkeypatch.setenv("NOISYBOLT_CACHE_DIR", str(tmp_path))
+    dfa = compile_ltlf(formula, ["e", "t", "b"])
+    grid = np.array(np.meshgrid(*[BOUNDARY_PROBS] * 3)).reshape(3, -1).T
+    aug = augment(dfa)
+    engine = BoltEngine(
+        [Spec(formula, terminal_reward=T, low_confidence_cost=C)], [dfa], dfa.fluents
+    )
+    for q in range(dfa.n_states):
+        states = np.full(len(grid), q)
+        got = aug.step_batch(states, grid)
+        expected = engine.step(states[:, None], grid)
+        np.testing.assert_array_equal(got.next_states, expected.next_states[:, 0])
+        np.testing.assert_allclose(got.reward, expected.total)

@@ -328,3 +328,51 @@ def test_specs_without_dfas_are_compiled_over_the_bolts_whole_vocabulary(
 def test_non_spec_objects_are_rejected_before_compiling() -> None:
     with pytest.raises(ConfigError, match="Spec objects"):
         RestrainingBolt(["F(e)"], ["e"])  # type: ignore[list-item]
+
+
+@pytest.fixture
+def compile_ltlf(monkeypatch: pytest.MonkeyPatch, tmp_path: object) -> object:
+    """The real compiler (skips until ``noisybolt.logic`` exports it), cache in tmp."""
+    compiler = getattr(logic, "compile_ltlf", None)
+    if compiler is None:
+        pytest.skip("noisybolt.logic.compile_ltlf is not available yet")
+    monkeypatch.setenv("NOISYBOLT_CACHE_DIR", str(tmp_path))
+    return compiler
+
+
+@pytest.mark.usefixtures("compile_ltlf")
+def test_compiled_specs_give_the_hand_computed_rewards() -> None:
+    spec = Spec("F(e & t)", terminal_reward=T, low_confidence_cost=C)
+    bolt = RestrainingBolt([spec], ["e", "t", "u"], n_envs=3)
+    assert bolt.dfas[0].fluents == ("e", "t", "u")
+    bolt.reset(p((ABSENT, ABSENT, LOW), (ABSENT, ABSENT, LOW), (ABSENT, ABSENT, LOW)))
+    out = bolt.step(p((LOW, HIGH, LOW), (0.4, HIGH, LOW), (0.9000001, 0.9, LOW)))
+    # u is a don't-care of F(e & t): its low confidence costs nothing.
+    assert out.total.tolist() == [T - C, 0.0, T - C]
+    assert out.accepting[:, 0].tolist() == [True, False, True]
+
+
+@pytest.mark.usefixtures("compile_ltlf")
+def test_compiled_specs_over_unknown_fluents_raise_unknown_fluent_error() -> None:
+    spec = Spec("F(e & x)", terminal_reward=T, low_confidence_cost=C)
+    with pytest.raises(UnknownFluentError) as info:
+        RestrainingBolt([spec], ["e", "t"])
+    assert "x" in info.value.unknown
+
+
+def test_compact_dfas_over_a_large_vocabulary_step_like_dense_ones(
+    compile_ltlf: object,
+) -> None:
+    fluents = [f"f{i}" for i in range(24)]  # 2 states x 2^24 letters: too large for tables
+    spec = Spec("F(f3 & f17)", terminal_reward=T, low_confidence_cost=C)
+    bolt = RestrainingBolt([spec], fluents, n_envs=4)
+    assert bolt.engine._flat_next is None  # stepped through DFA.step_batch
+    bolt.reset(np.full((4, 24), ABSENT))
+    probs = np.full((4, 24), ABSENT)
+    probs[0, [3, 17]] = [LOW, HIGH]
+    probs[1, [3, 17]] = [HIGH, HIGH]
+    probs[2, [3, 5]] = [LOW, LOW]  # f5 is a don't-care
+    probs[3, [3, 17]] = [0.4, HIGH]
+    out = bolt.step(probs)
+    assert out.next_states[:, 0].tolist() == [1, 1, 0, 0]
+    assert out.total.tolist() == [T - C, T, -C, 0.0]

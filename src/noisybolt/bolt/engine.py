@@ -27,7 +27,7 @@ from typing import Literal, NamedTuple, get_args
 
 import numpy as np
 
-from noisybolt.bolt._bits import bit_columns, popcount, scatter_bits
+from noisybolt.bolt._bits import bit_columns, popcount
 from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs, proportional_weights
 from noisybolt.bolt.spec import Spec
 from noisybolt.errors import ConfigError, UnknownFluentError
@@ -85,8 +85,7 @@ def _dense_tables(dfa: DFA) -> tuple[np.ndarray, np.ndarray] | None:
     DFAs over large vocabularies may come in a compact form whose dense tables would not
     fit (they raise or are absent); the engine then steps them through ``step_batch``.
     """
-    n_cells = dfa.n_states << dfa.n_fluents
-    if n_cells > DENSE_TABLE_LIMIT:
+    if getattr(dfa, "is_compact", False) or dfa.n_states << dfa.n_fluents > DENSE_TABLE_LIMIT:
         return None
     try:
         next_state, support = dfa.next_state, dfa.support
@@ -199,7 +198,6 @@ class BoltEngine:
             cols = np.array([index[f] for f in dfa.fluents], dtype=np.int64)
             self._columns.append(cols)
             self._letter_weights[cols, s] = np.left_shift(1, np.arange(len(cols), dtype=np.int64))
-        self._bolt_weights = np.left_shift(1, np.arange(n_fluents, dtype=np.int64))
 
         self._n_states = tuple(dfa.n_states for dfa in dfas)
         self._initial = np.array([dfa.initial_state for dfa in dfas], dtype=np.int64)
@@ -217,18 +215,18 @@ class BoltEngine:
         self._build_flat_tables()
 
     def _build_flat_tables(self) -> None:
-        """Stacks every DFA's dense tables into one flat array (supports in bolt bits)."""
+        """Stacks every DFA's dense tables into one flat array."""
         tables = [_dense_tables(dfa) for dfa in self._dfas]
         self._flat_next: np.ndarray | None = None
         self._flat_support: np.ndarray | None = None
         if any(t is None for t in tables):
             return
         nexts, supports, offsets = [], [], [0]
-        for cols, table in zip(self._columns, tables, strict=True):
+        for table in tables:
             assert table is not None
             next_state, support = table
             nexts.append(next_state.ravel())
-            supports.append(scatter_bits(support.ravel(), cols))
+            supports.append(support.ravel())
             offsets.append(offsets[-1] + next_state.size)
         self._flat_next = np.concatenate(nexts).astype(np.int64)
         self._flat_support = np.concatenate(supports)
@@ -361,15 +359,19 @@ class BoltEngine:
         truth = probs >= self._thresholds.truth
         low = truth & (probs <= self._thresholds.high)
         letters = truth.astype(np.int64) @ self._letter_weights  # [n_envs, n_specs]
-        low_bits = (low.astype(np.int64) @ self._bolt_weights).view(np.uint64)  # [n_envs]
+        # The low-band fluents packed like the letters: in each DFA's own bit order.
+        low_letters = (low.astype(np.int64) @ self._letter_weights).view(np.uint64)
         next_states, support = self._transition(states, letters)
-        n_low = popcount(support & low_bits[:, None])
+        n_low = popcount(support & low_letters)
         if self._cost_mode == "count":
             low_term = 0.0 - n_low * self._cost  # 0.0 - x: no -0.0 in outputs
         else:
             weights = proportional_weights(probs, self._thresholds)  # [n_envs, n_fluents]
-            on_edge = bit_columns(support, self.n_fluents)  # [n_envs, n_specs, n_fluents]
-            low_term = 0.0 - np.einsum("esf,ef->es", on_edge, weights) * self._cost
+            scaled = np.empty(support.shape)
+            for s, cols in enumerate(self._columns):
+                on_edge = bit_columns(support[:, s], len(cols))  # [n_envs, n_dfa_fluents]
+                scaled[:, s] = (on_edge * weights[:, cols]).sum(axis=1)
+            low_term = 0.0 - scaled * self._cost
 
         accepting = self._accepting_flat[next_states + self._state_offsets]
         violated = self._rejecting_flat[next_states + self._state_offsets]
@@ -404,16 +406,19 @@ class BoltEngine:
         return self._accepting_flat[cells], self._rejecting_flat[cells]
 
     def _transition(self, states: np.ndarray, letters: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(next_states int64, support uint64 in bolt bits)``, both ``[n_envs, n_specs]``."""
+        """``(next_states int64, support uint64)``, both ``[n_envs, n_specs]``.
+
+        Bit ``i`` of ``support[:, s]`` is spec ``s``'s DFA fluent ``i`` (its own order).
+        """
         if self._flat_next is not None and self._flat_support is not None:
             cells = self._table_offsets + states * self._n_letters + letters
             return self._flat_next[cells], self._flat_support[cells]
         next_states = np.empty_like(states)
         support = np.empty(states.shape, dtype=np.uint64)
-        for s, (dfa, cols) in enumerate(zip(self._dfas, self._columns, strict=True)):
-            ns, supp = dfa.step_batch(states[:, s], letters[:, s].astype(np.uint64))
-            next_states[:, s] = ns
-            support[:, s] = scatter_bits(supp, cols)
+        for s, dfa in enumerate(self._dfas):
+            next_states[:, s], support[:, s] = dfa.step_batch(
+                states[:, s], letters[:, s].astype(np.uint64)
+            )
         return next_states, support
 
 
