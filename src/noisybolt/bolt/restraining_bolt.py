@@ -70,6 +70,9 @@ def _compile(spec: Spec, fluents: tuple[str, ...]) -> DFA:
 class RestrainingBolt:
     """Algorithm 1 with episode timing, for ``n_envs`` environments and several specs.
 
+    See the module docstring for which probabilities each call reads and for the recipes
+    for auto-resetting vectorised environments.
+
     Args:
         specs: the bolt's specifications; their rewards add up.
         fluents: the bolt's fluent vocabulary, the column order of every ``probs``.
@@ -82,7 +85,9 @@ class RestrainingBolt:
         n_envs: number of environments in the batch.
         end_on_violation: when a DFA enters a rejecting sink, set ``terminate`` in the
             step's result (the caller should end the episode) and pay ``episode_end`` specs
-            there. Off by default, as in the paper; ``violated`` is reported either way.
+            there. Off by default, as in the paper; ``violated`` is reported either way. A
+            violation on the first observation is reported by :meth:`reset` and sets
+            ``terminate`` at the first step.
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
