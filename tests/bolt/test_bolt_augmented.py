@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from noisybolt.bolt import AugmentedDFA, BoltEngine, Spec, Thresholds
-from noisybolt.logic import DFA
+from noisybolt.logic import DFA, compile_ltlf
 
 T, C = 10.0, 2.0
 
@@ -127,11 +127,6 @@ PAPER_FORMULAS = [
 def test_augmented_dfa_agrees_with_algorithm_1_on_the_papers_gridworld_specs(
     formula: str, monkeypatch: pytest.MonkeyPatch, tmp_path: object
 ) -> None:
-    import noisybolt.logic as logic
-
-    compile_ltlf = getattr(logic, "compile_ltlf", None)
-    if compile_ltlf is None:
-        pytest.skip("noisybolt.logic.compile_ltlf is not available yet")
     monkeypatch.setenv("NOISYBOLT_CACHE_DIR", str(tmp_path))
     dfa = compile_ltlf(formula, ["e", "t", "b"])
     grid = np.array(np.meshgrid(*[BOUNDARY_PROBS] * 3)).reshape(3, -1).T

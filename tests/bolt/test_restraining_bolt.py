@@ -8,9 +8,9 @@ from bolt_helpers import F_E_AND_T, always, eventually_all, last_is, prob_matric
 from hypothesis import given
 from hypothesis import strategies as st
 
-import noisybolt.logic as logic
+import noisybolt.bolt.restraining_bolt as restraining_bolt
 from noisybolt.bolt import REWARD_TIMINGS, RestrainingBolt, Spec
-from noisybolt.errors import ConfigError, UnknownFluentError
+from noisybolt.errors import ConfigError, SpecSyntaxError, UnknownFluentError
 from noisybolt.logic import DFA
 
 T, C = 10.0, 2.0
@@ -314,7 +314,7 @@ def test_specs_without_dfas_are_compiled_over_the_bolts_whole_vocabulary(
         calls.append((formula, tuple(fluents)))
         return eventually_all(list(fluents))
 
-    monkeypatch.setattr(logic, "compile_ltlf", fake_compile, raising=False)
+    monkeypatch.setattr(restraining_bolt, "compile_ltlf", fake_compile)
     specs = [
         Spec("F(e & t & u)", terminal_reward=T, low_confidence_cost=C),
         Spec("F(t)", terminal_reward=1.0, low_confidence_cost=0.0, name="reach_t"),
@@ -331,13 +331,9 @@ def test_non_spec_objects_are_rejected_before_compiling() -> None:
 
 
 @pytest.fixture
-def compile_ltlf(monkeypatch: pytest.MonkeyPatch, tmp_path: object) -> object:
-    """The real compiler (skips until ``noisybolt.logic`` exports it), cache in tmp."""
-    compiler = getattr(logic, "compile_ltlf", None)
-    if compiler is None:
-        pytest.skip("noisybolt.logic.compile_ltlf is not available yet")
+def compile_ltlf(monkeypatch: pytest.MonkeyPatch, tmp_path: object) -> None:
+    """Real compilation, with the DFA cache in a temporary directory."""
     monkeypatch.setenv("NOISYBOLT_CACHE_DIR", str(tmp_path))
-    return compiler
 
 
 @pytest.mark.usefixtures("compile_ltlf")
@@ -360,9 +356,14 @@ def test_compiled_specs_over_unknown_fluents_raise_unknown_fluent_error() -> Non
     assert "x" in info.value.unknown
 
 
-def test_compact_dfas_over_a_large_vocabulary_step_like_dense_ones(
-    compile_ltlf: object,
-) -> None:
+@pytest.mark.usefixtures("compile_ltlf")
+def test_compiled_specs_with_syntax_errors_raise_spec_syntax_error() -> None:
+    with pytest.raises(SpecSyntaxError):
+        RestrainingBolt([Spec("F(e &", terminal_reward=T, low_confidence_cost=C)], ["e"])
+
+
+@pytest.mark.usefixtures("compile_ltlf")
+def test_compact_dfas_over_a_large_vocabulary_step_like_dense_ones() -> None:
     fluents = [f"f{i}" for i in range(24)]  # 2 states x 2^24 letters: too large for tables
     spec = Spec("F(f3 & f17)", terminal_reward=T, low_confidence_cost=C)
     bolt = RestrainingBolt([spec], fluents, n_envs=4)

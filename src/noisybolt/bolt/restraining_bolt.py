@@ -46,25 +46,10 @@ import numpy as np
 from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs
 from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, _check_fluents, _env_flags
 from noisybolt.bolt.spec import Spec
-from noisybolt.errors import BackendUnavailableError, ConfigError
-from noisybolt.logic.dfa import DFA
+from noisybolt.errors import ConfigError
+from noisybolt.logic import DFA, compile_ltlf
 
 __all__ = ["RestrainingBolt"]
-
-
-def _compile(spec: Spec, fluents: tuple[str, ...]) -> DFA:
-    """Compiles a spec's formula over the bolt's whole vocabulary."""
-    from noisybolt import logic
-
-    compile_ltlf = getattr(logic, "compile_ltlf", None)
-    if compile_ltlf is None:  # pragma: no cover - until the compiler lands
-        raise BackendUnavailableError(
-            "noisybolt.logic.compile_ltlf is not available in this build; pass pre-built "
-            "automata with RestrainingBolt(..., dfas=[...])"
-        )
-    dfa = compile_ltlf(spec.formula, fluents)
-    assert isinstance(dfa, DFA)
-    return dfa
 
 
 class RestrainingBolt:
@@ -91,6 +76,8 @@ class RestrainingBolt:
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
+        SpecSyntaxError, BackendUnavailableError, CompilationError: from
+            :func:`~noisybolt.logic.compile_ltlf`, when ``dfas`` is None.
         ConfigError: see :class:`~noisybolt.bolt.engine.BoltEngine`; or a bad ``n_envs``.
 
     Example:
@@ -129,7 +116,7 @@ class RestrainingBolt:
             for spec in specs:
                 if not isinstance(spec, Spec):
                     raise ConfigError(f"expected Spec objects, got {spec!r}")
-            dfas = [_compile(spec, vocabulary) for spec in specs]
+            dfas = [compile_ltlf(spec.formula, vocabulary) for spec in specs]
         self._engine = BoltEngine(
             specs, dfas, vocabulary, thresholds=thresholds, cost_mode=cost_mode
         )
