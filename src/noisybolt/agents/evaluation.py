@@ -1,0 +1,150 @@
+"""Evaluating a bolted policy: returns, lengths, goal rate and compliance from ground truth.
+
+Compliance is never judged by looking: an episode complies with a spec when the spec's
+DFA, run on the *true* fluents of the episode (``info["true_accepting"]`` of the bolted
+env, computed from the world's ground truth), ends in an accepting state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv
+
+__all__ = ["EpisodeRecord", "EvalResult", "evaluate_bolted_policy", "summarise"]
+
+Predict = Callable[[Any], np.ndarray]
+
+
+@dataclass(frozen=True)
+class EpisodeRecord:
+    """One evaluation episode.
+
+    Attributes:
+        env_return: sum of the environment's rewards (R_π's summand).
+        bolt_return: sum of the bolt's shaping rewards (reported apart).
+        length: number of steps.
+        goal: whether the episode reached the task's goal (terminated, not truncated,
+            unless the world says otherwise through ``info["is_success"]``).
+        compliant: per spec, whether the true trace is accepted by its DFA.
+    """
+
+    env_return: float
+    bolt_return: float
+    length: int
+    goal: bool
+    compliant: tuple[bool, ...]
+
+
+@dataclass(frozen=True)
+class EvalResult:
+    """Summary over K episodes (means and standard deviations over episodes)."""
+
+    n_episodes: int
+    env_return_mean: float
+    env_return_std: float
+    bolt_return_mean: float
+    length_mean: float
+    goal_rate: float
+    compliance: dict[str, float]
+    success_rate: float
+    episodes: tuple[EpisodeRecord, ...] = field(repr=False, default=())
+
+    def to_dict(self, *, with_episodes: bool = False) -> dict[str, Any]:
+        """A JSON-able dict (episodes only when asked)."""
+        data = asdict(self)
+        if not with_episodes:
+            data.pop("episodes")
+        else:
+            data["episodes"] = [asdict(e) for e in self.episodes]
+        return data
+
+
+def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> EvalResult:
+    """Aggregates episode records; ``success`` = reaches the goal and complies with all specs.
+
+    Example:
+        >>> eps = [EpisodeRecord(90.0, 5.0, 7, True, (True,)),
+        ...        EpisodeRecord(-30.0, 0.0, 20, False, (False,))]
+        >>> r = summarise(eps, ["edge"])
+        >>> r.env_return_mean, r.goal_rate, r.compliance, r.success_rate
+        (30.0, 0.5, {'edge': 0.5}, 0.5)
+    """
+    if not episodes:
+        raise ValueError("cannot summarise zero episodes")
+    returns = np.array([e.env_return for e in episodes])
+    compliant = np.array([e.compliant for e in episodes], dtype=bool).reshape(len(episodes), -1)
+    goal = np.array([e.goal for e in episodes])
+    return EvalResult(
+        n_episodes=len(episodes),
+        env_return_mean=float(returns.mean()),
+        env_return_std=float(returns.std()),
+        bolt_return_mean=float(np.mean([e.bolt_return for e in episodes])),
+        length_mean=float(np.mean([e.length for e in episodes])),
+        goal_rate=float(goal.mean()),
+        compliance={name: float(compliant[:, i].mean()) for i, name in enumerate(spec_names)},
+        success_rate=float((goal & compliant.all(axis=1)).mean()),
+        episodes=tuple(episodes),
+    )
+
+
+def evaluate_bolted_policy(
+    predict: Predict,
+    env: VecEnv,
+    *,
+    n_episodes: int,
+    spec_names: Sequence[str],
+    on_step: Callable[[VecEnv, np.ndarray], None] | None = None,
+) -> EvalResult:
+    """Runs ``n_episodes`` on a bolted ``VecEnv`` and summarises them.
+
+    Episodes are spread evenly over the environments (as SB3's ``evaluate_policy`` does)
+    so that short episodes are not over-represented.
+
+    Args:
+        predict: maps a batch of observations to actions (e.g.
+            ``lambda obs: model.predict(obs, deterministic=True)[0]``).
+        env: a :class:`~noisybolt.wrappers.BoltVecEnv` (possibly wrapped).
+        n_episodes: how many episodes to record.
+        spec_names: names of the bolt's specs, in order.
+        on_step: called after every step with ``(env, dones)`` (e.g. to record positions).
+    """
+    if n_episodes < 1:
+        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
+    n_envs = env.num_envs
+    targets = np.array([(n_episodes + i) // n_envs for i in range(n_envs)], dtype=int)
+    counts = np.zeros(n_envs, dtype=int)
+    env_ret = np.zeros(n_envs)
+    bolt_ret = np.zeros(n_envs)
+    lengths = np.zeros(n_envs, dtype=int)
+    episodes: list[EpisodeRecord] = []
+    obs = env.reset()
+    while (counts < targets).any():
+        actions = predict(obs)
+        obs, _, dones, infos = env.step(actions)
+        if on_step is not None:
+            on_step(env, dones)
+        for i, info in enumerate(infos):
+            env_ret[i] += info["env_reward"]
+            bolt_ret[i] += info["bolt_reward"]
+            lengths[i] += 1
+            if not dones[i]:
+                continue
+            if counts[i] < targets[i]:
+                truncated = bool(info.get("TimeLimit.truncated", False))
+                goal = bool(info.get("is_success", not truncated))
+                episodes.append(
+                    EpisodeRecord(
+                        env_return=float(env_ret[i]),
+                        bolt_return=float(bolt_ret[i]),
+                        length=int(lengths[i]),
+                        goal=goal,
+                        compliant=tuple(bool(a) for a in info["true_accepting"]),
+                    )
+                )
+                counts[i] += 1
+            env_ret[i] = bolt_ret[i] = lengths[i] = 0
+    return summarise(episodes, spec_names)

@@ -1,0 +1,8 @@
+"""The restraining bolt as a Gymnasium wrapper and as a batched SB3 vector-env wrapper."""
+
+from __future__ import annotations
+
+from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
+from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
+
+__all__ = ["BoltObservableEnv", "BoltVecEnv", "RestrainingBoltWrapper"]

@@ -1,0 +1,179 @@
+"""The restraining bolt over a batch of environments, for training (SB3 ``VecEnv``).
+
+One step renders every environment's bolt view, runs the fluent detector once on the
+whole batch, and moves every DFA with the vectorised Algorithm 1. It gives exactly the
+rewards and observations of ``n_envs`` separate :class:`RestrainingBoltWrapper` s (tested).
+
+Auto-reset: an SB3 ``VecEnv`` returns, for an environment whose episode just ended, the
+*next* episode's first observation, and the old episode's last one in
+``infos[i]["terminal_observation"]``. The bolt must read that last observation to finish
+the old episode's trace, so the world must also show it: through methods
+``final_bolt_images()`` and ``final_true_fluents()`` (batched, rows of environments that
+did not end equal to the current view), or per environment in
+``infos[i]["final_bolt_image"]`` and ``infos[i]["final_true_fluents"]``.
+The DFAs then restart on the new episode's first observation, and the reward of that
+first transition is paid with the environment's next step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
+
+from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds
+from noisybolt.errors import ConfigError
+from noisybolt.logic.dfa import DFA
+from noisybolt.perception.protocols import BoltObservable, FluentDetector
+from noisybolt.wrappers._common import bolt_info, build_bolt, dict_observation_space
+
+__all__ = ["BoltVecEnv"]
+
+
+class BoltVecEnv(VecEnvWrapper):
+    """Adds a restraining bolt to a vectorised world (see the module docstring).
+
+    Args:
+        venv: the world as an SB3 ``VecEnv`` (possibly wrapped, e.g. in ``VecMonitor``:
+            put monitors *below* the bolt so they record environment returns).
+        specs: the bolt's specifications.
+        detector: fluent detector, called once per step on the whole batch.
+        world: the object meeting :class:`BoltObservable` (default ``venv.unwrapped``).
+        dfas, thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
+        end_on_violation: must be False here (see the error it raises).
+    """
+
+    def __init__(
+        self,
+        venv: VecEnv,
+        specs: Sequence[Spec],
+        detector: FluentDetector,
+        *,
+        world: BoltObservable | None = None,
+        dfas: Sequence[DFA] | None = None,
+        thresholds: Thresholds = DEFAULT_THRESHOLDS,
+        cost_mode: CostMode = "count",
+        end_on_violation: bool = False,
+    ) -> None:
+        if end_on_violation:
+            # Ending an episode that the world did not end needs a per-environment reset,
+            # which the SB3 VecEnv interface does not offer.
+            raise ConfigError(
+                "end_on_violation is not supported by the batched bolt; use "
+                "RestrainingBoltWrapper around single environments for it"
+            )
+        world = world if world is not None else venv.unwrapped  # type: ignore[assignment]
+        if not isinstance(world, BoltObservable):
+            raise ConfigError(
+                f"{type(world).__name__} cannot be bolted: it needs fluent_names, num_envs, "
+                "camera_spec, bolt_images() and true_fluents() (see BoltObservable)"
+            )
+        parts = build_bolt(
+            specs,
+            detector,
+            world.fluent_names,
+            n_envs=venv.num_envs,
+            dfas=dfas,
+            thresholds=thresholds,
+            cost_mode=cost_mode,
+            end_on_violation=end_on_violation,
+        )
+        self.bolt = parts.bolt
+        self._truth_bolt = parts.truth
+        self._world = world
+        self._detector = detector
+        self._thresholds = thresholds
+        super().__init__(
+            venv,
+            observation_space=dict_observation_space(venv.observation_space, self.bolt.n_states),
+        )
+
+    @property
+    def world(self) -> BoltObservable:
+        """The bolted world."""
+        return self._world
+
+    def _probs(self, images: np.ndarray, truth: np.ndarray) -> np.ndarray:
+        return self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
+
+    def _obs(self, image: Any, states: np.ndarray) -> dict[str, Any]:
+        return {"image": image, "dfa": states.copy()}
+
+    def reset(self) -> VecEnvObs:
+        """Resets every environment; every DFA reads its first observation."""
+        obs = self.venv.reset()
+        truth = np.asarray(self._world.true_fluents(), dtype=bool)
+        probs = self._probs(self._world.bolt_images(), truth)
+        self.bolt.reset(probs)
+        self._truth_bolt.reset(truth.astype(np.float64))
+        return self._obs(obs, self.bolt.states)
+
+    def _final_views(
+        self, ended: np.ndarray, images: np.ndarray, truth: np.ndarray, infos: Sequence[dict]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The bolt's view and true fluents of the observations the last step reached."""
+        final_images = getattr(self._world, "final_bolt_images", None)
+        final_truth = getattr(self._world, "final_true_fluents", None)
+        if callable(final_images) and callable(final_truth):
+            return final_images(), np.asarray(final_truth(), dtype=bool)
+        images, truth = images.copy(), truth.copy()
+        for i in ended:
+            try:
+                images[i] = infos[i]["final_bolt_image"]
+                truth[i] = infos[i]["final_true_fluents"]
+            except KeyError:
+                raise ConfigError(
+                    f"{type(self._world).__name__} ended an episode but offers neither "
+                    "final_bolt_images()/final_true_fluents() nor infos['final_bolt_image'] "
+                    "and infos['final_true_fluents']: a bolted world must show the bolt "
+                    "the last observation of an episode"
+                ) from None
+        return images, truth
+
+    def step_wait(self) -> VecEnvStepReturn:
+        """Steps the world, moves the DFAs, shapes rewards, restarts ended episodes."""
+        obs, env_rewards, dones, infos = self.venv.step_wait()
+        dones = np.asarray(dones, dtype=bool)
+        images = self._world.bolt_images()
+        truth = np.asarray(self._world.true_fluents(), dtype=bool)
+        ended = np.flatnonzero(dones)
+        # The step's transition reads each ended episode's last observation, not the new
+        # episode's first; keep the new ones for the restart below.
+        first_images, first_truth = images, truth
+        if ended.size:
+            images, truth = self._final_views(ended, images, truth, infos)
+        probs = self._probs(images, truth)
+        out = self.bolt.step(probs, done=dones)
+        true_out = self._truth_bolt.step(truth.astype(np.float64), done=dones)
+        rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
+        infos = list(infos)
+        for i in range(self.num_envs):
+            info = dict(infos[i])
+            info.update(
+                bolt_info(
+                    i,
+                    env_reward=float(env_rewards[i]),
+                    out=out,
+                    probs=probs,
+                    thresholds=self._thresholds,
+                    true_states=true_out.next_states,
+                    true_accepting=true_out.accepting,
+                )
+            )
+            if dones[i] and "terminal_observation" in info:
+                info["terminal_observation"] = self._obs(
+                    info["terminal_observation"], out.next_states[i]
+                )
+            infos[i] = info
+        if ended.size:
+            first_probs = self._probs(first_images[ended], first_truth[ended])
+            # Rows outside the mask are checked but not read: zeros will do.
+            full = np.zeros_like(probs)
+            full[ended] = first_probs
+            self.bolt.reset(full, env_mask=dones)
+            full[ended] = first_truth[ended]
+            self._truth_bolt.reset(full, env_mask=dones)
+        return self._obs(obs, self.bolt.states), rewards.astype(np.float32), dones, infos
