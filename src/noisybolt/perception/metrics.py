@@ -151,8 +151,9 @@ def band_fractions(
         nan = float("nan")
         return BandFractions(nan, nan, nan)
     high = float(np.mean(probs > high_threshold))
+    low = float(np.mean((probs >= truth_threshold) & (probs <= high_threshold)))
     absent = float(np.mean(probs < truth_threshold))
-    return BandFractions(high=high, low=1.0 - high - absent, absent=absent)
+    return BandFractions(high=high, low=low, absent=absent)
 
 
 @dataclass(frozen=True)
