@@ -2,30 +2,21 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 from collections.abc import Sequence
 
 import pytest
 
 import noisybolt.envs
-from noisybolt.cli import COMMAND_MODULES, classifiers
+from noisybolt.cli import COMMAND_MODULES, main
 from noisybolt.envs.breakout import make_breakout_world
-from noisybolt.errors import NoisyboltError, UnknownNameError
+from noisybolt.errors import UnknownNameError
 from noisybolt.perception.classifier import load_classifier
 from noisybolt.perception.dataset import load_dataset
 
 
 def run(argv: Sequence[str]) -> int:
-    """What ``noisybolt.cli.main`` does, for the classifiers group alone."""
-    parser = argparse.ArgumentParser(prog="noisybolt")
-    classifiers.register(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except NoisyboltError as error:
-        print(f"noisybolt {args.command}: error: {error}")
-        return 2
+    return main(list(argv))
 
 
 @pytest.fixture(autouse=True)
@@ -124,7 +115,7 @@ def test_collect_train_report(tmp_path, capsys):
 def test_unknown_world_is_a_named_error(tmp_path, capsys):
     code = run(["classifiers", "collect", "--world", "pong", "--out", str(tmp_path), "--quiet"])
     assert code == 2
-    err = capsys.readouterr().out
+    err = capsys.readouterr().err
     assert "pong" in err and "breakout" in err
 
 
@@ -163,10 +154,10 @@ def test_classifier_for_another_camera_is_refused(tmp_path, capsys):
         ]
     )
     assert code == 2
-    assert "camera height differs" in capsys.readouterr().out
+    assert "camera height differs" in capsys.readouterr().err
 
 
 def test_corrupt_dataset_is_a_clear_error(tmp_path, capsys):
     (tmp_path / "dataset.npz").write_bytes(b"PK\x03\x04 broken")
     assert run(["classifiers", "train", "--out", str(tmp_path), "--quiet"]) == 2
-    assert "corrupt" in capsys.readouterr().out
+    assert "corrupt" in capsys.readouterr().err

@@ -58,7 +58,8 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "classifiers",
         help="collect bolt images, train and report fluent classifiers",
-        description=__doc__.split("\n\n")[0] if __doc__ else None,
+        description="Collect labelled bolt images from a world, train the fluent classifiers "
+        "and report their quality, all in one run directory (--out).",
     )
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 
