@@ -1,0 +1,389 @@
+"""The gridworld, natively vectorised: all rooms stepped and drawn at once with numpy.
+
+:class:`VectorGridworld` holds the batch's state as arrays (``x``, ``y``, heading, step
+counter) and is tested step for step identical to ``num_envs`` copies of
+:class:`~noisybolt.envs.gridworld.GridworldEnv` (observations in every mode, rewards,
+terminations, truncations, fluents). No step does a Python loop over rooms: observations
+come from tables precomputed per state (``"view"``), a static room with the agent written
+in (``"grid"``), or a tile compositor (``"rgb"`` and the bolt's camera).
+
+It is a Gymnasium :class:`~gymnasium.vector.VectorEnv` with **same-step autoreset**
+(``metadata["autoreset_mode"] == AutoresetMode.SAME_STEP``): a step that ends an episode
+returns the *new* episode's first observation, and the last observation of the ended one
+in ``infos["final_obs"]`` (an object array, None for rooms that did not end, with mask
+``infos["_final_obs"]``), as Gymnasium's ``SyncVectorEnv`` does in that mode. This is
+also SB3's convention, so :class:`~noisybolt.envs.sb3.SB3VecEnv` adapts it with no
+extra copy. It meets :class:`~noisybolt.perception.protocols.BoltObservable`; because of
+the autoreset, :meth:`VectorGridworld.final_bolt_images` and
+:meth:`VectorGridworld.final_true_fluents` give the bolt the state each room *reached*
+(before any reset), which a bolt needs to take the last transition of an episode.
+
+Example:
+    >>> world = VectorGridworld(num_envs=3, obs_mode="grid", seed=0)
+    >>> obs, infos = world.reset(seed=0)
+    >>> obs.shape
+    (3, 6, 6, 3)
+    >>> obs, rewards, terminated, truncated, infos = world.step(np.array([2, 1, 3]))
+    >>> rewards.tolist(), world.true_fluents().shape, world.bolt_images().shape
+    ([-1.5, -1.5, -1.5], (3, 7), (3, 48, 48, 3))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from noisybolt.envs.gridworld import (
+    AGENT_COLOUR,
+    AGENT_OBJECT,
+    CELL_GOAL,
+    CELL_WALL,
+    DIRECTION_VECTORS,
+    ENCODING_EMPTY,
+    ENCODING_GOAL,
+    ENCODING_WALL,
+    GRIDWORLD_FLUENTS,
+    GridworldCamera,
+    GridworldConfig,
+    agent_sprite_ids,
+    gridworld_fluents,
+    resolve_fluents,
+    room_cells,
+    room_compositor,
+)
+from noisybolt.errors import ConfigError
+from noisybolt.perception.noise import NoiseSpec
+from noisybolt.perception.protocols import CameraSpec
+
+__all__ = ["VectorGridworld", "egocentric_views", "room_encoding"]
+
+_VIEW = 7  # MiniGrid's default agent_view_size
+
+
+@lru_cache(maxsize=32)
+def room_encoding(size: int) -> np.ndarray:
+    """MiniGrid's encoding of the empty room without the agent, ``[x, y, 3]`` uint8."""
+    table = np.array([ENCODING_EMPTY, ENCODING_WALL, ENCODING_GOAL], dtype=np.uint8)
+    enc = table[room_cells(size)]
+    enc.setflags(write=False)
+    return enc
+
+
+@lru_cache(maxsize=32)
+def egocentric_views(size: int) -> np.ndarray:
+    """MiniGrid's 7x7 egocentric view for every state, ``[x, y, heading, 7, 7, 3]``.
+
+    Reimplements ``MiniGridEnv.gen_obs`` with ``see_through_walls=True`` (tested equal):
+    the 7x7 square ahead of the agent (outside the room reads as wall), rotated so the
+    agent looks up from the bottom-middle cell, where the agent's own cell reads as empty.
+    """
+    enc = room_encoding(size)
+    pad = _VIEW
+    padded = np.empty((size + 2 * pad, size + 2 * pad, 3), dtype=np.uint8)
+    padded[...] = ENCODING_WALL
+    padded[pad : pad + size, pad : pad + size] = enc
+    views = np.empty((size, size, 4, _VIEW, _VIEW, 3), dtype=np.uint8)
+    half = _VIEW // 2
+    # Top-left corner of the view square per heading (MiniGridEnv.get_view_exts).
+    offsets = {0: (0, -half), 1: (-half, 0), 2: (-_VIEW + 1, -half), 3: (-half, -_VIEW + 1)}
+    for x in range(size):
+        for y in range(size):
+            for d, (ox, oy) in offsets.items():
+                tx, ty = x + ox + pad, y + oy + pad
+                square = padded[tx : tx + _VIEW, ty : ty + _VIEW]
+                # Grid.rotate_left applied d + 1 times is a clockwise quarter turn each.
+                view = np.rot90(square, k=-(d + 1), axes=(0, 1)).copy()
+                view[half, _VIEW - 1] = ENCODING_EMPTY
+                views[x, y, d] = view
+    views.setflags(write=False)
+    return views
+
+
+class VectorGridworld(VectorEnv):
+    """``num_envs`` gridworld rooms stepped as arrays (see the module docstring).
+
+    Args:
+        num_envs: number of rooms (>= 1).
+        size: room side in cells, walls included.
+        max_steps: truncation limit; None for MiniGrid's ``4 * size**2``.
+        step_reward: reward of every step.
+        goal_reward: extra reward for entering the goal.
+        obs_mode: ``"grid"``, ``"view"`` or ``"rgb"`` (see :mod:`noisybolt.envs.gridworld`).
+        obs_tile_size: pixels per cell of the ``"rgb"`` observation.
+        camera_tile_size: pixels per cell of the bolt's camera.
+        noise: the bolt camera's noise spec.
+        fluents: the bolt's fluents, in order (default: all seven).
+        seed: seeds the camera noise now; ``reset(seed=...)`` re-seeds it.
+        render_mode: None or ``"rgb_array"`` (MiniGrid's 32-pixel tiles, no highlight).
+    """
+
+    metadata: dict[str, Any] = {  # noqa: RUF012 (Gymnasium's convention)
+        "autoreset_mode": AutoresetMode.SAME_STEP,
+        "render_modes": ["rgb_array"],
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        size: int = 6,
+        max_steps: int | None = None,
+        step_reward: float = -1.5,
+        goal_reward: float = 100.0,
+        obs_mode: str = "grid",
+        obs_tile_size: int = 8,
+        camera_tile_size: int = 8,
+        noise: NoiseSpec = "none",
+        fluents: Sequence[str] | None = None,
+        seed: int | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ConfigError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ConfigError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.config = GridworldConfig(
+            size=size,
+            max_steps=max_steps,
+            step_reward=step_reward,
+            goal_reward=goal_reward,
+            obs_mode=obs_mode,
+            obs_tile_size=obs_tile_size,
+            camera_tile_size=camera_tile_size,
+        )
+        self.num_envs = int(num_envs)
+        self.render_mode = render_mode
+        self.metadata = dict(type(self).metadata)
+        self.autoreset_mode = AutoresetMode.SAME_STEP
+        self.single_observation_space = self.config.observation_space()
+        self.single_action_space = spaces.Discrete(4)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._fluent_names, self._fluent_columns = resolve_fluents(fluents)
+        self._all_fluents_in_order = np.array_equal(
+            self._fluent_columns, np.arange(len(GRIDWORLD_FLUENTS))
+        )
+        self._camera = GridworldCamera(size=size, tile_size=camera_tile_size, noise=noise)
+        self._noise_rng = np.random.default_rng(seed)
+
+        s = self.config.size
+        self._cells = room_cells(s)
+        self._step_limit = self.config.step_limit
+        self._rgb = room_compositor(s, obs_tile_size) if obs_mode == "rgb" else None
+        self._views = egocentric_views(s) if obs_mode == "view" else None
+        self._room = room_encoding(s)
+        self._render_compositor = room_compositor(s, 32) if render_mode else None
+
+        n = self.num_envs
+        x0, y0, d0 = self.config.start
+        self._start = (x0, y0, d0)
+        self._x = np.full(n, x0, dtype=np.intp)
+        self._y = np.full(n, y0, dtype=np.intp)
+        self._dir = np.full(n, d0, dtype=np.intp)
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
+        self._done = np.zeros(n, dtype=bool)
+        self._bolt_cache: np.ndarray | None = None
+        self._final_bolt_cache: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ Gymnasium API
+
+    def reset(
+        self, *, seed: int | Sequence[int] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Put every room back at the start; a seed re-seeds the camera noise.
+
+        Args:
+            seed: an int (or a list of ints) seeding the bolt camera's noise generator.
+            options: must be None or empty (the start state is fixed).
+
+        Returns:
+            ``(observations, {})``.
+        """
+        if options:
+            raise ConfigError(f"VectorGridworld.reset takes no options, got {options!r}")
+        if seed is not None:
+            self._noise_rng = np.random.default_rng(seed)
+            self._np_random = self._noise_rng
+            self._np_random_seed = seed if isinstance(seed, int) else -1
+        x0, y0, d0 = self._start
+        self._x[:] = x0
+        self._y[:] = y0
+        self._dir[:] = d0
+        self._steps[:] = 0
+        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
+        self._done[:] = False
+        self._invalidate()
+        return self._observe(self._x, self._y, self._dir), {}
+
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every room; rooms whose episode ends restart in the same step.
+
+        Args:
+            actions: integer ``[num_envs]`` in [0, 4): 0 left, 1 right, 2 forward, 3 no-op.
+
+        Returns:
+            ``(observations, rewards float64, terminations, truncations, infos)``; see the
+            module docstring for ``infos["final_obs"]``.
+        """
+        a = np.asarray(actions)
+        if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer):
+            raise ValueError(f"actions must be integers of shape ({self.num_envs},), got {a!r}")
+        if a.min() < 0 or a.max() > 3:
+            raise ValueError(f"actions must be in [0, 4), got {a!r}")
+        x, y, d = self._x, self._y, self._dir
+        self._steps += 1
+        forward = a == 2
+        front_x = x + DIRECTION_VECTORS[d, 0]
+        front_y = y + DIRECTION_VECTORS[d, 1]
+        front = self._cells[front_x, front_y]
+        move = forward & (front != CELL_WALL)
+        terminated = forward & (front == CELL_GOAL)
+        truncated = self._steps >= self._step_limit
+        x = np.where(move, front_x, x)
+        y = np.where(move, front_y, y)
+        d = (d + (a == 1) - (a == 0)) % 4
+        rewards = self.config.step_reward + self.config.goal_reward * terminated
+
+        done = terminated | truncated
+        self._final = (x, y, d)
+        self._done = done
+        infos: dict[str, Any] = {}
+        if done.any():
+            idx = np.flatnonzero(done)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            ended = self._observe(x[idx], y[idx], d[idx])
+            for k, i in enumerate(idx):  # only the rooms that ended, for the object array
+                final_obs[i] = ended[k]
+            infos = {
+                "final_obs": final_obs,
+                "_final_obs": done.copy(),
+                "final_info": {},
+                "_final_info": done.copy(),
+            }
+            x0, y0, d0 = self._start
+            x = np.where(done, x0, x)
+            y = np.where(done, y0, y)
+            d = np.where(done, d0, d)
+            self._steps[done] = 0
+        self._x, self._y, self._dir = x, y, d
+        self._invalidate()
+        return self._observe(x, y, d), rewards, terminated, truncated, infos
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """With ``render_mode="rgb_array"``: one 32-pixel-tile frame per room."""
+        if self._render_compositor is None:
+            return None
+        frames = self._render_compositor.render_sprites(
+            agent_sprite_ids(self._x, self._y, self._dir, self.config.size),
+            rows=self._y,
+            cols=self._x,
+        )
+        return tuple(frames)
+
+    # ------------------------------------------------------------ BoltObservable API
+
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """The bolt's fluents, in the column order of :meth:`true_fluents`."""
+        return self._fluent_names
+
+    @property
+    def camera_spec(self) -> CameraSpec:
+        """The bolt camera's format and noise."""
+        return self._camera.spec
+
+    def bolt_images(self) -> np.ndarray:
+        """uint8 ``[num_envs, H, W, 3]``: the bolt's noisy view of the current states.
+
+        Computed once per step (repeated calls return the same array).
+        """
+        if self._bolt_cache is None:
+            self._bolt_cache = self._camera.capture(
+                self._x, self._y, self._dir, rng=self._noise_rng
+            )
+        return self._bolt_cache
+
+    def true_fluents(self) -> np.ndarray:
+        """bool ``[num_envs, n_fluents]``: the ground truth of the current states."""
+        return self._fluents(self._x, self._y, self._dir)
+
+    def final_bolt_images(self) -> np.ndarray:
+        """The bolt's view of the states the last step *reached*, before autoreset.
+
+        Equal to :meth:`bolt_images` for rooms whose episode did not just end.
+        """
+        if self._final_bolt_cache is None:
+            images = self.bolt_images()
+            if self._done.any():
+                images = images.copy()
+                idx = np.flatnonzero(self._done)
+                fx, fy, fd = (a[idx] for a in self._final)
+                images[idx] = self._camera.capture(fx, fy, fd, rng=self._noise_rng)
+            self._final_bolt_cache = images
+        return self._final_bolt_cache
+
+    def final_true_fluents(self) -> np.ndarray:
+        """Ground truth of the states the last step reached, before autoreset."""
+        return self._fluents(*self._final)
+
+    @property
+    def dones(self) -> np.ndarray:
+        """bool ``[num_envs]``: which rooms ended an episode in the last step."""
+        return self._done.copy()
+
+    # ---------------------------------------------------------------------- state
+
+    @property
+    def agent_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Copies of ``(x, y, heading)``, integer ``[num_envs]`` each."""
+        return (self._x.copy(), self._y.copy(), self._dir.copy())
+
+    @property
+    def step_counts(self) -> np.ndarray:
+        """Steps taken in each room's current episode."""
+        return self._steps.copy()
+
+    def clean_bolt_images(self) -> np.ndarray:
+        """The bolt camera's pictures of the current states before noise."""
+        return self._camera.render(self._x, self._y, self._dir)
+
+    # -------------------------------------------------------------------- helpers
+
+    def _invalidate(self) -> None:
+        self._bolt_cache = None
+        self._final_bolt_cache = None
+
+    def _fluents(self, x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
+        full = gridworld_fluents(x, y, d, size=self.config.size)
+        if self._all_fluents_in_order:
+            return full
+        return full[:, self._fluent_columns]
+
+    def _observe(self, x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
+        if self._views is not None:
+            return self._views[x, y, d]
+        if self._rgb is not None:
+            return self._rgb.render_sprites(
+                agent_sprite_ids(x, y, d, self.config.size), rows=y, cols=x
+            )
+        obs = np.empty((len(x), *self._room.shape), dtype=np.uint8)
+        obs[...] = self._room
+        obs[np.arange(len(x)), x, y] = np.stack(
+            [np.full_like(d, AGENT_OBJECT), np.full_like(d, AGENT_COLOUR), d], axis=1
+        )
+        return obs
+
+    def __repr__(self) -> str:
+        return (
+            f"VectorGridworld(num_envs={self.num_envs}, size={self.config.size}, "
+            f"obs_mode={self.config.obs_mode!r}, noise={self._camera.spec.noise['name']!r})"
+        )
