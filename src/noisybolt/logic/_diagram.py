@@ -359,25 +359,37 @@ def from_table(next_state: np.ndarray) -> GuardDiagram:
 def dense_table(diagram: GuardDiagram, letter_bit: dict[int, int], n_bits: int) -> np.ndarray:
     """The successor of every (state, letter) over the letters of ``letter_bit``.
 
+    Splits all roots on one fluent at a time, from the top of the order down, doubling the
+    array each time (total work about twice the table), then puts the letter bits in place
+    with one transpose.
+
     Args:
         diagram: the transitions.
-        letter_bit: for every fluent the diagram tests, its bit in the letter index (the
-            identity for a full table; consecutive bits for a projection onto the tested
-            fluents).
-        n_bits: number of bits of the letter index.
+        letter_bit: fluent -> its bit in the letter index, for every fluent of the index
+            (the identity for a full table; consecutive bits for a projection onto the
+            tested fluents). It must include every fluent the diagram tests.
+        n_bits: number of bits of the letter index (``len(letter_bit)``).
 
     Returns:
         int64 ``[n_states, 2**n_bits]``.
     """
     var, lo, hi, root, rank = diagram
-    n_letters = 1 << n_bits
-    letters = np.arange(n_letters, dtype=np.int64)
-    node = np.repeat(root[:, None], n_letters, axis=1)
-    for v in sorted(letter_bit, key=lambda v: -rank[v]):  # the top of the order first
-        bit = ((letters >> letter_bit[v]) & 1).astype(bool)
-        at = var[node] == v
-        node = np.where(at, np.where(bit[None, :], hi[node], lo[node]), node)
-    return node
+    if len(letter_bit) != n_bits:
+        raise ValueError("letter_bit must give a bit to each of the n_bits fluents")
+    order = sorted(letter_bit, key=lambda v: -rank[v])  # the top of the order first
+    n_states = root.shape[0]
+    node = root[:, None]
+    for v in order:
+        splits = var[node] == v
+        low = np.where(splits, lo[node], node)
+        high = np.where(splits, hi[node], node)
+        node = np.concatenate([low, high], axis=1)  # the new bit is the slowest so far
+    # Axis 1 + (m - 1 - j) of the split array is fluent order[j]; in the result, bit b is
+    # axis 1 + (n_bits - 1 - b) (the most significant bit first, as in C order).
+    split = node.reshape((n_states,) + (2,) * n_bits)
+    source_axis = {letter_bit[v]: n_bits - j for j, v in enumerate(order)}
+    axes = [0] + [source_axis[b] for b in range(n_bits - 1, -1, -1)]
+    return np.ascontiguousarray(split.transpose(axes)).reshape(n_states, 1 << n_bits)
 
 
 def support_from_table(next_state: np.ndarray) -> np.ndarray:
@@ -385,8 +397,9 @@ def support_from_table(next_state: np.ndarray) -> np.ndarray:
 
     For a cell ``(q, a)`` with ``t = next_state[q, a]``, fluent ``v`` is in the support iff
     the guard ``{b : next_state[q, b] == t}`` changes when bit ``v`` of ``b`` is flipped,
-    i.e. iff some letter of the guard has its ``v``-neighbour outside it (the neighbour
-    cell then belongs to another guard and the pair is counted from either side).
+    i.e. iff some letter of the guard has its ``v``-neighbour outside it. So each cell
+    collects the bits whose flip changes its successor, and each edge ``(q, t)`` is the
+    OR of its cells' collections.
 
     Args:
         next_state: int array ``[n_states, 2**n_fluents]``.
@@ -399,15 +412,25 @@ def support_from_table(next_state: np.ndarray) -> np.ndarray:
     n_fluents = int(n_letters).bit_length() - 1
     if 1 << n_fluents != n_letters:
         raise ValueError(f"table width {n_letters} is not a power of two")
-    edge = np.arange(n_states, dtype=np.int64)[:, None] * max(n_states, 1) + table
-    _, inverse = np.unique(edge, return_inverse=True)
-    inverse = inverse.reshape(table.shape)
-    per_edge = np.zeros(int(inverse.max()) + 1 if inverse.size else 0, dtype=np.uint64)
-    letters = np.arange(n_letters)
+    dtype = next(
+        t for t in (np.uint8, np.uint16, np.uint32, np.uint64) if n_fluents <= 8 * t().itemsize
+    )
+    flips = np.zeros(table.shape, dtype=dtype)
     for v in range(n_fluents):
-        differs = table != table[:, letters ^ (1 << v)]
-        per_edge[inverse[differs]] |= np.uint64(1 << v)
-    return per_edge[inverse]
+        # Letters with bit v clear and set, side by side, as views of the table.
+        pairs = table.reshape(n_states, -1, 2, 1 << v)
+        differs = pairs[:, :, 0, :] != pairs[:, :, 1, :]
+        both = np.repeat(differs[:, :, None, :], 2, axis=2).reshape(table.shape)
+        flips |= np.left_shift(both, v, dtype=dtype)
+    edge = np.arange(n_states, dtype=np.int64)[:, None] * max(n_states, 1) + table
+    if n_states * n_states <= 4 * table.size:  # edges index a small array directly
+        per_edge = np.zeros(n_states * n_states, dtype=dtype)
+        np.bitwise_or.at(per_edge, edge.reshape(-1), flips.reshape(-1))
+        return per_edge[edge].astype(np.uint64)
+    keys, inverse = np.unique(edge, return_inverse=True)
+    per_edge = np.zeros(keys.size, dtype=dtype)
+    np.bitwise_or.at(per_edge, inverse.reshape(-1), flips.reshape(-1))
+    return per_edge[inverse.reshape(table.shape)].astype(np.uint64)
 
 
 def max_depth(diagram: GuardDiagram) -> int:

@@ -198,7 +198,7 @@ class DFA:
                 )
             self._full = _Dense(table, _read_only(support_from_table(table)), None)
         elif self.n_states << self.n_fluents <= DENSE_TABLE_LIMIT:
-            bits = {v: v for v in self._tested}
+            bits = {v: v for v in range(self.n_fluents)}
             table = _diagram.dense_table(self.diagram, bits, self.n_fluents)
             self._full = _Dense(_read_only(table), _read_only(support_from_table(table)), None)
         elif self.n_states << len(self._tested) <= DENSE_TABLE_LIMIT:

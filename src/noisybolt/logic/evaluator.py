@@ -23,12 +23,14 @@ from __future__ import annotations
 from collections.abc import Collection, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from noisybolt.logic.syntax import parse_ltlf
 
 if TYPE_CHECKING:
     from ltlf2dfa.base import Formula
 
-__all__ = ["holds"]
+__all__ = ["holds", "holds_batch"]
 
 Letter = Mapping[str, bool] | Collection[str]
 
@@ -117,3 +119,110 @@ def _holds(f: Any, trace: Sequence[Letter], i: int) -> bool:
 def _rest(f: Any, operator: type) -> Any:
     """The right operand of an n-ary right-nested chain ``f0 op f1 op ... op fk``."""
     return f.formulas[1] if len(f.formulas) == 2 else operator(f.formulas[1:])
+
+
+def holds_batch(formula: str | Formula, truth: np.ndarray, fluents: Sequence[str]) -> np.ndarray:
+    """:func:`holds` at position 0 for many traces of one length at once.
+
+    The same clauses as :func:`holds`, each evaluated on a boolean vector over the traces
+    (one vector per subformula and position), so exhaustive sets of short traces are
+    cheap to check.
+
+    Args:
+        formula: LTLf text, or ltlf2dfa's syntax tree of it.
+        truth: bool ``[n_traces, length, n_fluents]``, ``length >= 1``.
+        fluents: names of the columns of ``truth``; atoms outside them are false.
+
+    Returns:
+        bool ``[n_traces]``.
+
+    Example:
+        >>> truth = np.array([[[True], [False]], [[False], [False]]])
+        >>> holds_batch("F(a)", truth, ["a"])
+        array([ True, False])
+    """
+    parsed = parse_ltlf(formula) if isinstance(formula, str) else formula
+    truth = np.asarray(truth, dtype=bool)
+    if truth.ndim != 3 or truth.shape[1] == 0 or truth.shape[2] != len(fluents):
+        raise ValueError(
+            f"truth must be [n_traces, length >= 1, {len(fluents)}], got shape {truth.shape}"
+        )
+    column = {name: j for j, name in enumerate(fluents)}
+    return _holds_batch(parsed, truth, column, 0, {})
+
+
+def _holds_batch(
+    f: Any,
+    truth: np.ndarray,
+    column: dict[str, int],
+    i: int,
+    memo: dict[tuple[int, int], tuple[Any, np.ndarray]],
+) -> np.ndarray:
+    from ltlf2dfa import ltlf
+
+    # Keyed by identity: the memo keeps each formula alive, so no id is reused meanwhile.
+    key = (id(f), i)
+    if key in memo:
+        return memo[key][1]
+    n_traces, n = truth.shape[:2]
+
+    def rest(operator: type) -> Any:
+        found = memo.get((id(f), -1))
+        if found is None:
+            found = (f, _rest(f, operator))
+            memo[id(f), -1] = found
+        return found[1]
+
+    def at(g: Any, j: int) -> np.ndarray:
+        return _holds_batch(g, truth, column, j, memo)
+
+    def const(value: bool) -> np.ndarray:
+        return np.full(n_traces, value)
+
+    def every(g: Any, positions: range) -> np.ndarray:
+        return np.logical_and.reduce([at(g, k) for k in positions] or [const(True)])
+
+    def some(parts: list[np.ndarray]) -> np.ndarray:
+        return np.logical_or.reduce(parts or [const(False)])
+
+    if isinstance(f, ltlf.LTLfTrue):
+        result = const(True)
+    elif isinstance(f, ltlf.LTLfFalse):
+        result = const(False)
+    elif isinstance(f, ltlf.LTLfAtomic):
+        j = column.get(str(f.s))
+        result = const(False) if j is None else truth[:, i, j]
+    elif isinstance(f, ltlf.LTLfNot):
+        result = ~at(f.f, i)
+    elif isinstance(f, ltlf.LTLfAnd):
+        result = np.logical_and.reduce([at(g, i) for g in f.formulas])
+    elif isinstance(f, ltlf.LTLfOr):
+        result = np.logical_or.reduce([at(g, i) for g in f.formulas])
+    elif isinstance(f, ltlf.LTLfImplies):
+        result = at(f.formulas[0], i)
+        for g in f.formulas[1:]:
+            result = ~result | at(g, i)
+    elif isinstance(f, ltlf.LTLfEquivalence):
+        values = [at(g, i) for g in f.formulas]
+        result = np.logical_and.reduce(values) | ~np.logical_or.reduce(values)
+    elif isinstance(f, ltlf.LTLfNext):
+        result = at(f.f, i + 1) if i + 1 < n else const(False)
+    elif isinstance(f, ltlf.LTLfWeakNext):
+        result = at(f.f, i + 1) if i + 1 < n else const(True)
+    elif isinstance(f, ltlf.LTLfLast):
+        result = const(i + 1 == n)
+    elif isinstance(f, ltlf.LTLfUntil):
+        left, right = f.formulas[0], rest(ltlf.LTLfUntil)
+        result = some([at(right, j) & every(left, range(i, j)) for j in range(i, n)])
+    elif isinstance(f, ltlf.LTLfRelease):
+        left, right = f.formulas[0], rest(ltlf.LTLfRelease)
+        released = some([at(left, j) & every(right, range(i, j + 1)) for j in range(i, n)])
+        result = released | every(right, range(i, n))
+    elif isinstance(f, ltlf.LTLfEventually):
+        result = some([at(f.f, j) for j in range(i, n)])
+    elif isinstance(f, ltlf.LTLfAlways):
+        result = every(f.f, range(i, n))
+    else:
+        raise TypeError(f"cannot evaluate {f!r} ({type(f).__name__})")
+    memo[key] = (f, result)
+    return result

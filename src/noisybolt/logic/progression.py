@@ -226,6 +226,115 @@ class _Unfolder:
         return result
 
 
+class _Explorer:
+    """Breadth-first exploration of the progression automaton, one state at a time.
+
+    A class rather than nested functions: a recursive closure would put the BDD manager
+    in a reference cycle, and when the garbage collector breaks such a cycle it may free
+    CUDD's manager before the nodes that still point into it.
+    """
+
+    def __init__(self, parsed: Formula, vocabulary: Sequence[str]) -> None:
+        self.bdd = _bdd_module().BDD()
+        self.bdd.configure(reordering=False)  # the walk relies on fluents staying on top
+        index = {name: i for i, name in enumerate(vocabulary)}
+        order = atoms_in_order(parsed)
+        self.rank = order_rank([index[name] for name in order], len(vocabulary))
+        fluent_var = {name: f"x{index[name]}" for name in order}
+        self.var_fluent = {v: index[name] for name, v in fluent_var.items()}
+        for name in order:  # declared first = nearest the roots
+            self.bdd.declare(fluent_var[name])
+        unfolder = _Unfolder(self.bdd, fluent_var)
+        self.first = unfolder.unfold(to_nnf(parsed))
+        # Close the obligations under unfolding (unfolding may owe new ones).
+        self.substitution: dict[str, Any] = {}
+        while len(self.substitution) < len(unfolder.obligations):
+            for (_, f), name in list(unfolder.obligations.items()):
+                if name not in self.substitution:
+                    self.substitution[name] = unfolder.unfold(f)
+        self.at_end = {name: kind == "wnext" for (kind, _), name in unfolder.obligations.items()}
+        self.state_of: dict[Any, int] = {}  # obligation-level BDD -> state
+        self.functions: list[Any] = [None]  # state 0 is the empty trace
+        self.accepting = [empty_trace_value(parsed)]
+        self.code_of: dict[Any, int] = {}  # BDD node -> inner node i, or leaf s as -(s + 1)
+        self.inner: tuple[list[int], list[int], list[int]] = ([], [], [])  # var, lo, hi
+        self.roots: list[int] = []
+
+    def explore(self, deadline: float, formula: str, timeout: float) -> None:
+        while len(self.roots) < len(self.functions):
+            if time.monotonic() > deadline:
+                raise CompilationError(
+                    f"the BDD backend did not finish compiling {formula!r} within {timeout:g} s "
+                    f"({len(self.roots)} states so far); raise timeout= or install MONA",
+                    formula=formula,
+                )
+            state = len(self.roots)
+            if state == 0:
+                step = self.first
+            elif self.substitution:
+                step = self.bdd.let(self.substitution, self.functions[state])
+            else:  # no obligations: the state is a constant
+                step = self.functions[state]
+            self.roots.append(self.visit(step))
+
+    def visit(self, u: Any) -> int:
+        """Code of the diagram node of BDD node ``u`` (created on first visit)."""
+        code = self.code_of.get(u)
+        if code is not None:
+            return code
+        fluent = self.var_fluent.get(u.var) if u.var is not None else None
+        if fluent is None:  # an obligation-level node: a state
+            state = self.state_of.get(u)
+            if state is None:
+                state = len(self.functions)
+                self.state_of[u] = state
+                self.functions.append(u)
+                ends = self.bdd.let(self.at_end, u) if self.at_end else u
+                self.accepting.append(ends == self.bdd.true)
+            code = -(state + 1)
+        else:
+            low, high = u.low, u.high
+            if u.negated:  # dd's low/high are those of the uncomplemented node
+                low, high = ~low, ~high
+            low_code, high_code = self.visit(low), self.visit(high)
+            var, lo, hi = self.inner
+            code = len(var)
+            var.append(fluent)
+            lo.append(low_code)
+            hi.append(high_code)
+        self.code_of[u] = code
+        return code
+
+    def automaton(self) -> RawAutomaton:
+        n_states = len(self.functions)
+
+        def node_id(codes: list[int]) -> np.ndarray:
+            array = np.asarray(codes, dtype=np.int64)
+            return np.where(array < 0, -array - 1, array + n_states)
+
+        states = np.arange(n_states, dtype=np.int64)
+        var, lo, hi = self.inner
+        diagram = GuardDiagram(
+            var=np.concatenate(
+                [np.full(n_states, -1, dtype=np.int64), np.asarray(var, dtype=np.int64)]
+            ),
+            lo=np.concatenate([states, node_id(lo)]),
+            hi=np.concatenate([states, node_id(hi)]),
+            root=node_id(self.roots),
+            rank=self.rank,
+        )
+        return RawAutomaton(diagram=diagram, accepting=np.asarray(self.accepting), initial_state=0)
+
+    def release(self) -> None:
+        """Drops every BDD node before the manager, in that order."""
+        self.code_of.clear()
+        self.state_of.clear()
+        self.functions.clear()
+        self.substitution.clear()
+        self.first = None
+        self.bdd = None
+
+
 def compile_progression(
     parsed: Formula,
     vocabulary: Sequence[str],
@@ -247,96 +356,10 @@ def compile_progression(
     Raises:
         CompilationError: the construction took longer than ``timeout``.
     """
-    started = time.monotonic()
-    module = _bdd_module()
-    bdd = module.BDD()
-    bdd.configure(reordering=False)  # the walk below relies on fluents staying on top
-    index = {name: i for i, name in enumerate(vocabulary)}
-    order = atoms_in_order(parsed)
-    fluent_var = {name: f"x{index[name]}" for name in order}
-    var_fluent = {v: index[name] for name, v in fluent_var.items()}
-    for name in order:  # declared first = nearest the roots
-        bdd.declare(fluent_var[name])
-
-    unfolder = _Unfolder(bdd, fluent_var)
-    first = unfolder.unfold(to_nnf(parsed))
-    # Close the obligations under unfolding (unfolding may owe new ones).
-    substitution: dict[str, Any] = {}
-    while len(substitution) < len(unfolder.obligations):
-        for (_, f), name in list(unfolder.obligations.items()):
-            if name not in substitution:
-                substitution[name] = unfolder.unfold(f)
-    at_end = {name: kind == "wnext" for (kind, _), name in unfolder.obligations.items()}
-
-    state_of: dict[Any, int] = {}  # obligation-level BDD -> state
-    functions: list[Any] = [None]  # state 0 is the empty trace
-    accepting = [empty_trace_value(parsed)]
-    code_of: dict[Any, int] = {}  # BDD node -> inner node i, or leaf s as -(s + 1)
-    inner_var: list[int] = []
-    inner_lo: list[int] = []
-    inner_hi: list[int] = []
-
-    def visit(u: Any) -> int:
-        code = code_of.get(u)
-        if code is not None:
-            return code
-        fluent = var_fluent.get(u.var) if u.var is not None else None
-        if fluent is None:  # an obligation-level node: a state
-            state = state_of.get(u)
-            if state is None:
-                state = len(functions)
-                state_of[u] = state
-                functions.append(u)
-                accepting.append(bdd.let(at_end, u) == bdd.true if at_end else u == bdd.true)
-            code = -(state + 1)
-        else:
-            low, high = u.low, u.high
-            if u.negated:  # dd's low/high are those of the uncomplemented node
-                low, high = ~low, ~high
-            low_code, high_code = visit(low), visit(high)
-            code = len(inner_var)
-            inner_var.append(fluent)
-            inner_lo.append(low_code)
-            inner_hi.append(high_code)
-        code_of[u] = code
-        return code
-
-    roots: list[int] = []
-    while len(roots) < len(functions):
-        if time.monotonic() - started > timeout:
-            raise CompilationError(
-                f"the BDD backend did not finish compiling {formula!r} within {timeout:g} s "
-                f"({len(roots)} states so far); raise timeout= or install MONA",
-                formula=formula,
-            )
-        state = len(roots)
-        if state == 0:
-            step = first
-        elif substitution:
-            step = bdd.let(substitution, functions[state])
-        else:  # no obligations: the state is a constant
-            step = functions[state]
-        roots.append(visit(step))
-
-    n_states = len(functions)
-
-    def node_id(codes: list[int]) -> np.ndarray:
-        array = np.asarray(codes, dtype=np.int64)
-        return np.where(array < 0, -array - 1, array + n_states)
-
-    states = np.arange(n_states, dtype=np.int64)
-    diagram = GuardDiagram(
-        var=np.concatenate(
-            [np.full(n_states, -1, dtype=np.int64), np.asarray(inner_var, dtype=np.int64)]
-        ),
-        lo=np.concatenate([states, node_id(inner_lo)]),
-        hi=np.concatenate([states, node_id(inner_hi)]),
-        root=node_id(roots),
-        rank=order_rank([index[name] for name in order], len(vocabulary)),
-    )
-    # Drop every reference into the BDD manager before it goes.
-    code_of.clear()
-    state_of.clear()
-    functions.clear()
-    substitution.clear()
-    return RawAutomaton(diagram=diagram, accepting=np.asarray(accepting), initial_state=0)
+    deadline = time.monotonic() + timeout
+    explorer = _Explorer(parsed, vocabulary)
+    try:
+        explorer.explore(deadline, formula, timeout)
+        return explorer.automaton()
+    finally:
+        explorer.release()
