@@ -5,34 +5,13 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 
-import pytest
-
-import noisybolt.envs
 from noisybolt.cli import COMMAND_MODULES, main
-from noisybolt.envs.breakout import make_breakout_world
-from noisybolt.errors import UnknownNameError
 from noisybolt.perception.classifier import load_classifier
 from noisybolt.perception.dataset import load_dataset
 
 
 def run(argv: Sequence[str]) -> int:
     return main(list(argv))
-
-
-@pytest.fixture(autouse=True)
-def registry(monkeypatch):
-    """Use the world registry when it exists; until then a stand-in with the same contract."""
-    if hasattr(noisybolt.envs, "make_world"):
-        return
-
-    def make_world(name, *, num_envs, seed, **kwargs):
-        if name != "breakout":
-            raise UnknownNameError(
-                f"unknown world {name!r}; known: ['breakout']", name=name, known=("breakout",)
-            )
-        return make_breakout_world(num_envs=num_envs, seed=seed, **kwargs)
-
-    monkeypatch.setattr(noisybolt.envs, "make_world", make_world, raising=False)
 
 
 def test_registered():
@@ -161,3 +140,69 @@ def test_corrupt_dataset_is_a_clear_error(tmp_path, capsys):
     (tmp_path / "dataset.npz").write_bytes(b"PK\x03\x04 broken")
     assert run(["classifiers", "train", "--out", str(tmp_path), "--quiet"]) == 2
     assert "corrupt" in capsys.readouterr().err
+
+
+def test_gridworld_with_regional_noise(tmp_path, capsys):
+    out = tmp_path / "grid"
+    common = ["--out", str(out), "--quiet"]
+    assert (
+        run(
+            [
+                "classifiers",
+                "collect",
+                "--world",
+                "gridworld",
+                "--noise",
+                "regional",
+                "--samples",
+                "120",
+                "--num-envs",
+                "8",
+                *common,
+            ]
+        )
+        == 0
+    )
+    assert run(["classifiers", "train", "--epochs", "1", *common]) == 0
+    assert run(["classifiers", "report", "--samples", "60", *common]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["collect"]["camera_spec"]["noise"]["name"] == "regional"
+    assert len(config["collect"]["fluent_names"]) == 7
+    assert "bottom_left_corner" in capsys.readouterr().out
+    # the same classifier on the clean camera is refused unless asked for on purpose
+    assert run(["classifiers", "report", "--noise", "none", "--samples", "30", *common]) == 2
+    assert "camera noise differs" in capsys.readouterr().err
+    assert (
+        run(
+            [
+                "classifiers",
+                "report",
+                "--noise",
+                "none",
+                "--samples",
+                "30",
+                "--ignore-noise",
+                *common,
+            ]
+        )
+        == 0
+    )
+
+
+def test_unknown_noise_is_a_named_error(tmp_path, capsys):
+    code = run(
+        [
+            "classifiers",
+            "collect",
+            "--world",
+            "gridworld",
+            "--noise",
+            "pink",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ]
+    )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "pink" in err and "regional" in err and "gaussian" in err

@@ -22,7 +22,7 @@ from noisybolt.envs.breakout import (
     make_breakout_world,
     set_bricks,
 )
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.perception.dataset import SupportsCollectionStates, collect_samples
 from noisybolt.perception.protocols import BoltObservable
 
@@ -258,13 +258,30 @@ def test_bad_settings_are_refused():
     with pytest.raises(ConfigError, match="left_columns"):
         left_columns_clear(np.zeros(128, np.uint8), 19)
     with pytest.raises(ConfigError, match="noise"):
-        BreakoutWorld(num_envs=1, noise="gaussian")  # type: ignore[arg-type]
+        BreakoutWorld(num_envs=1, noise=42)
+    with pytest.raises(UnknownNameError, match="gaussian"):
+        BreakoutWorld(num_envs=1, noise="pink")
     world = BreakoutWorld(num_envs=1, noise=lambda images, rng: images[:, :10])
     world.reset(seed=0)
     with pytest.raises(ValueError, match="noise"):
         world.bolt_images()
     with pytest.raises(ValueError, match="actions"):
         world.step(np.array([4]))
+
+
+def test_camera_noise_from_the_noise_registry():
+    clean = make_breakout_world(num_envs=2, seed=0)
+    noisy = make_breakout_world(num_envs=2, seed=0, noise="gaussian:sigma=12")
+    assert clean.camera_spec.noise == {"name": "none"}
+    assert noisy.camera_spec.noise["name"] == "gaussian"
+    assert noisy.camera_spec.noise["sigma"] == 12
+    clean.reset(seed=0)
+    noisy.reset(seed=0)
+    difference = noisy.bolt_images().astype(int) - clean.bolt_images()
+    assert 8 < difference.std() < 16
+    again = make_breakout_world(num_envs=2, seed=0, noise={"name": "gaussian", "sigma": 12})
+    again.reset(seed=0)
+    np.testing.assert_array_equal(again.bolt_images(), noisy.bolt_images())
 
 
 def test_public_api():

@@ -42,7 +42,7 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import ale_py
@@ -53,6 +53,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from noisybolt.errors import ConfigError
+from noisybolt.perception.noise import make_noise
 from noisybolt.perception.protocols import CameraSpec
 
 __all__ = [
@@ -66,6 +67,7 @@ __all__ = [
     "bricks_present",
     "left_columns_clear",
     "make_breakout_world",
+    "resolve_noise",
     "set_bricks",
 ]
 
@@ -151,16 +153,35 @@ def set_bricks(ale: ale_py.ALEInterface, present: np.ndarray) -> None:
             ale.setRAM(byte, value)
 
 
-def _noise_description(noise: NoiseFn | None) -> dict[str, Any]:
+def resolve_noise(noise: Any) -> tuple[NoiseFn | None, dict[str, Any]]:
+    """The camera's noise function and its JSON description (for :class:`CameraSpec`).
+
+    Accepts None (clean), a :mod:`noisybolt.perception.noise` model or any object with
+    ``apply(images, rng)`` (and ideally ``describe()``), a spec that
+    :func:`~noisybolt.perception.noise.make_noise` reads (a name or command-line text such
+    as ``"gaussian:sigma=12"``, a mapping, a list), or a plain ``noise(images, rng)``
+    callable.
+
+    Raises:
+        ConfigError: for anything else (and, through ``make_noise``, for bad specs;
+            ``UnknownNameError`` for unknown noise names).
+    """
     if noise is None:
-        return {}
-    for attribute in ("to_dict", "describe", "spec"):
-        method = getattr(noise, attribute, None)
-        if callable(method):
-            description = method()
-            if isinstance(description, dict):
-                return description
-    return {"name": getattr(noise, "__name__", type(noise).__name__)}
+        return None, {"name": "none"}  # what NoNoise().describe() says
+    if isinstance(noise, str | Mapping | list | tuple):
+        noise = make_noise(noise)
+    apply = getattr(noise, "apply", None)
+    if callable(apply):
+        describe = getattr(noise, "describe", None)
+        description = describe() if callable(describe) else {"name": type(noise).__name__}
+        if description.get("name") == "none":
+            return None, description
+        return apply, description
+    if callable(noise):
+        return noise, {"name": getattr(noise, "__name__", type(noise).__name__)}
+    raise ConfigError(
+        f"noise must be a noise spec, a noise model or a callable noise(images, rng), got {noise!r}"
+    )
 
 
 class BreakoutWorld(gym.vector.VectorEnv):
@@ -179,7 +200,9 @@ class BreakoutWorld(gym.vector.VectorEnv):
         num_envs: number of games.
         seed: seeds the games (sticky actions, no-ops) and the camera noise; ``reset(seed=)``
             re-seeds.
-        noise: the bolt camera's noise, ``noise(images, rng) -> images`` (None: clean).
+        noise: the bolt camera's noise (None: clean): a noise spec or model of
+            :mod:`noisybolt.perception.noise` (e.g. ``"gaussian:sigma=12"``) or a callable
+            ``noise(images, rng) -> images``; see :func:`resolve_noise`.
         left_columns: how many brick columns, from the left, ``brick_clear_left`` covers.
         camera_size: side of the bolt's square colour image.
         frame_skip: frames per action.
@@ -195,7 +218,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         *,
         num_envs: int = 8,
         seed: int | None = None,
-        noise: NoiseFn | None = None,
+        noise: Any = None,
         left_columns: int = 1,
         camera_size: int = 84,
         frame_skip: int = 4,
@@ -222,8 +245,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
             raise ConfigError(
                 f"repeat_action_probability must be in [0, 1], got {repeat_action_probability}"
             )
-        if noise is not None and not callable(noise):
-            raise ConfigError(f"noise must be a callable noise(images, rng), got {noise!r}")
+        noise_fn, noise_description = resolve_noise(noise)
         self.metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
         self.autoreset_mode = AutoresetMode.SAME_STEP
         self.num_envs = num_envs
@@ -235,7 +257,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self.frame_stack = frame_stack
         self.screen_size = screen_size
         self.max_episode_frames = max_episode_frames
-        self._noise = noise
+        self._noise = noise_fn
         self._seed = seed
 
         ale_py.ALEInterface.setLoggerMode(ale_py.LoggerMode.Error)
@@ -262,7 +284,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
             height=camera_size,
             width=camera_size,
             channels=3,
-            noise=_noise_description(noise),
+            noise=noise_description,
             extra={
                 "source": "ALE RGB frame 210x160, cv2.INTER_AREA",
                 # Changes what the fluent means, so a classifier must not cross it.
@@ -520,13 +542,57 @@ class BreakoutWorld(gym.vector.VectorEnv):
 
 
 def make_breakout_world(
-    *, num_envs: int = 8, seed: int | None = None, noise: NoiseFn | None = None, **kwargs: Any
+    *,
+    num_envs: int = 8,
+    seed: int | None = None,
+    noise: Any = None,
+    obs_mode: str | None = None,
+    left_columns: int = 1,
+    camera_size: int = 84,
+    frame_skip: int = 4,
+    noop_max: int = 30,
+    repeat_action_probability: float = 0.25,
+    frame_stack: int = 4,
+    screen_size: int = 84,
+    max_episode_frames: int = 108_000,
 ) -> BreakoutWorld:
-    """The registry's constructor for ``"breakout"``; ``kwargs`` go to :class:`BreakoutWorld`.
+    """The registry's factory for ``"breakout"`` (``make_world("breakout", ...)``).
+
+    Args:
+        num_envs: number of games.
+        seed: seeds the games and the camera noise.
+        noise: the bolt camera's noise (see :func:`resolve_noise`).
+        obs_mode: the agent's observation: None or ``"stack"`` (the only one: the
+            standard preprocessed grayscale frame stack).
+        left_columns: brick columns covered by ``brick_clear_left``.
+        camera_size: side of the bolt's square colour image.
+        frame_skip: frames per action.
+        noop_max: at most this many random no-ops after a reset.
+        repeat_action_probability: sticky actions.
+        frame_stack: frames in the agent's observation.
+        screen_size: side of the agent's frames.
+        max_episode_frames: truncation limit in emulator frames.
+
+    Raises:
+        ConfigError: for an unknown ``obs_mode`` or an out-of-range setting.
 
     Example:
         >>> world = make_breakout_world(num_envs=1, seed=3, left_columns=2)
         >>> world.fluent_names, world.camera_spec.shape
         (('brick_clear_left',), (84, 84, 3))
     """
-    return BreakoutWorld(num_envs=num_envs, seed=seed, noise=noise, **kwargs)
+    if obs_mode not in (None, "stack"):
+        raise ConfigError(f"breakout: obs_mode must be 'stack' (or None), got {obs_mode!r}")
+    return BreakoutWorld(
+        num_envs=num_envs,
+        seed=seed,
+        noise=noise,
+        left_columns=left_columns,
+        camera_size=camera_size,
+        frame_skip=frame_skip,
+        noop_max=noop_max,
+        repeat_action_probability=repeat_action_probability,
+        frame_stack=frame_stack,
+        screen_size=screen_size,
+        max_episode_frames=max_episode_frames,
+    )

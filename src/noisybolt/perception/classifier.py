@@ -157,7 +157,7 @@ class ClassifierDetector:
     camera_spec: CameraSpec
     config: ClassifierConfig = field(default_factory=ClassifierConfig)
     training: dict[str, Any] = field(default_factory=dict)
-    batch_size: int = 256
+    batch_size: int = 64
 
     def __post_init__(self) -> None:
         self.fluent_names = tuple(self.fluent_names)
