@@ -175,6 +175,10 @@ def test_arrays_are_read_only() -> None:
     for array in (dfa.next_state, dfa.support, dfa.accepting, dfa.diagram.root):
         with pytest.raises(ValueError):
             array[0] = 0
+    with pytest.raises(AttributeError, match="immutable"):
+        dfa.initial_state = 1
+    with pytest.raises(AttributeError, match="immutable"):
+        del dfa.fluents
 
 
 def test_edges_guards_are_exact() -> None:

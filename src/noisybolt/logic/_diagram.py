@@ -292,7 +292,7 @@ def canonicalise(
     """The minimal DFA with canonical numbering.
 
     Minimises (Moore), drops unreachable states, numbers states breadth-first from the
-    initial one (successors by smallest letter) and shares nodes canonically. Two
+    initial one (successors in the order of :func:`bfs_order`) and shares nodes canonically. Two
     backends that build the same language over the same vocabulary thus produce
     identical arrays.
 
@@ -478,7 +478,7 @@ class EdgeInspector:
         return reach
 
     def targets(self, q: int) -> list[int]:
-        """The successors of ``q``, by smallest letter leading there."""
+        """The successors of ``q``, in the order of :func:`bfs_order`."""
         seen: list[int] = []
         found: set[int] = set()
         visited: set[int] = set()

@@ -207,6 +207,16 @@ class DFA:
             support = self._unproject(support_from_table(table))
             gather = _diagram.letter_lookup(self._tested)
             self._projected = _Dense(_read_only(table), _read_only(support), gather)
+        self._frozen = True
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        # Public attributes are fixed once built; private ones are lazily filled caches.
+        if not name.startswith("_") and getattr(self, "_frozen", False):
+            raise AttributeError(f"DFA is immutable: cannot set {name!r}")
+        object.__setattr__(self, name, value)
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"DFA is immutable: cannot delete {name!r}")
 
     def _unproject(self, support: np.ndarray) -> np.ndarray:
         """Maps supports over projected bits back to vocabulary bits."""
@@ -292,7 +302,8 @@ class DFA:
             formula: source formula, for display.
             minimise: minimise, drop unreachable states and number the states
                 canonically (breadth-first from the initial state, successors by
-                smallest letter), so equal languages give equal arrays.
+                first letter leading there, reading letters as bit strings in the diagram's
+                variable order), so equal languages give equal arrays.
         """
         if minimise:
             diagram, accepting, initial_state = _diagram.canonicalise(
@@ -466,7 +477,7 @@ class DFA:
     def iter_edges(self, states: Iterable[int] | None = None) -> Iterator[Edge]:
         """Yields the edges ``(src, dst)`` with exact guards, state by state.
 
-        Successors of a state come by the smallest letter leading to them. A compact DFA
+        Successors of a state come in canonical order (see :meth:`from_diagram`). A compact DFA
         may have very many edges: iterate and stop, or pass ``states``.
         """
         inspector = self._edge_inspector()
