@@ -340,6 +340,47 @@ class VectorGridworld(VectorEnv):
         """bool ``[num_envs]``: which rooms ended an episode in the last step."""
         return self._done.copy()
 
+    def sample_collection_states(self, rng: np.random.Generator) -> None:
+        """Move every room to a random state, for collecting the bolt's training images.
+
+        Positions are uniform over the floor, the goal included (the bolt sees the
+        terminal state of every successful episode), headings uniform; each room starts a
+        fresh episode there. Meets ``noisybolt.perception.dataset.SupportsCollectionStates``.
+        """
+        s = self.config.size
+        self._x = rng.integers(1, s - 1, size=self.num_envs).astype(np.intp)
+        self._y = rng.integers(1, s - 1, size=self.num_envs).astype(np.intp)
+        self._dir = rng.integers(0, 4, size=self.num_envs).astype(np.intp)
+        self._steps[:] = 0
+        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
+        self._done[:] = False
+        self._invalidate()
+
+    def set_agent_state(
+        self,
+        x: np.ndarray,
+        y: np.ndarray,
+        direction: np.ndarray,
+        *,
+        steps: np.ndarray | None = None,
+    ) -> None:
+        """Place every room's agent by hand (tests, planning, scripted collection).
+
+        Raises:
+            ConfigError: if a position is not on the floor or a heading is outside [0, 4).
+        """
+        x, y, d = (np.asarray(v, dtype=np.intp).reshape(self.num_envs) for v in (x, y, direction))
+        s = self.config.size
+        if ((x < 1) | (x > s - 2) | (y < 1) | (y > s - 2)).any():
+            raise ConfigError(f"agent positions must be floor cells 1..{s - 2}, got {x}, {y}")
+        if ((d < 0) | (d > 3)).any():
+            raise ConfigError(f"headings must be in [0, 4), got {d}")
+        self._x, self._y, self._dir = x.copy(), y.copy(), d.copy()
+        self._steps[:] = 0 if steps is None else np.asarray(steps).reshape(self.num_envs)
+        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
+        self._done[:] = False
+        self._invalidate()
+
     # ---------------------------------------------------------------------- state
 
     @property

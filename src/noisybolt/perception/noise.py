@@ -328,7 +328,8 @@ class RegionalDegradation(NoiseModel):
     by a random number of pixels, uniform in ``[0, shift * length)``; blurred (Gaussian,
     ``blur`` times the box's shorter side); pulled towards the box's mean colour, keeping
     ``contrast`` of its deviation; given Gaussian noise ``sigma``; and mixed with the clean
-    picture by ``strength`` (1 shows only the smudge, 0 leaves the image as it was).
+    picture by ``strength`` (1 shows only the smudge, 0 leaves the image as it was; in
+    between, a faint undisplaced copy shows through and soon gives the position away).
 
     Why a displacement and a box wider than the corner cell: the agent is always somewhere
     in the room, so when a classifier sees it nowhere in the clear part of the image it
@@ -394,15 +395,14 @@ class RegionalDegradation(NoiseModel):
         h, w = images.shape[1:3]
         out = images.copy()
         for r0, c0, r1, c1 in self.pixel_boxes(h, w):
-            patch = images[:, r0:r1, c0:c1].astype(np.float32)
-            if self.shift > 0:
-                patch = _displace(patch, self.shift, rng)
+            clean = images[:, r0:r1, c0:c1].astype(np.float32)
+            patch = _displace(clean, self.shift, rng) if self.shift > 0 else clean
             smudge = gaussian_blur(patch, self.blur * min(r1 - r0, c1 - c0))
             mean = smudge.mean(axis=(1, 2), keepdims=True)
             smudge = mean + self.contrast * (smudge - mean)
             if self.sigma > 0:
                 smudge += self.sigma * rng.standard_normal(patch.shape, dtype=np.float32)
-            mixed = (1.0 - self.strength) * patch + self.strength * smudge
+            mixed = (1.0 - self.strength) * clean + self.strength * smudge
             out[:, r0:r1, c0:c1] = _to_uint8(mixed)
         return out
 
