@@ -15,7 +15,7 @@ bytes, so a flipped bit in the weights is caught at load). Nothing is pickled.
 
 Example:
     >>> import numpy as np, tempfile, pathlib, torch
-    >>> from noisybolt.perception.protocols import CameraSpec
+    >>> from noisybolt.perception.protocols import BoltObservable, CameraSpec
     >>> _ = torch.manual_seed(0)
     >>> spec = CameraSpec("toy", 16, 16)
     >>> detector = ClassifierDetector.untrained(fluent_names=("a", "b"), camera_spec=spec)
@@ -50,7 +50,7 @@ from noisybolt.perception.compat import (
     camera_spec_to_dict,
     check_compatible,
 )
-from noisybolt.perception.protocols import CameraSpec
+from noisybolt.perception.protocols import BoltObservable, CameraSpec
 
 __all__ = [
     "CLASSIFIER_FORMAT",
@@ -233,13 +233,14 @@ class ClassifierDetector:
         cls,
         path: str | Path,
         *,
+        world: BoltObservable | None = None,
         fluent_names: Sequence[str] | None = None,
         camera_spec: CameraSpec | None = None,
         ignore: Collection[str] = (),
     ) -> ClassifierDetector:
         """Reads a detector written by :meth:`save`; see :func:`load_classifier`."""
         return load_classifier(
-            path, fluent_names=fluent_names, camera_spec=camera_spec, ignore=ignore
+            path, world=world, fluent_names=fluent_names, camera_spec=camera_spec, ignore=ignore
         )
 
 
@@ -264,14 +265,17 @@ def _read_header(data: bytes) -> dict[str, Any]:
 def load_classifier(
     path: str | Path,
     *,
+    world: BoltObservable | None = None,
     fluent_names: Sequence[str] | None = None,
     camera_spec: CameraSpec | None = None,
     ignore: Collection[str] = (),
 ) -> ClassifierDetector:
-    """Reads a classifier file and, if given the world's fluents and camera, checks them.
+    """Reads a classifier file and, if told the world it is for, checks that it fits.
 
     Args:
         path: the ``.safetensors`` file written by :meth:`ClassifierDetector.save`.
+        world: the world it will be used with; the same as passing its ``fluent_names``
+            and ``camera_spec``.
         fluent_names: the world's fluents; with ``camera_spec``, the classifier must have
             been trained for exactly these, in this order.
         camera_spec: the world's camera spec (world, size and noise settings).
@@ -283,6 +287,10 @@ def load_classifier(
         CorruptFileError: if the file is truncated, corrupt or not a noisybolt classifier.
         IncompatibleError: if it was trained for other fluents or another camera.
     """
+    if world is not None:
+        if fluent_names is not None or camera_spec is not None:
+            raise ValueError("give world, or fluent_names and camera_spec, not both")
+        fluent_names, camera_spec = tuple(world.fluent_names), world.camera_spec
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no classifier file at {path}")

@@ -200,6 +200,7 @@ def save_dataset(dataset: FluentDataset, path: str | Path) -> None:
 def load_dataset(
     path: str | Path,
     *,
+    world: BoltObservable | None = None,
     fluent_names: Sequence[str] | None = None,
     camera_spec: CameraSpec | None = None,
 ) -> FluentDataset:
@@ -207,6 +208,8 @@ def load_dataset(
 
     Args:
         path: the ``.npz`` file.
+        world: the world it will be used with; the same as passing its ``fluent_names``
+            and ``camera_spec``.
         fluent_names: if given with ``camera_spec``, the world's fluents: the dataset must
             have been collected for exactly these fluents and camera.
         camera_spec: the world's camera.
@@ -216,6 +219,10 @@ def load_dataset(
         CorruptFileError: if the file is truncated, corrupt or not a noisybolt dataset.
         IncompatibleError: if the dataset does not match the given fluents and camera.
     """
+    if world is not None:
+        if fluent_names is not None or camera_spec is not None:
+            raise ValueError("give world, or fluent_names and camera_spec, not both")
+        fluent_names, camera_spec = tuple(world.fluent_names), world.camera_spec
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no dataset file at {path}")
