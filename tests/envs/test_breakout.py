@@ -287,3 +287,18 @@ def test_camera_noise_from_the_noise_registry():
 def test_public_api():
     for name in breakout.__all__:
         assert hasattr(breakout, name)
+
+
+@pytest.mark.slow
+def test_a_classifier_learns_brick_clear_left_from_the_colour_frame():
+    from noisybolt.perception.metrics import build_report
+    from noisybolt.perception.training import TrainingConfig, train_classifier
+
+    data = collect_samples(make_breakout_world(num_envs=16, seed=0), num_samples=1500, seed=0)
+    result = train_classifier(data, training=TrainingConfig(epochs=12, seed=0), progress=False)
+    test = collect_samples(make_breakout_world(num_envs=16, seed=1), num_samples=600, seed=1)
+    report = build_report(
+        result.detector.predict(test.images), test.labels, fluent_names=test.fluent_names
+    )
+    assert report["brick_clear_left"].accuracy > 0.98
+    assert report["brick_clear_left"].auroc > 0.99
