@@ -20,6 +20,7 @@ __all__ = ["COMMAND_MODULES", "build_parser", "main"]
 COMMAND_MODULES: tuple[str, ...] = (
     "noisybolt.cli.demo",
     "noisybolt.cli.classifiers",
+    "noisybolt.cli.train",
 )
 
 

@@ -1,0 +1,595 @@
+"""Training a bolted agent with Stable-Baselines3: config, run directory, checkpoints, resume.
+
+A run directory holds::
+
+    config.json            the resolved :class:`TrainConfig` (defaults included)
+    command.txt            the exact command
+    metrics.json           one record per evaluation (returns, compliance, success, frames)
+    checkpoints/latest.json  points to the newest complete checkpoint folder
+    checkpoints/step_N/    model.zip (+ vecnormalize.pkl, replay_buffer.pkl)
+    model.zip              the final model (+ vecnormalize.pkl)
+    tensorboard/           TensorBoard logs
+    summary.json           the final evaluation and the first frame count of compliance
+
+Every file is written atomically, and a checkpoint counts only once ``latest.json`` names
+it, which happens after all its files are complete: a run killed at any moment loses at
+most the work since its last checkpoint. ``resume=True`` continues from there, after
+checking the saved config equals the new one (except the frame budget).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
+
+from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
+from noisybolt.agents.extractor import BoltFeaturesExtractor
+from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
+from noisybolt.agents.specs import resolve_spec
+from noisybolt.bolt import COST_MODES, Spec, Thresholds
+from noisybolt.envs import known_worlds, make_world
+from noisybolt.errors import ConfigError, UnknownNameError
+from noisybolt.io import atomic_open, atomic_write_json
+from noisybolt.logic import compile_ltlf
+from noisybolt.perception.protocols import FluentDetector
+from noisybolt.rundir import RunDirectory
+from noisybolt.wrappers import BoltVecEnv
+
+__all__ = [
+    "DETECTORS",
+    "DetectorConfig",
+    "TrainConfig",
+    "TrainResult",
+    "build_bolted_env",
+    "make_detector",
+    "train",
+]
+
+DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
+#: Settings that may change when a run is resumed.
+RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar")
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """Which fluent detector the bolt uses.
+
+    Attributes:
+        kind: ``"classifier"`` (a trained CNN on the bolt's noisy camera), ``"oracle"``
+            (ground truth as 0/1) or ``"synthetic"`` (ground truth through seeded Beta noise).
+        path: the classifier file; None uses a cached one for this world and camera,
+            trained on the fly if missing.
+        low_confidence: fluents the synthetic detector sees with low confidence.
+        samples: images collected to train a classifier on the fly.
+        epochs: epochs to train it.
+        seed: seeds the synthetic detector and on-the-fly classifier training.
+    """
+
+    kind: str = "classifier"
+    path: str | None = None
+    low_confidence: tuple[str, ...] = ()
+    samples: int = 4000
+    epochs: int = 15
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.kind not in DETECTORS:
+            raise UnknownNameError(
+                f"unknown detector {self.kind!r}; known detectors: {list(DETECTORS)}",
+                name=self.kind,
+                known=DETECTORS,
+            )
+        object.__setattr__(self, "low_confidence", tuple(self.low_confidence))
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that defines a training run (saved as ``config.json``).
+
+    Attributes:
+        world: registry name of the world.
+        world_kwargs: passed to :func:`noisybolt.envs.make_world` (e.g. ``noise``).
+        specs: the bolt's specs as dicts of :class:`~noisybolt.bolt.Spec` fields.
+        algo: ``ppo``, ``a2c`` or ``dqn``.
+        hyperparams: resolved hyperparameters (see :mod:`noisybolt.agents.hyperparams`).
+        detector: the fluent detector.
+        frames: environment steps to train for (all environments together).
+        seed: seeds the world, the agent and the evaluation.
+        eval_freq: frames between evaluations (0: only at the end).
+        eval_episodes: episodes per evaluation.
+        eval_envs: environments used to evaluate.
+        eval_deterministic: evaluate the greedy policy; by default actions are sampled, as
+            the paper's code base (rl-starter-files) evaluates: a half-trained greedy policy
+            on a grid often loops (turning on the spot) where its sampled one does not.
+        success_threshold: the share of evaluation episodes that must reach the goal and
+            comply with every spec for the run to count as compliant (N_frames).
+        checkpoint_freq: frames between checkpoints (0: none).
+        thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
+        cost_mode: ``"count"`` or ``"proportional"``.
+        bolted: False trains the same agent without a bolt (for comparison): specs are
+            still tracked for compliance metrics, with zero rewards.
+        progress_bar: show a progress bar.
+    """
+
+    world: str = "gridworld"
+    world_kwargs: dict[str, Any] = field(default_factory=dict)
+    specs: tuple[dict[str, Any], ...] = ()
+    algo: str = "ppo"
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    frames: int = 100_000
+    seed: int = 0
+    eval_freq: int = 10_000
+    eval_episodes: int = 20
+    eval_envs: int = 4
+    eval_deterministic: bool = False
+    success_threshold: float = 0.95
+    checkpoint_freq: int = 20_000
+    thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
+    cost_mode: str = "count"
+    bolted: bool = True
+    progress_bar: bool = True
+
+    def __post_init__(self) -> None:
+        if self.world not in known_worlds():
+            raise UnknownNameError(
+                f"unknown world {self.world!r}; known worlds: {list(known_worlds())}",
+                name=self.world,
+                known=tuple(known_worlds()),
+            )
+        algorithm_class(self.algo)
+        if not self.specs:
+            raise ConfigError("give at least one spec (--spec NAME or --spec FORMULA)")
+        for name in ("frames", "eval_episodes", "eval_envs"):
+            if int(getattr(self, name)) < 1:
+                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+        for name in ("eval_freq", "checkpoint_freq"):
+            if int(getattr(self, name)) < 0:
+                raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 < self.success_threshold <= 1.0:
+            raise ConfigError(f"success_threshold must be in (0, 1], got {self.success_threshold}")
+        if self.cost_mode not in COST_MODES:
+            raise ConfigError(f"cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}")
+        Thresholds(**self.thresholds)
+        object.__setattr__(self, "specs", tuple(dict(s) for s in self.specs))
+
+    @classmethod
+    def create(
+        cls,
+        *,
+        world: str = "gridworld",
+        specs: Sequence[str | Mapping[str, Any]],
+        algo: str = "ppo",
+        overrides: Mapping[str, Any] | None = None,
+        n_envs: int | None = None,
+        **kwargs: Any,
+    ) -> TrainConfig:
+        """A config with specs resolved (names or formulas) and hyperparameters loaded."""
+        resolved = [asdict(resolve_spec(s)) for s in specs]
+        params = load_hyperparams(world, algo, overrides)
+        if n_envs is not None:
+            params["n_envs"] = int(n_envs)
+        return cls(world=world, specs=tuple(resolved), algo=algo, hyperparams=params, **kwargs)
+
+    @property
+    def n_envs(self) -> int:
+        """Training environments."""
+        return int(self.hyperparams.get("n_envs", 1))
+
+    def spec_objects(self) -> list[Spec]:
+        """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted)."""
+        specs = [resolve_spec(s) for s in self.specs]
+        if not self.bolted:
+            specs = [replace(s, terminal_reward=0.0, low_confidence_cost=0.0) for s in specs]
+        return specs
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (what ``config.json`` holds)."""
+        data = asdict(self)
+        data["specs"] = [dict(s) for s in self.specs]
+        data["detector"]["low_confidence"] = list(self.detector.low_confidence)
+        return json.loads(json.dumps(data))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> TrainConfig:
+        """Reads :meth:`to_dict`'s output back; unknown keys are an error."""
+        data = dict(data)
+        known = set(cls.__dataclass_fields__)
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(f"unknown training config key(s) {unknown}; known: {sorted(known)}")
+        detector = DetectorConfig(**data.pop("detector", {}))
+        data["specs"] = tuple(data.get("specs", ()))
+        return cls(detector=detector, **data)
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a finished run reports.
+
+    Attributes:
+        run_dir: the run directory.
+        frames: environment steps trained (all environments together).
+        final: the final evaluation.
+        frames_to_comply: N_frames, the frames after which an evaluation first had at
+            least ``success_threshold`` of its episodes reach the goal while complying
+            with every spec (None if it never did).
+        history: every evaluation's record.
+    """
+
+    run_dir: Path
+    frames: int
+    final: EvalResult
+    frames_to_comply: int | None
+    history: tuple[dict[str, Any], ...]
+
+
+# ---------------------------------------------------------------------- detectors
+def _cache_root() -> Path:
+    root = os.environ.get("NOISYBOLT_CACHE_DIR")
+    return Path(root) if root else Path.home() / ".cache" / "noisybolt"
+
+
+def default_classifier_path(world: str, world_kwargs: Mapping[str, Any], camera: Any) -> Path:
+    """Where the on-the-fly classifier for this world and camera is cached."""
+    from noisybolt.perception.compat import camera_spec_to_dict
+
+    key = json.dumps(
+        {"world": world, "camera": camera_spec_to_dict(camera)}, sort_keys=True
+    ).encode()
+    digest = hashlib.sha256(key).hexdigest()[:16]
+    return _cache_root() / "classifiers" / f"{world}-{digest}.safetensors"
+
+
+def make_detector(
+    config: DetectorConfig,
+    *,
+    world: str,
+    world_kwargs: Mapping[str, Any],
+    fluent_names: Sequence[str],
+    camera_spec: Any,
+    progress: bool = True,
+    log: Callable[[str], None] = print,
+) -> FluentDetector:
+    """Builds the detector; a classifier is loaded (checked against the world) or trained."""
+    from noisybolt.perception.classifier import load_classifier
+    from noisybolt.perception.detectors import BetaNoise, OracleDetector, SyntheticDetector
+
+    if config.kind == "oracle":
+        return OracleDetector(fluent_names)
+    if config.kind == "synthetic":
+        return SyntheticDetector(
+            fluent_names,
+            seed=config.seed,
+            fluents={name: BetaNoise.low_confidence() for name in config.low_confidence},
+        )
+    path = (
+        Path(config.path)
+        if config.path
+        else default_classifier_path(world, world_kwargs, camera_spec)
+    )
+    if config.path is None and not path.exists():
+        log(f"no cached classifier for this camera: training one ({path})")
+        _train_classifier_on_the_fly(
+            path, config, world=world, world_kwargs=world_kwargs, progress=progress, log=log
+        )
+    return load_classifier(path, fluent_names=fluent_names, camera_spec=camera_spec)
+
+
+def _train_classifier_on_the_fly(
+    path: Path,
+    config: DetectorConfig,
+    *,
+    world: str,
+    world_kwargs: Mapping[str, Any],
+    progress: bool,
+    log: Callable[[str], None],
+) -> None:
+    from noisybolt.perception.dataset import collect_samples
+    from noisybolt.perception.training import TrainingConfig, train_classifier
+
+    collector = make_world(world, num_envs=16, seed=config.seed, **world_kwargs)
+    dataset = collect_samples(
+        collector, num_samples=config.samples, seed=config.seed, progress=progress
+    )
+    result = train_classifier(
+        dataset,
+        training=TrainingConfig(epochs=config.epochs, seed=config.seed),
+        progress=progress,
+    )
+    result.detector.save(path)
+    log(f"classifier trained: {result.summary() if hasattr(result, 'summary') else path}")
+
+
+# ---------------------------------------------------------------------- environments
+def build_bolted_env(
+    config: TrainConfig,
+    detector: FluentDetector,
+    *,
+    n_envs: int,
+    seed: int,
+    dfas: Sequence[Any] | None = None,
+) -> BoltVecEnv:
+    """The world as an SB3 ``VecEnv``, monitored, with the bolt on top."""
+    from noisybolt.envs import SB3VecEnv
+
+    world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_kwargs)
+    venv = VecMonitor(SB3VecEnv(world))
+    return BoltVecEnv(
+        venv,
+        config.spec_objects(),
+        detector,
+        world=world,
+        dfas=dfas,
+        thresholds=Thresholds(**config.thresholds),
+        cost_mode=config.cost_mode,  # type: ignore[arg-type]
+    )
+
+
+def _check_specs_against_world(config: TrainConfig, fluent_names: Sequence[str]) -> list[Any]:
+    """Compiles every spec over the world's fluents (errors list the world's fluents)."""
+    return [compile_ltlf(spec.formula, fluent_names) for spec in config.spec_objects()]
+
+
+# ---------------------------------------------------------------------- checkpoints
+def _save_model_files(model: BaseAlgorithm, env: VecEnv, folder: Path) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    with atomic_open(folder / "model.zip", "wb") as handle:
+        model.save(handle)
+    if isinstance(env, VecNormalize):
+        with atomic_open(folder / "vecnormalize.pkl", "wb") as handle:
+            import pickle
+
+            pickle.dump(env, handle)
+
+
+def _save_checkpoint(model: BaseAlgorithm, env: VecEnv, run: RunDirectory, state: dict[str, Any]) -> None:
+    """Writes a complete checkpoint folder, then points ``latest.json`` at it."""
+    root = run.file("checkpoints")
+    folder = root / f"step_{model.num_timesteps:012d}"
+    _save_model_files(model, env, folder)
+    if hasattr(model, "replay_buffer") and getattr(model, "replay_buffer", None) is not None:
+        tmp = folder / "replay_buffer.pkl.tmp"
+        model.save_replay_buffer(tmp)  # type: ignore[attr-defined]
+        os.replace(tmp, folder / "replay_buffer.pkl")
+    atomic_write_json(folder / "state.json", state)
+    atomic_write_json(root / "latest.json", {"folder": folder.name, "frames": model.num_timesteps})
+    for old in root.glob("step_*"):
+        if old.is_dir() and old.name != folder.name:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def _latest_checkpoint(run: RunDirectory) -> Path | None:
+    pointer = run.file("checkpoints") / "latest.json"
+    if not pointer.exists():
+        return None
+    folder = run.file("checkpoints") / json.loads(pointer.read_text())["folder"]
+    return folder if (folder / "model.zip").exists() else None
+
+
+# ---------------------------------------------------------------------- callbacks
+class _BoltCallback(BaseCallback):
+    """Periodic evaluation (compliance from ground truth) and atomic checkpoints."""
+
+    def __init__(
+        self,
+        *,
+        config: TrainConfig,
+        run: RunDirectory,
+        eval_env: BoltVecEnv,
+        spec_names: Sequence[str],
+        history: list[dict[str, Any]],
+        frames_to_comply: int | None,
+    ) -> None:
+        super().__init__(verbose=0)
+        self.config = config
+        self.run = run
+        self.eval_env = eval_env
+        self.spec_names = list(spec_names)
+        self.history = history
+        self.frames_to_comply = frames_to_comply
+        self._next_eval = self._next_ckpt = 0
+
+    def _init_callback(self) -> None:
+        done = self.model.num_timesteps
+        self._next_eval = _next_multiple(done, self.config.eval_freq)
+        self._next_ckpt = _next_multiple(done, self.config.checkpoint_freq)
+
+    def evaluate(self) -> EvalResult:
+        """Evaluates the current policy and records it (metrics.json, TensorBoard)."""
+        model = self.model
+        deterministic = self.config.eval_deterministic
+        result = evaluate_bolted_policy(
+            lambda obs: model.predict(obs, deterministic=deterministic)[0],
+            self.eval_env,
+            n_episodes=self.config.eval_episodes,
+            spec_names=self.spec_names,
+        )
+        frames = int(model.num_timesteps)
+        if self.frames_to_comply is None and result.success_rate >= self.config.success_threshold:
+            self.frames_to_comply = frames
+        record = {"frames": frames, **result.to_dict()}
+        self.history.append(record)
+        self.run.write_metrics(self.history)
+        for key in ("env_return_mean", "length_mean", "goal_rate", "success_rate"):
+            model.logger.record(f"eval/{key}", getattr(result, key))
+        for name, rate in result.compliance.items():
+            model.logger.record(f"eval/compliance/{name}", rate)
+        return result
+
+    def checkpoint(self) -> None:
+        """Saves a complete checkpoint."""
+        env = self.model.get_env()
+        assert env is not None
+        state = {"frames_to_comply": self.frames_to_comply, "history": self.history}
+        _save_checkpoint(self.model, env, self.run, state)
+
+    def _on_step(self) -> bool:
+        frames = self.model.num_timesteps
+        if self.config.eval_freq and frames >= self._next_eval:
+            self.evaluate()
+            self._next_eval = _next_multiple(frames, self.config.eval_freq)
+        if self.config.checkpoint_freq and frames >= self._next_ckpt:
+            self.checkpoint()
+            self._next_ckpt = _next_multiple(frames, self.config.checkpoint_freq)
+        return True
+
+
+def _next_multiple(value: int, step: int) -> int:
+    return (value // step + 1) * step if step else 0
+
+
+# ---------------------------------------------------------------------- training
+def _make_model(
+    config: TrainConfig, env: VecEnv, run: RunDirectory
+) -> BaseAlgorithm:
+    params = {k: v for k, v in config.hyperparams.items() if k not in META_KEYS}
+    policy_kwargs = dict(params.pop("policy_kwargs", {}) or {})
+    extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", {}) or {})
+    if config.hyperparams.get("image_features") is not None:
+        extractor_kwargs["image_features"] = int(config.hyperparams["image_features"])
+    policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
+    policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
+    cls = algorithm_class(config.algo)
+    return cls(
+        "MultiInputPolicy",
+        env,
+        policy_kwargs=policy_kwargs,
+        seed=config.seed,
+        verbose=0,
+        device="cpu",
+        tensorboard_log=str(run.file("tensorboard")),
+        **params,
+    )
+
+
+def train(
+    config: TrainConfig,
+    run_dir: str | os.PathLike[str],
+    *,
+    resume: bool = False,
+    argv: Sequence[str] | None = None,
+    log: Callable[[str], None] = print,
+) -> TrainResult:
+    """Trains (or resumes) a bolted agent; see the module docstring for the run directory.
+
+    Raises:
+        ConfigError: ``resume`` on a directory whose config differs (the message names the
+            differing keys), or a fresh run into a directory that already holds one.
+        UnknownFluentError: a spec names a fluent the world does not have.
+        IncompatibleError: the detector's fluents or camera differ from the world's.
+    """
+    torch.set_num_threads(1)
+    run = RunDirectory(run_dir)
+    if resume:
+        run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS)
+    elif run.exists():
+        raise ConfigError(
+            f"{run.path} already holds a run; pass --resume to continue it or choose another "
+            "directory"
+        )
+
+    probe = make_world(config.world, num_envs=1, seed=config.seed, **config.world_kwargs)
+    fluents = tuple(probe.fluent_names)
+    dfas = _check_specs_against_world(config, fluents)
+    detector = make_detector(
+        config.detector,
+        world=config.world,
+        world_kwargs=config.world_kwargs,
+        fluent_names=fluents,
+        camera_spec=probe.camera_spec,
+        progress=config.progress_bar,
+        log=log,
+    )
+    run.path.mkdir(parents=True, exist_ok=True)
+    run.write_config(config.to_dict())
+    run.write_command(argv)
+
+    env: VecEnv = build_bolted_env(config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas)
+    if config.hyperparams.get("normalize_reward"):
+        env = VecNormalize(env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99))
+    eval_env = build_bolted_env(
+        config, detector, n_envs=config.eval_envs, seed=config.seed + 10_000, dfas=dfas
+    )
+
+    history: list[dict[str, Any]] = []
+    frames_to_comply: int | None = None
+    checkpoint = _latest_checkpoint(run) if resume else None
+    if checkpoint is not None:
+        if isinstance(env, VecNormalize) and (checkpoint / "vecnormalize.pkl").exists():
+            env = VecNormalize.load(str(checkpoint / "vecnormalize.pkl"), env.venv)
+        model = algorithm_class(config.algo).load(
+            checkpoint / "model.zip", env=env, device="cpu"
+        )
+        if (checkpoint / "replay_buffer.pkl").exists():
+            model.load_replay_buffer(checkpoint / "replay_buffer.pkl")  # type: ignore[attr-defined]
+        state = json.loads((checkpoint / "state.json").read_text())
+        history = list(state.get("history", []))
+        frames_to_comply = state.get("frames_to_comply")
+        log(f"resuming {run.path} from {model.num_timesteps} frames")
+    else:
+        model = _make_model(config, env, run)
+
+    spec_names = [s.name for s in config.spec_objects()]
+    callback = _BoltCallback(
+        config=config,
+        run=run,
+        eval_env=eval_env,
+        spec_names=spec_names,
+        history=history,
+        frames_to_comply=frames_to_comply,
+    )
+    remaining = config.frames - model.num_timesteps
+    if remaining > 0:
+        model.learn(
+            total_timesteps=remaining,
+            callback=CallbackList([callback]),
+            reset_num_timesteps=checkpoint is None,
+            progress_bar=config.progress_bar,
+            tb_log_name="run",
+        )
+    callback.init_callback(model)
+    final = callback.evaluate() if not history or history[-1]["frames"] != model.num_timesteps else None
+    if final is None:
+        final = _result_from_record(history[-1], spec_names)
+    callback.checkpoint()
+    _save_model_files(model, env, run.path)
+    summary = {
+        "frames": int(model.num_timesteps),
+        "frames_to_comply": callback.frames_to_comply,
+        "final": final.to_dict(),
+    }
+    atomic_write_json(run.file("summary.json"), summary)
+    return TrainResult(
+        run_dir=run.path,
+        frames=int(model.num_timesteps),
+        final=final,
+        frames_to_comply=callback.frames_to_comply,
+        history=tuple(history),
+    )
+
+
+def _result_from_record(record: Mapping[str, Any], spec_names: Sequence[str]) -> EvalResult:
+    fields = {k: v for k, v in record.items() if k in EvalResult.__dataclass_fields__}
+    return EvalResult(**fields)
+
+
+def spec_fingerprint(specs: Sequence[Spec]) -> str:
+    """A short stable hash of specs (for cache keys and run names)."""
+    text = json.dumps([asdict(s) for s in specs], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+_ = np  # numpy is used by callers through this module's types

@@ -1,0 +1,181 @@
+"""``noisybolt train`` and ``noisybolt evaluate``: bolted agents with Stable-Baselines3."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+from typing import Any
+
+from noisybolt.errors import ConfigError
+
+__all__ = ["format_eval_table", "parse_frames", "register"]
+
+_SUFFIX = {"": 1, "k": 1_000, "m": 1_000_000}
+
+
+def parse_frames(text: str) -> int:
+    """Reads frame counts such as ``100000``, ``100k``, ``1.5m``.
+
+    Example:
+        >>> parse_frames("100k"), parse_frames("1.5M"), parse_frames("2500")
+        (100000, 1500000, 2500)
+    """
+    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([kKmM]?)\s*", text)
+    if not match:
+        raise argparse.ArgumentTypeError(f"not a frame count: {text!r} (e.g. 100k, 1.5m, 2500)")
+    value = float(match.group(1)) * _SUFFIX[match.group(2).lower()]
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"frame count must be >= 1, got {text!r}")
+    return int(value)
+
+
+def register(subparsers: Any) -> None:
+    """Adds ``noisybolt train`` and ``noisybolt evaluate``."""
+    train = subparsers.add_parser(
+        "train",
+        help="train an agent under a restraining bolt",
+        description="Train PPO, A2C or DQN on a world under the bolt's LTLf specs.",
+    )
+    train.add_argument("--world", default="gridworld", help="world name (default gridworld)")
+    train.add_argument(
+        "--spec",
+        action="append",
+        default=[],
+        metavar="NAME|FORMULA",
+        help="a built-in spec name (edge, avoid_top_right, top_right_once, one_corner_once, "
+        "clear_left_column) or an LTLf formula over the world's fluents; repeat for several",
+    )
+    train.add_argument("--algo", default="ppo", help="ppo, a2c or dqn (default ppo)")
+    train.add_argument(
+        "--detector",
+        default="classifier",
+        help="classifier (trained CNN, default), oracle (ground truth) or synthetic",
+    )
+    train.add_argument("--classifier", type=Path, help="classifier file (default: cached or trained)")
+    train.add_argument(
+        "--low-confidence",
+        action="append",
+        default=[],
+        metavar="FLUENT",
+        help="fluents the synthetic detector sees with low confidence",
+    )
+    train.add_argument("--noise", default=None, help="the bolt camera's noise (world default if unset)")
+    train.add_argument("--obs-mode", default=None, help="the agent's observation (gridworld: grid, view, rgb)")
+    train.add_argument("--frames", type=parse_frames, default=100_000, help="e.g. 100k (default)")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--n-envs", type=int, default=None, help="training environments")
+    train.add_argument("--hp", action="append", default=[], metavar="KEY=VALUE",
+                       help="hyperparameter override, e.g. --hp learning_rate=3e-4")
+    train.add_argument("--eval-freq", type=parse_frames, default=10_000)
+    train.add_argument("--eval-episodes", type=int, default=20)
+    train.add_argument("--checkpoint-freq", type=parse_frames, default=20_000)
+    train.add_argument("--cost-mode", default="count", help="count (paper) or proportional")
+    train.add_argument("--unbolted", action="store_true",
+                       help="train without the bolt's rewards (compliance still measured)")
+    train.add_argument("--out", type=Path, default=None, help="run directory (default runs/...)")
+    train.add_argument("--resume", action="store_true", help="continue the run in --out")
+    train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.set_defaults(func=_train)
+
+    evaluate = subparsers.add_parser(
+        "evaluate",
+        help="evaluate a trained run: returns, goal rate, compliance from ground truth",
+    )
+    evaluate.add_argument("run_dir", type=Path)
+    evaluate.add_argument("--episodes", type=int, default=50)
+    evaluate.add_argument("--seed", type=int, default=12345)
+    evaluate.add_argument("--stochastic", action="store_true", help="sample actions")
+    evaluate.add_argument("--gif", type=Path, default=None, help="save one episode as a GIF")
+    evaluate.add_argument("--heatmap", type=Path, default=None, help="save a trajectory heat-map")
+    evaluate.set_defaults(func=_evaluate)
+
+
+def _world_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    kwargs: dict[str, Any] = {}
+    if args.noise is not None:
+        kwargs["noise"] = args.noise
+    if args.obs_mode is not None:
+        kwargs["obs_mode"] = args.obs_mode
+    return kwargs
+
+
+def _train(args: argparse.Namespace) -> int:
+    from noisybolt.agents.hyperparams import parse_overrides
+    from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+
+    if not args.spec:
+        raise ConfigError("give at least one --spec (a built-in name or an LTLf formula)")
+    detector = DetectorConfig(
+        kind=args.detector,
+        path=str(args.classifier) if args.classifier else None,
+        low_confidence=tuple(args.low_confidence),
+        seed=args.seed,
+    )
+    config = TrainConfig.create(
+        world=args.world,
+        specs=args.spec,
+        algo=args.algo,
+        overrides=parse_overrides(args.hp),
+        n_envs=args.n_envs,
+        world_kwargs=_world_kwargs(args),
+        detector=detector,
+        frames=args.frames,
+        seed=args.seed,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        checkpoint_freq=args.checkpoint_freq,
+        cost_mode=args.cost_mode,
+        bolted=not args.unbolted,
+        progress_bar=not args.no_progress,
+    )
+    out = args.out or Path("runs") / f"{args.world}-{args.algo}-seed{args.seed}"
+    if args.resume and not (out / "config.json").exists():
+        raise ConfigError(f"--resume: {out} holds no run to continue")
+    result = train(config, out, resume=args.resume)
+    print(format_eval_table(result.final.to_dict(), frames=result.frames,
+                            frames_to_comply=result.frames_to_comply))
+    print(f"\nrun directory: {result.run_dir}")
+    return 0
+
+
+def format_eval_table(
+    final: dict[str, Any], *, frames: int | None = None, frames_to_comply: int | None = None
+) -> str:
+    """A plain-text table of an evaluation (the one ``train`` and ``evaluate`` print)."""
+    rows = [
+        ("episodes", f"{final['n_episodes']}"),
+        ("env return R_pi", f"{final['env_return_mean']:.2f} ± {final['env_return_std']:.2f}"),
+        ("bolt return (shaping, apart)", f"{final['bolt_return_mean']:.2f}"),
+        ("episode length N_steps", f"{final['length_mean']:.1f}"),
+        ("goal rate", f"{final['goal_rate']:.0%}"),
+    ]
+    for name, rate in final["compliance"].items():
+        rows.append((f"compliance [{name}]", f"{rate:.0%}"))
+    rows.append(("goal and compliant", f"{final['success_rate']:.0%}"))
+    if frames is not None:
+        rows.append(("frames trained", f"{frames:,}"))
+    if frames is not None or frames_to_comply is not None:
+        rows.append(
+            ("N_frames (first >= 95% compliant at goal)",
+             f"{frames_to_comply:,}" if frames_to_comply is not None else "not reached")
+        )
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from noisybolt.agents.run_evaluation import evaluate_run
+
+    report = evaluate_run(
+        args.run_dir,
+        episodes=args.episodes,
+        seed=args.seed,
+        deterministic=not args.stochastic,
+        gif=args.gif,
+        heatmap=args.heatmap,
+    )
+    print(format_eval_table(report.result.to_dict()))
+    for label, path in report.files.items():
+        print(f"{label}: {path}")
+    return 0
