@@ -1,0 +1,155 @@
+"""``noisybolt evaluate RUN_DIR``: a saved run's policy, evaluated from ground truth.
+
+Loads the run's resolved config and final model (or its latest checkpoint), rebuilds the
+same bolted world and detector, runs K episodes, and writes ``evaluation.json`` beside the
+run's results. Optionally saves one episode as a GIF (the world, the bolt's noisy view,
+the DFA states and fluent probabilities per step) and a trajectory heat-map.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+from stable_baselines3.common.base_class import BaseAlgorithm
+
+from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
+from noisybolt.agents.hyperparams import algorithm_class
+from noisybolt.agents.training import TrainConfig, build_bolted_env, make_detector
+from noisybolt.envs import make_world
+from noisybolt.errors import ConfigError
+from noisybolt.io import atomic_write_json
+from noisybolt.logic import compile_ltlf
+from noisybolt.perception.protocols import FluentDetector
+from noisybolt.rundir import RunDirectory
+
+__all__ = ["RunEvaluation", "evaluate_run", "load_run_model"]
+
+
+@dataclass(frozen=True)
+class RunEvaluation:
+    """The evaluation of a run and the files it wrote (label → path)."""
+
+    result: EvalResult
+    files: dict[str, Path] = field(default_factory=dict)
+
+
+def load_run_model(run: RunDirectory, config: TrainConfig) -> BaseAlgorithm:
+    """The run's final model, or its latest checkpoint when it did not finish."""
+    path = run.file("model.zip")
+    if not path.exists():
+        pointer = run.file("checkpoints") / "latest.json"
+        if not pointer.exists():
+            raise ConfigError(f"{run.path} holds neither model.zip nor a checkpoint")
+        path = run.file("checkpoints") / json.loads(pointer.read_text())["folder"] / "model.zip"
+    return algorithm_class(config.algo).load(path, device="cpu")
+
+
+def _single_env(config: TrainConfig) -> Any:
+    """One (non-vectorised) environment of the run's world, for recordings."""
+    if config.world != "gridworld":
+        raise ConfigError(f"GIFs and heat-maps are drawn for the gridworld, not {config.world!r}")
+    from noisybolt.envs.gridworld import GridworldEnv
+
+    return GridworldEnv(**dict(config.world_kwargs))
+
+
+def _recordings(
+    config: TrainConfig,
+    detector: FluentDetector,
+    model: BaseAlgorithm,
+    *,
+    episodes: int,
+    seed: int,
+    deterministic: bool,
+) -> list[Any]:
+    from noisybolt.agents.visualize import policy_from_model, record_episode
+    from noisybolt.wrappers import RestrainingBoltWrapper
+
+    env = RestrainingBoltWrapper(_single_env(config), config.spec_objects(), detector)
+    policy = policy_from_model(model, deterministic=deterministic)
+    return [record_episode(env, policy, seed=seed + i) for i in range(episodes)]
+
+
+def evaluate_run(
+    run_dir: str | os.PathLike[str],
+    *,
+    episodes: int = 50,
+    seed: int = 12345,
+    deterministic: bool | None = None,
+    gif: str | os.PathLike[str] | None = None,
+    heatmap: str | os.PathLike[str] | None = None,
+    heatmap_episodes: int = 30,
+    overrides: Mapping[str, Any] | None = None,
+) -> RunEvaluation:
+    """Evaluates a saved run (see the module docstring).
+
+    Args:
+        run_dir: the run directory written by :func:`noisybolt.agents.training.train`.
+        episodes: evaluation episodes K.
+        seed: seeds the evaluation world.
+        deterministic: greedy actions; None uses the run's ``eval_deterministic``.
+        gif: where to save one recorded episode (gridworld), or None.
+        heatmap: where to save the trajectory heat-map (gridworld), or None.
+        heatmap_episodes: episodes drawn in the heat-map.
+        overrides: config fields to change for this evaluation only (e.g. another
+            ``world_kwargs`` to test the policy under other noise).
+    """
+    torch.set_num_threads(1)
+    run = RunDirectory(run_dir)
+    data = run.read_config()
+    data.update(overrides or {})
+    config = TrainConfig.from_dict(data)
+    if deterministic is None:
+        deterministic = config.eval_deterministic
+    probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
+    fluents = tuple(probe.fluent_names)
+    dfas = [compile_ltlf(s.formula, fluents) for s in config.spec_objects()]
+    detector = make_detector(
+        config.detector,
+        world=config.world,
+        world_kwargs=config.world_kwargs,
+        fluent_names=fluents,
+        camera_spec=probe.camera_spec,
+        progress=False,
+    )
+    model = load_run_model(run, config)
+    env = build_bolted_env(config, detector, n_envs=min(8, episodes), seed=seed, dfas=dfas)
+    result = evaluate_bolted_policy(
+        lambda obs: model.predict(obs, deterministic=deterministic)[0],
+        env,
+        n_episodes=episodes,
+        spec_names=[s.name for s in config.spec_objects()],
+    )
+    files: dict[str, Path] = {}
+    out = run.file("evaluation.json")
+    atomic_write_json(
+        out,
+        {"episodes": episodes, "seed": seed, "deterministic": deterministic, **result.to_dict()},
+    )
+    files["evaluation"] = out
+    if gif is not None or heatmap is not None:
+        from noisybolt.agents.visualize import save_episode_gif, trajectory_heatmap
+
+        count = max(1, heatmap_episodes if heatmap is not None else 1)
+        recordings = _recordings(
+            config, detector, model, episodes=count, seed=seed, deterministic=deterministic
+        )
+        if gif is not None:
+            files["gif"] = save_episode_gif(
+                recordings[0], gif, action_names=["left", "right", "forward", "no-op"]
+            )
+        if heatmap is not None:
+            size = int(config.world_kwargs.get("size", 6))
+            files["heatmap"] = trajectory_heatmap(
+                [r.positions.tolist() for r in recordings if r.positions is not None],
+                size=size,
+                path=heatmap,
+                title=f"{config.algo.upper()} under {', '.join(s.name for s in config.spec_objects())}",
+            )
+    return RunEvaluation(result=result, files=files)
