@@ -34,6 +34,8 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
+from functools import lru_cache
+from statistics import NormalDist
 from typing import Any, ClassVar, TypeAlias
 
 import numpy as np
@@ -54,6 +56,7 @@ __all__ = [
     "known_noises",
     "make_noise",
     "parse_noise",
+    "standard_normal",
 ]
 
 #: Anything :func:`make_noise` accepts.
@@ -123,6 +126,38 @@ def _to_uint8(values: np.ndarray) -> np.ndarray:
     return values.astype(np.uint8)
 
 
+@lru_cache(maxsize=1)
+def _normal_quantiles() -> np.ndarray:
+    """The 65536 standard-normal quantiles ``Phi^-1((k + 0.5) / 65536)``, float32."""
+    inv_cdf = NormalDist().inv_cdf
+    table = np.array([inv_cdf((k + 0.5) / 65536) for k in range(65536)], dtype=np.float32)
+    table.setflags(write=False)
+    return table
+
+
+@lru_cache(maxsize=64)
+def _rounded_quantiles(sigma: float) -> np.ndarray:
+    """``round(sigma * quantiles)`` as int16: integer pixel noise of spread ``sigma``."""
+    table = np.rint(sigma * _normal_quantiles().astype(np.float64)).astype(np.int16)
+    table.setflags(write=False)
+    return table
+
+
+def _uniform16(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    count = math.prod(shape)
+    return np.frombuffer(rng.bytes(2 * count), dtype=np.uint16).reshape(shape)
+
+
+def standard_normal(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """Fast standard-normal float32 draws by inverse-CDF lookup of 16-bit uniforms.
+
+    Each value is one of 65536 exact Gaussian quantiles (tails cut at about 4.3 sigma);
+    for pixel noise that is rounded to integers anyway this is indistinguishable from
+    ``rng.standard_normal`` and about four times faster here.
+    """
+    return np.take(_normal_quantiles(), _uniform16(rng, shape))
+
+
 @dataclass(frozen=True)
 class NoNoise(NoiseModel):
     """The identity: a perfect camera."""
@@ -150,12 +185,13 @@ class GaussianNoise(NoiseModel):
         object.__setattr__(self, "sigma", _number(self.name, "sigma", self.sigma, 0, 255))
 
     def apply(self, images: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Add ``N(0, sigma^2)`` per value, round and saturate."""
+        """Add ``N(0, sigma^2)`` per value (see :func:`standard_normal`), round, saturate."""
         _check_images(images)
-        values = rng.standard_normal(images.shape, dtype=np.float32)
-        values *= self.sigma
+        # round(x + sigma*z) == x + round(sigma*z) for integer x: integer arithmetic is exact.
+        values = np.take(_rounded_quantiles(self.sigma), _uniform16(rng, images.shape))
         values += images
-        return _to_uint8(values)
+        np.clip(values, 0, 255, out=values)
+        return values.astype(np.uint8)
 
 
 @dataclass(frozen=True)
@@ -188,31 +224,34 @@ class SaltPepperNoise(NoiseModel):
         return out
 
 
-def _gaussian_kernel(sigma: float) -> np.ndarray:
+@lru_cache(maxsize=64)
+def _blur_matrix(length: int, sigma: float) -> np.ndarray:
+    """``[length, length]`` matrix of a Gaussian blur along one axis, edges repeated."""
     radius = max(1, math.ceil(3.0 * sigma))
-    offsets = np.arange(-radius, radius + 1, dtype=np.float32)
-    kernel = np.exp(-(offsets**2) / (2.0 * sigma**2))
-    return (kernel / kernel.sum()).astype(np.float32)
-
-
-def _blur_axis(values: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
-    radius = len(kernel) // 2
-    pad = [(0, 0)] * values.ndim
-    pad[axis] = (radius, radius)
-    padded = np.pad(values, pad, mode="edge")
-    length = values.shape[axis]
-    out = np.zeros_like(values)
-    for k, weight in enumerate(kernel):
-        out += weight * np.take(padded, np.arange(k, k + length), axis=axis)
+    offsets = np.arange(-radius, radius + 1)
+    kernel = np.exp(-(offsets.astype(np.float64) ** 2) / (2.0 * sigma**2))
+    kernel /= kernel.sum()
+    matrix = np.zeros((length, length), dtype=np.float64)
+    rows = np.repeat(np.arange(length), len(offsets))
+    cols = np.clip(np.arange(length)[:, None] + offsets[None, :], 0, length - 1).ravel()
+    np.add.at(matrix, (rows, cols), np.tile(kernel, length))
+    out = matrix.astype(np.float32)
+    out.setflags(write=False)
     return out
 
 
 def gaussian_blur(values: np.ndarray, sigma: float) -> np.ndarray:
-    """Separable Gaussian blur of float ``[n, H, W, C]`` over H and W (edges repeated)."""
+    """Separable Gaussian blur of float ``[n, H, W, C]`` over H and W (edges repeated).
+
+    Done as two small matrix products per image and channel, which BLAS runs far faster
+    than a loop of shifted adds.
+    """
     if sigma <= 0:
         return values.copy()
-    kernel = _gaussian_kernel(sigma)
-    return _blur_axis(_blur_axis(values, kernel, 1), kernel, 2)
+    _, h, w, _ = values.shape
+    planes = values.transpose(0, 3, 1, 2)  # [n, C, H, W]
+    blurred = np.matmul(np.matmul(_blur_matrix(h, sigma), planes), _blur_matrix(w, sigma).T)
+    return np.ascontiguousarray(blurred.transpose(0, 2, 3, 1), dtype=np.float32)
 
 
 @dataclass(frozen=True)
@@ -311,12 +350,14 @@ def _boxes(model: str, boxes: Any) -> tuple[tuple[float, float, float, float], .
 def _displace(patch: np.ndarray, shift: float, rng: np.random.Generator) -> np.ndarray:
     """Roll each patch circularly along its longer side by a random number of pixels."""
     n, h, w, _ = patch.shape
-    axis, length = (2, w) if w >= h else (1, h)
+    along_width = w >= h
+    length = w if along_width else h
     steps = rng.integers(0, max(1, round(shift * length)), size=n)
     index = (np.arange(length)[None, :] - steps[:, None]) % length
-    shape = [n, 1, 1, 1]
-    shape[axis] = length
-    return np.take_along_axis(patch, index.reshape(shape), axis=axis)
+    images = np.arange(n)[:, None]
+    if along_width:  # advanced indices split by a slice come first: [n, w, h, c]
+        return np.ascontiguousarray(patch[images, :, index].transpose(0, 2, 1, 3))
+    return patch[images, index]
 
 
 @dataclass(frozen=True)
@@ -401,9 +442,10 @@ class RegionalDegradation(NoiseModel):
             mean = smudge.mean(axis=(1, 2), keepdims=True)
             smudge = mean + self.contrast * (smudge - mean)
             if self.sigma > 0:
-                smudge += self.sigma * rng.standard_normal(patch.shape, dtype=np.float32)
-            mixed = (1.0 - self.strength) * clean + self.strength * smudge
-            out[:, r0:r1, c0:c1] = _to_uint8(mixed)
+                smudge += self.sigma * standard_normal(rng, patch.shape)
+            if self.strength < 1.0:
+                smudge = (1.0 - self.strength) * clean + self.strength * smudge
+            out[:, r0:r1, c0:c1] = _to_uint8(smudge)
         return out
 
 
