@@ -40,7 +40,7 @@ from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperp
 from noisybolt.agents.specs import resolve_spec
 from noisybolt.bolt import COST_MODES, Spec, Thresholds
 from noisybolt.envs import known_worlds, make_world
-from noisybolt.errors import ConfigError, UnknownNameError
+from noisybolt.errors import ConfigError, UnknownFluentError, UnknownNameError
 from noisybolt.io import atomic_open, atomic_write_json
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.protocols import FluentDetector
@@ -340,7 +340,18 @@ def build_bolted_env(
 
 def _check_specs_against_world(config: TrainConfig, fluent_names: Sequence[str]) -> list[Any]:
     """Compiles every spec over the world's fluents (errors list the world's fluents)."""
-    return [compile_ltlf(spec.formula, fluent_names) for spec in config.spec_objects()]
+    dfas = []
+    for spec in config.spec_objects():
+        try:
+            dfas.append(compile_ltlf(spec.formula, fluent_names))
+        except UnknownFluentError as error:
+            raise UnknownFluentError(
+                f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the "
+                f"{config.world} does not have; this world's fluents are {list(fluent_names)}",
+                unknown=error.unknown,
+                known=tuple(fluent_names),
+            ) from None
+    return dfas
 
 
 # ---------------------------------------------------------------------- checkpoints

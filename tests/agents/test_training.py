@@ -1,0 +1,179 @@
+"""Training runs: run directory, atomic checkpoints, kill-and-resume, bad input, learning."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+from noisybolt.cli import main
+from noisybolt.errors import ConfigError, IncompatibleError, UnknownFluentError, UnknownNameError
+
+
+def _config(**kwargs: object) -> TrainConfig:
+    defaults: dict[str, object] = {
+        "specs": ["edge"],
+        "detector": DetectorConfig(kind="oracle"),
+        "frames": 2048,
+        "eval_freq": 1024,
+        "eval_episodes": 4,
+        "checkpoint_freq": 1024,
+        "progress_bar": False,
+        "overrides": {"n_steps": 64},
+    }
+    defaults.update(kwargs)
+    return TrainConfig.create(**defaults)  # type: ignore[arg-type]
+
+
+def _quiet(_: str) -> None:
+    pass
+
+
+def test_run_directory_holds_config_command_metrics_model_and_checkpoint(tmp_path: Path) -> None:
+    result = train(_config(), tmp_path / "run", argv=["noisybolt", "train", "--x"], log=_quiet)
+    run = tmp_path / "run"
+    config = json.loads((run / "config.json").read_text())
+    assert config["specs"][0]["formula"] == "G(on_edge)"
+    assert config["hyperparams"]["n_steps"] == 64
+    assert (run / "command.txt").read_text() == "noisybolt train --x\n"
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert [m["frames"] for m in metrics] == [1024, 2048]
+    assert (run / "model.zip").exists()
+    latest = json.loads((run / "checkpoints" / "latest.json").read_text())
+    assert latest["frames"] == 2048
+    assert (run / "checkpoints" / latest["folder"] / "model.zip").exists()
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["frames"] == result.frames == 2048
+    assert set(summary["final"]["compliance"]) == {"edge"}
+    assert not list(run.rglob("*.tmp"))
+
+
+def test_training_twice_with_one_seed_gives_the_same_metrics(tmp_path: Path) -> None:
+    first = train(_config(), tmp_path / "a", log=_quiet)
+    second = train(_config(), tmp_path / "b", log=_quiet)
+    assert first.history == second.history
+
+
+def test_fresh_run_refuses_a_directory_that_holds_one(tmp_path: Path) -> None:
+    train(_config(frames=1024), tmp_path / "run", log=_quiet)
+    with pytest.raises(ConfigError, match="--resume"):
+        train(_config(frames=1024), tmp_path / "run", log=_quiet)
+
+
+def test_resume_with_another_config_names_the_differing_keys(tmp_path: Path) -> None:
+    train(_config(frames=1024), tmp_path / "run", log=_quiet)
+    with pytest.raises(ConfigError, match=r"\['algo', 'hyperparams\.") as info:
+        train(_config(frames=2048, algo="a2c", overrides={}), tmp_path / "run", resume=True)
+    assert "seed" not in str(info.value).split("(")[0]
+
+
+def test_resume_continues_a_finished_run_to_a_larger_budget(tmp_path: Path) -> None:
+    train(_config(frames=1024), tmp_path / "run", log=_quiet)
+    result = train(_config(frames=2048), tmp_path / "run", resume=True, log=_quiet)
+    assert result.frames == 2048
+    assert [h["frames"] for h in result.history] == [1024, 2048]
+
+
+def test_killed_run_resumes_from_its_last_complete_checkpoint(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    argv = [
+        sys.executable, "-m", "noisybolt", "train", "--spec", "edge", "--detector", "oracle",
+        "--frames", "200k", "--checkpoint-freq", "1024", "--eval-freq", "2048",
+        "--eval-episodes", "2", "--hp", "n_steps=64", "--no-progress", "--out", str(run),
+    ]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    latest = run / "checkpoints" / "latest.json"
+    deadline = time.monotonic() + 120
+    try:
+        while time.monotonic() < deadline:
+            if latest.exists() and json.loads(latest.read_text())["frames"] >= 3072:
+                break
+            assert proc.poll() is None, proc.stderr.read().decode() if proc.stderr else ""
+            time.sleep(0.2)
+        else:
+            pytest.fail("no checkpoint within 120 s")
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    saved = json.loads(latest.read_text())["frames"]
+    config = TrainConfig.from_dict(json.loads((run / "config.json").read_text()))
+    # Every file the killed run left is complete: the config parses, the metrics parse.
+    json.loads((run / "metrics.json").read_text())
+    result = train(
+        TrainConfig.from_dict({**config.to_dict(), "frames": saved + 2048}),
+        run,
+        resume=True,
+        log=_quiet,
+    )
+    assert result.frames == saved + 2048
+    frames = [h["frames"] for h in result.history]
+    assert frames == sorted(frames) and frames[-1] == saved + 2048
+
+
+def test_spec_over_unknown_fluent_fails_before_anything_is_written(tmp_path: Path) -> None:
+    with pytest.raises(UnknownFluentError, match="on_edge"):
+        train(_config(specs=["F(lava)"]), tmp_path / "run", log=_quiet)
+    assert not (tmp_path / "run").exists()
+
+
+def test_detector_for_other_fluents_is_refused(tmp_path: Path) -> None:
+    from noisybolt.envs import make_world
+    from noisybolt.perception.classifier import ClassifierDetector
+
+    camera = make_world("gridworld").camera_spec
+    other = ClassifierDetector.untrained(fluent_names=["on_edge", "lava"], camera_spec=camera)
+    other.save(tmp_path / "other.safetensors")
+    detector = DetectorConfig(kind="classifier", path=str(tmp_path / "other.safetensors"))
+    with pytest.raises(IncompatibleError):
+        train(_config(detector=detector), tmp_path / "run", log=_quiet)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"algo": "sac"}, UnknownNameError, "known algorithms"),
+        ({"world": "pong"}, UnknownNameError, "gridworld"),
+        ({"overrides": {"n_epoch": 2}}, ConfigError, "n_epochs"),
+        ({"detector": "camera"}, UnknownNameError, "oracle"),
+    ],
+)
+def test_unknown_names_are_named_errors(kwargs: dict, error: type, match: str) -> None:
+    if kwargs.get("detector") == "camera":
+        with pytest.raises(error, match=match):
+            DetectorConfig(kind="camera")
+        return
+    with pytest.raises(error, match=match):
+        _config(**kwargs)
+
+
+def test_cli_reports_bad_input_with_exit_code_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["train", "--spec", "F(lava)", "--detector", "oracle", "--out", str(tmp_path / "r")])
+    assert code == 2
+    assert "this world's fluents are" in capsys.readouterr().err
+    assert main(["train", "--spec", "edge", "--algo", "sac", "--out", str(tmp_path / "r")]) == 2
+
+
+def test_evaluate_command_prints_the_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    train(_config(frames=1024), tmp_path / "run", log=_quiet)
+    assert main(["evaluate", str(tmp_path / "run"), "--episodes", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "compliance [edge]" in out and "goal rate" in out
+    saved = json.loads((tmp_path / "run" / "evaluation.json").read_text())
+    assert saved["n_episodes"] == 4
+
+
+def test_ppo_with_the_oracle_learns_to_follow_the_edge_to_the_goal(tmp_path: Path) -> None:
+    config = _config(
+        frames=40_000, eval_freq=10_000, eval_episodes=20, checkpoint_freq=0, overrides={}
+    )
+    result = train(config, tmp_path / "run", log=_quiet)
+    assert result.final.goal_rate >= 0.9
+    assert result.final.compliance["edge"] >= 0.9
