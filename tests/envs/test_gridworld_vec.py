@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import inspect
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -264,3 +266,50 @@ def test_a_world_whose_module_is_missing_says_so() -> None:
         registry._WORLDS.pop("ghost")
     with pytest.raises(ConfigError, match="already registered"):
         registry.register_world("gridworld", VectorGridworld)
+
+
+def test_breakout_entry_point_resolves_to_its_factory() -> None:
+    pytest.importorskip("ale_py")
+    from noisybolt.envs import registry
+
+    factory = registry._resolve("breakout")
+    parameters = set(inspect.signature(factory).parameters)
+    assert {"num_envs", "seed", "noise", "obs_mode"} <= parameters
+
+
+def test_rgb_array_render_through_both_apis() -> None:
+    world = VectorGridworld(2, render_mode="rgb_array")
+    world.reset(seed=0)
+    frames = world.render()
+    assert frames is not None and len(frames) == 2 and frames[0].shape == (192, 192, 3)
+    env = GridworldEnv()
+    env.reset(seed=0)
+    assert np.array_equal(frames[0], env.get_frame(highlight=False, tile_size=32))
+    assert [f.shape for f in SB3VecEnv(world).get_images()] == [(192, 192, 3)] * 2
+    assert VectorGridworld(1).render() is None
+    with pytest.raises(ConfigError, match="render_mode"):
+        VectorGridworld(1, render_mode="human")
+
+
+@pytest.mark.parametrize(
+    "module",
+    [
+        "noisybolt.envs",
+        "noisybolt.envs.gridworld",
+        "noisybolt.envs.gridworld_vec",
+        "noisybolt.envs.sb3",
+        "noisybolt.envs.registry",
+    ],
+)
+def test_public_api_is_documented_and_examples_run(module: str) -> None:
+    import doctest
+    import importlib
+    import types
+
+    mod = importlib.import_module(module)
+    assert mod.__doc__
+    for name in mod.__all__:
+        obj = getattr(mod, name)
+        if isinstance(obj, type | types.FunctionType):
+            assert obj.__doc__, f"{module}.{name} has no docstring"
+    assert doctest.testmod(mod, optionflags=doctest.ELLIPSIS).failed == 0
