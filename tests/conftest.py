@@ -23,3 +23,13 @@ try:  # torch is heavy: only configure it when installed (always, with the dev e
     torch.set_num_threads(1)
 except ImportError:  # pragma: no cover
     pass
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_cache_dir(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Compiled DFAs and on-the-fly classifiers go to a temporary cache, not ~/.cache."""
+    if "NOISYBOLT_CACHE_DIR" not in os.environ:
+        os.environ["NOISYBOLT_CACHE_DIR"] = str(tmp_path_factory.mktemp("noisybolt-cache"))

@@ -33,7 +33,7 @@ def test_overrides_do_not_leak_into_the_builtin_table() -> None:
 
 
 def test_unknown_hyperparameter_lists_known_ones() -> None:
-    with pytest.raises(ConfigError, match="unknown hyperparameter 'n_epoch'.*n_epochs"):
+    with pytest.raises(ConfigError, match=r"unknown hyperparameter 'n_epoch'.*n_epochs"):
         load_hyperparams("gridworld", "ppo", {"n_epoch": 3})
 
 

@@ -8,6 +8,7 @@ as YAML, so ``net_arch=[32,32]`` is a list) and may reach into nested mappings w
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import inspect
 from collections.abc import Iterable, Mapping
@@ -76,17 +77,17 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
             raise ConfigError(f"cannot read the value of {item!r}: {error}") from None
         # YAML 1.1 reads "3e-4" as a string; accept the float a user meant.
         if isinstance(parsed, str):
-            try:
+            with contextlib.suppress(ValueError):
                 parsed = float(parsed)
-            except ValueError:
-                pass
         result[key.strip()] = parsed
     return result
 
 
 def _builtin(world: str) -> dict[str, Any]:
     files = resources.files("noisybolt.configs").joinpath("hyperparams")
-    known = sorted(p.name.removesuffix(".yaml") for p in files.iterdir() if p.name.endswith(".yaml"))
+    known = sorted(
+        p.name.removesuffix(".yaml") for p in files.iterdir() if p.name.endswith(".yaml")
+    )
     if world not in known:
         raise UnknownNameError(
             f"no hyperparameters for world {world!r}; known worlds: {known}",
@@ -119,9 +120,7 @@ def load_hyperparams(
     for key, value in (overrides or {}).items():
         head, *rest = key.split(".")
         if head not in known:
-            raise ConfigError(
-                f"unknown hyperparameter {head!r} for {algo}; known: {sorted(known)}"
-            )
+            raise ConfigError(f"unknown hyperparameter {head!r} for {algo}; known: {sorted(known)}")
         if not rest:
             params[head] = value
             continue
@@ -135,5 +134,7 @@ def load_hyperparams(
         node[rest[-1]] = value
     unknown = sorted(set(params) - known)
     if unknown:
-        raise ConfigError(f"built-in hyperparameters for {world}/{algo} have unknown keys {unknown}")
+        raise ConfigError(
+            f"built-in hyperparameters for {world}/{algo} have unknown keys {unknown}"
+        )
     return params

@@ -146,10 +146,11 @@ def evaluate_run(
             )
         if heatmap is not None:
             size = int(config.world_kwargs.get("size", 6))
+            names = [s.name for s in config.spec_objects()]
             files["heatmap"] = trajectory_heatmap(
                 [r.positions.tolist() for r in recordings if r.positions is not None],
                 size=size,
                 path=heatmap,
-                title=f"{config.algo.upper()} under {', '.join(s.name for s in config.spec_objects())}",
+                title=f"{config.algo.upper()} under {', '.join(names)}",
             )
     return RunEvaluation(result=result, files=files)

@@ -27,9 +27,7 @@ PAPER_SPECS: dict[str, str] = {
     "edge": "G(on_edge)",
     "avoid_top_right": f"!F({_T})",
     "top_right_once": f"F({_T} & X(!F({_T})))",
-    "one_corner_once": (
-        f"(F({_T} & X(!F({_T}))) & !F({_B})) | (F({_B} & X(!F({_B}))) & !F({_T}))"
-    ),
+    "one_corner_once": (f"(F({_T} & X(!F({_T}))) & !F({_B})) | (F({_B} & X(!F({_B}))) & !F({_T}))"),
     "clear_left_column": "F(brick_clear_left)",
 }
 

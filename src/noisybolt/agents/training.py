@@ -81,7 +81,7 @@ class DetectorConfig:
     path: str | None = None
     low_confidence: tuple[str, ...] = ()
     samples: int = 4000
-    epochs: int = 15
+    epochs: int = 30
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -161,7 +161,9 @@ class TrainConfig:
         if not 0.0 < self.success_threshold <= 1.0:
             raise ConfigError(f"success_threshold must be in (0, 1], got {self.success_threshold}")
         if self.cost_mode not in COST_MODES:
-            raise ConfigError(f"cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}")
+            raise ConfigError(
+                f"cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
+            )
         Thresholds(**self.thresholds)
         object.__setattr__(self, "specs", tuple(dict(s) for s in self.specs))
 
@@ -310,7 +312,10 @@ def _train_classifier_on_the_fly(
         progress=progress,
     )
     result.detector.save(path)
-    log(f"classifier trained: {result.summary() if hasattr(result, 'summary') else path}")
+    log(
+        f"classifier trained in {result.seconds:.0f} s on {config.samples} bolt images; "
+        f"validation report:\n{result.report.format_table()}"
+    )
 
 
 # ---------------------------------------------------------------------- environments
@@ -326,7 +331,7 @@ def build_bolted_env(
     from noisybolt.envs import SB3VecEnv
 
     world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_kwargs)
-    venv = VecMonitor(SB3VecEnv(world))
+    venv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
     return BoltVecEnv(
         venv,
         config.spec_objects(),
@@ -358,7 +363,7 @@ def _check_specs_against_world(config: TrainConfig, fluent_names: Sequence[str])
 def _save_model_files(model: BaseAlgorithm, env: VecEnv, folder: Path) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     with atomic_open(folder / "model.zip", "wb") as handle:
-        model.save(handle)
+        model.save(handle)  # type: ignore[arg-type]
     if isinstance(env, VecNormalize):
         with atomic_open(folder / "vecnormalize.pkl", "wb") as handle:
             import pickle
@@ -366,7 +371,9 @@ def _save_model_files(model: BaseAlgorithm, env: VecEnv, folder: Path) -> None:
             pickle.dump(env, handle)
 
 
-def _save_checkpoint(model: BaseAlgorithm, env: VecEnv, run: RunDirectory, state: dict[str, Any]) -> None:
+def _save_checkpoint(
+    model: BaseAlgorithm, env: VecEnv, run: RunDirectory, state: dict[str, Any]
+) -> None:
     """Writes a complete checkpoint folder, then points ``latest.json`` at it."""
     root = run.file("checkpoints")
     folder = root / f"step_{model.num_timesteps:012d}"
@@ -463,9 +470,7 @@ def _next_multiple(value: int, step: int) -> int:
 
 
 # ---------------------------------------------------------------------- training
-def _make_model(
-    config: TrainConfig, env: VecEnv, run: RunDirectory
-) -> BaseAlgorithm:
+def _make_model(config: TrainConfig, env: VecEnv, run: RunDirectory) -> BaseAlgorithm:
     params = {k: v for k, v in config.hyperparams.items() if k not in META_KEYS}
     policy_kwargs = dict(params.pop("policy_kwargs", {}) or {})
     extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", {}) or {})
@@ -528,9 +533,13 @@ def train(
     run.write_config(config.to_dict())
     run.write_command(argv)
 
-    env: VecEnv = build_bolted_env(config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas)
+    env: VecEnv = build_bolted_env(
+        config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas
+    )
     if config.hyperparams.get("normalize_reward"):
-        env = VecNormalize(env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99))
+        env = VecNormalize(
+            env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
+        )
     eval_env = build_bolted_env(
         config, detector, n_envs=config.eval_envs, seed=config.seed + 10_000, dfas=dfas
     )
@@ -541,9 +550,7 @@ def train(
     if checkpoint is not None:
         if isinstance(env, VecNormalize) and (checkpoint / "vecnormalize.pkl").exists():
             env = VecNormalize.load(str(checkpoint / "vecnormalize.pkl"), env.venv)
-        model = algorithm_class(config.algo).load(
-            checkpoint / "model.zip", env=env, device="cpu"
-        )
+        model = algorithm_class(config.algo).load(checkpoint / "model.zip", env=env, device="cpu")
         if (checkpoint / "replay_buffer.pkl").exists():
             model.load_replay_buffer(checkpoint / "replay_buffer.pkl")  # type: ignore[attr-defined]
         state = json.loads((checkpoint / "state.json").read_text())
@@ -572,7 +579,9 @@ def train(
             tb_log_name="run",
         )
     callback.init_callback(model)
-    final = callback.evaluate() if not history or history[-1]["frames"] != model.num_timesteps else None
+    final = (
+        callback.evaluate() if not history or history[-1]["frames"] != model.num_timesteps else None
+    )
     if final is None:
         final = _result_from_record(history[-1], spec_names)
     callback.checkpoint()

@@ -52,7 +52,9 @@ def register(subparsers: Any) -> None:
         default="classifier",
         help="classifier (trained CNN, default), oracle (ground truth) or synthetic",
     )
-    train.add_argument("--classifier", type=Path, help="classifier file (default: cached or trained)")
+    train.add_argument(
+        "--classifier", type=Path, help="classifier file (default: cached or trained)"
+    )
     train.add_argument(
         "--low-confidence",
         action="append",
@@ -60,19 +62,31 @@ def register(subparsers: Any) -> None:
         metavar="FLUENT",
         help="fluents the synthetic detector sees with low confidence",
     )
-    train.add_argument("--noise", default=None, help="the bolt camera's noise (world default if unset)")
-    train.add_argument("--obs-mode", default=None, help="the agent's observation (gridworld: grid, view, rgb)")
+    train.add_argument(
+        "--noise", default=None, help="the bolt camera's noise (world default if unset)"
+    )
+    train.add_argument(
+        "--obs-mode", default=None, help="the agent's observation (gridworld: grid, view, rgb)"
+    )
     train.add_argument("--frames", type=parse_frames, default=100_000, help="e.g. 100k (default)")
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--n-envs", type=int, default=None, help="training environments")
-    train.add_argument("--hp", action="append", default=[], metavar="KEY=VALUE",
-                       help="hyperparameter override, e.g. --hp learning_rate=3e-4")
+    train.add_argument(
+        "--hp",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="hyperparameter override, e.g. --hp learning_rate=3e-4",
+    )
     train.add_argument("--eval-freq", type=parse_frames, default=10_000)
     train.add_argument("--eval-episodes", type=int, default=20)
     train.add_argument("--checkpoint-freq", type=parse_frames, default=20_000)
     train.add_argument("--cost-mode", default="count", help="count (paper) or proportional")
-    train.add_argument("--unbolted", action="store_true",
-                       help="train without the bolt's rewards (compliance still measured)")
+    train.add_argument(
+        "--unbolted",
+        action="store_true",
+        help="train without the bolt's rewards (compliance still measured)",
+    )
     train.add_argument("--out", type=Path, default=None, help="run directory (default runs/...)")
     train.add_argument("--resume", action="store_true", help="continue the run in --out")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -133,8 +147,11 @@ def _train(args: argparse.Namespace) -> int:
     if args.resume and not (out / "config.json").exists():
         raise ConfigError(f"--resume: {out} holds no run to continue")
     result = train(config, out, resume=args.resume)
-    print(format_eval_table(result.final.to_dict(), frames=result.frames,
-                            frames_to_comply=result.frames_to_comply))
+    print(
+        format_eval_table(
+            result.final.to_dict(), frames=result.frames, frames_to_comply=result.frames_to_comply
+        )
+    )
     print(f"\nrun directory: {result.run_dir}")
     return 0
 
@@ -157,8 +174,10 @@ def format_eval_table(
         rows.append(("frames trained", f"{frames:,}"))
     if frames is not None or frames_to_comply is not None:
         rows.append(
-            ("N_frames (first >= 95% compliant at goal)",
-             f"{frames_to_comply:,}" if frames_to_comply is not None else "not reached")
+            (
+                "N_frames (first >= 95% compliant at goal)",
+                f"{frames_to_comply:,}" if frames_to_comply is not None else "not reached",
+            )
         )
     width = max(len(k) for k, _ in rows)
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
