@@ -44,7 +44,10 @@ def config_differences(
         >>> config_differences({"a": 1, "b": {"c": 2}}, {"a": 1, "b": {"c": 3}})
         {'b.c': (2, 3)}
     """
-    flat_old, flat_new = _flatten(json.loads(json.dumps(old))), _flatten(json.loads(json.dumps(new)))
+    flat_old, flat_new = (
+        _flatten(json.loads(json.dumps(old))),
+        _flatten(json.loads(json.dumps(new))),
+    )
     ignored = tuple(ignore)
     diffs = {}
     for key in sorted(set(flat_old) | set(flat_new)):
@@ -102,14 +105,13 @@ class RunDirectory:
             raise CorruptFileError(f"{self.config_path} does not hold a JSON object")
         return data
 
-    def check_same_config(
-        self, config: Mapping[str, Any], *, ignore: Sequence[str] = ()
-    ) -> None:
+    def check_same_config(self, config: Mapping[str, Any], *, ignore: Sequence[str] = ()) -> None:
         """Raises ``ConfigError`` naming every key where ``config`` differs from the saved one."""
         diffs = config_differences(self.read_config(), config, ignore=ignore)
         if diffs:
-            lines = "; ".join(f"{k}: saved {a!r}, now {b!r}" for k, a, b in
-                              ((k, *v) for k, v in diffs.items()))
+            lines = "; ".join(
+                f"{k}: saved {a!r}, now {b!r}" for k, a, b in ((k, *v) for k, v in diffs.items())
+            )
             raise ConfigError(
                 f"cannot resume {self.path}: the config differs in {sorted(diffs)} ({lines}); "
                 "use the saved settings or start a new run directory"

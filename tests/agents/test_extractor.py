@@ -11,9 +11,7 @@ from noisybolt.errors import ConfigError
 
 
 def _space(image_shape: tuple[int, ...], dfa: list[int] | None) -> gym.spaces.Dict:
-    spaces: dict[str, gym.spaces.Space] = {
-        "image": gym.spaces.Box(0, 255, image_shape, np.uint8)
-    }
+    spaces: dict[str, gym.spaces.Space] = {"image": gym.spaces.Box(0, 255, image_shape, np.uint8)}
     if dfa is not None:
         spaces["dfa"] = gym.spaces.MultiDiscrete(dfa)
     return gym.spaces.Dict(spaces)

@@ -84,9 +84,27 @@ def test_resume_continues_a_finished_run_to_a_larger_budget(tmp_path: Path) -> N
 def test_killed_run_resumes_from_its_last_complete_checkpoint(tmp_path: Path) -> None:
     run = tmp_path / "run"
     argv = [
-        sys.executable, "-m", "noisybolt", "train", "--spec", "edge", "--detector", "oracle",
-        "--frames", "200k", "--checkpoint-freq", "1024", "--eval-freq", "2048",
-        "--eval-episodes", "2", "--hp", "n_steps=64", "--no-progress", "--out", str(run),
+        sys.executable,
+        "-m",
+        "noisybolt",
+        "train",
+        "--spec",
+        "edge",
+        "--detector",
+        "oracle",
+        "--frames",
+        "200k",
+        "--checkpoint-freq",
+        "1024",
+        "--eval-freq",
+        "2048",
+        "--eval-episodes",
+        "2",
+        "--hp",
+        "n_steps=64",
+        "--no-progress",
+        "--out",
+        str(run),
     ]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
@@ -154,14 +172,20 @@ def test_unknown_names_are_named_errors(kwargs: dict, error: type, match: str) -
         _config(**kwargs)
 
 
-def test_cli_reports_bad_input_with_exit_code_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code = main(["train", "--spec", "F(lava)", "--detector", "oracle", "--out", str(tmp_path / "r")])
+def test_cli_reports_bad_input_with_exit_code_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(
+        ["train", "--spec", "F(lava)", "--detector", "oracle", "--out", str(tmp_path / "r")]
+    )
     assert code == 2
     assert "this world's fluents are" in capsys.readouterr().err
     assert main(["train", "--spec", "edge", "--algo", "sac", "--out", str(tmp_path / "r")]) == 2
 
 
-def test_evaluate_command_prints_the_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_evaluate_command_prints_the_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     train(_config(frames=1024), tmp_path / "run", log=_quiet)
     assert main(["evaluate", str(tmp_path / "run"), "--episodes", "4"]) == 0
     out = capsys.readouterr().out

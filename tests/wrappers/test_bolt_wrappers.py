@@ -52,7 +52,9 @@ def test_wrapped_reward_is_env_reward_plus_bolt_terms_from_the_same_seed() -> No
         np.testing.assert_array_equal(obs, wobs["image"])
         assert (term, trunc) == (wterm, wtrunc)
         assert info["env_reward"] == reward
-        terms = info["bolt_terminal"].sum() + info["bolt_low_confidence"].sum() + info["bolt_carried"]
+        terms = (
+            info["bolt_terminal"].sum() + info["bolt_low_confidence"].sum() + info["bolt_carried"]
+        )
         assert info["bolt_reward"] == pytest.approx(terms)
         assert wreward == pytest.approx(reward + info["bolt_reward"])
         if term or trunc:

@@ -122,9 +122,7 @@ class RestrainingBoltWrapper(gym.Wrapper):
         )
         return self._observation(obs, self.bolt.states[0]), info
 
-    def step(
-        self, action: Any
-    ) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
         """Steps the env, moves the DFAs, and returns the shaped reward."""
         obs, env_reward, terminated, truncated, info = self.env.step(action)
         probs, truth = self._look()
