@@ -201,3 +201,21 @@ def test_ppo_with_the_oracle_learns_to_follow_the_edge_to_the_goal(tmp_path: Pat
     result = train(config, tmp_path / "run", log=_quiet)
     assert result.final.goal_rate >= 0.9
     assert result.final.compliance["edge"] >= 0.9
+
+
+def test_a2c_with_the_oracle_learns_to_avoid_the_top_right_corner(tmp_path: Path) -> None:
+    # The unconstrained shortest path runs through the top-right corner: complying
+    # costs one step, so this only passes if the bolt's reward changed the route.
+    config = _config(
+        specs=["avoid_top_right"],
+        algo="a2c",
+        frames=40_000,
+        eval_freq=10_000,
+        eval_episodes=20,
+        checkpoint_freq=0,
+        overrides={},
+    )
+    result = train(config, tmp_path / "run", log=_quiet)
+    assert result.final.goal_rate >= 0.9
+    assert result.final.compliance["avoid_top_right"] >= 0.9
+    assert result.final.length_mean >= 8  # the compliant route is one step longer

@@ -8,12 +8,13 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import DEFAULT_THRESHOLDS, BoltStep, CostMode, RestrainingBolt, Spec, Thresholds
-from noisybolt.bolt.bands import confidence_bands
 from noisybolt.errors import IncompatibleError, UnknownFluentError
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 
 __all__ = ["BoltParts", "bolt_info", "build_bolt", "dict_observation_space"]
+
+# Band codes are computed once per batch by the wrappers (``confidence_bands``).
 
 
 class BoltParts:
@@ -95,11 +96,14 @@ def bolt_info(
     env_reward: float,
     out: BoltStep,
     probs: np.ndarray,
-    thresholds: Thresholds,
+    bands: np.ndarray,
     true_states: np.ndarray,
     true_accepting: np.ndarray,
 ) -> dict[str, object]:
-    """The ``info`` entries one environment's step reports (arrays are per spec/fluent)."""
+    """The ``info`` entries one environment's step reports (arrays are per spec/fluent).
+
+    Batched arrays are sliced, not copied: each entry is a view of row ``index``.
+    """
     return {
         "env_reward": float(env_reward),
         "bolt_reward": float(out.total[index]),
@@ -107,7 +111,7 @@ def bolt_info(
         "bolt_low_confidence": out.low_confidence[index],
         "bolt_carried": float(out.carried[index]),
         "fluent_probs": probs[index],
-        "confidence_bands": confidence_bands(probs[index], thresholds),
+        "confidence_bands": bands[index],
         "dfa_states": out.next_states[index],
         "dfa_violated": out.violated[index],
         "true_dfa_states": true_states[index],

@@ -24,7 +24,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds
+from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds, confidence_bands
 from noisybolt.errors import ConfigError
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import BoltObservable, FluentDetector
@@ -149,16 +149,17 @@ class BoltVecEnv(VecEnvWrapper):
         out = self.bolt.step(probs, done=dones)
         true_out = self._truth_bolt.step(truth.astype(np.float64), done=dones)
         rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
+        bands = confidence_bands(probs, self._thresholds)
         infos = list(infos)
         for i in range(self.num_envs):
-            info = dict(infos[i])
+            info = infos[i]  # the world's own dict for this step: extended in place
             info.update(
                 bolt_info(
                     i,
                     env_reward=float(env_rewards[i]),
                     out=out,
                     probs=probs,
-                    thresholds=self._thresholds,
+                    bands=bands,
                     true_states=true_out.next_states,
                     true_accepting=true_out.accepting,
                 )
@@ -167,7 +168,6 @@ class BoltVecEnv(VecEnvWrapper):
                 info["terminal_observation"] = self._obs(
                     info["terminal_observation"], out.next_states[i]
                 )
-            infos[i] = info
         if ended.size:
             first_probs = self._probs(first_images[ended], first_truth[ended])
             # Rows outside the mask are checked but not read: zeros will do.

@@ -8,7 +8,7 @@ from typing import Any, Protocol, SupportsFloat, runtime_checkable
 import gymnasium as gym
 import numpy as np
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds
+from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds, confidence_bands
 from noisybolt.errors import ConfigError
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
@@ -138,7 +138,7 @@ class RestrainingBoltWrapper(gym.Wrapper):
                 env_reward=float(env_reward),
                 out=out,
                 probs=probs,
-                thresholds=self._thresholds,
+                bands=confidence_bands(probs, self._thresholds),
                 true_states=true_out.next_states,
                 true_accepting=true_out.accepting,
             )
