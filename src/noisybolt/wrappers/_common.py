@@ -8,24 +8,58 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import DEFAULT_THRESHOLDS, BoltStep, CostMode, RestrainingBolt, Spec, Thresholds
-from noisybolt.errors import IncompatibleError, UnknownFluentError
+from noisybolt.errors import IncompatibleError
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 
-__all__ = ["BoltParts", "bolt_info", "build_bolt", "dict_observation_space"]
+__all__ = ["BoltParts", "TruthTracker", "bolt_info", "build_bolt", "dict_observation_space"]
 
 # Band codes are computed once per batch by the wrappers (``confidence_bands``).
 
 
-class BoltParts:
-    """The bolt that shapes the reward and its ground-truth twin that only measures.
+class TruthTracker:
+    """Every spec's DFA run on the world's *true* fluents: did the agent really comply?
 
-    ``bolt`` reads the detector's probabilities; ``truth`` reads the world's true fluents
-    as 0/1 probabilities, so its DFA states say whether the agent *really* complied. The
-    twin's rewards are never used.
+    Metrics only: it never touches the observation or the reward. It is plain DFA
+    stepping (no probabilities, bands or rewards), so it costs a few microseconds a step.
+    The trace starts at the first observation, as the bolt's does.
     """
 
-    def __init__(self, bolt: RestrainingBolt, truth: RestrainingBolt) -> None:
+    def __init__(self, dfas: Sequence[DFA], world_fluents: Sequence[str], *, n_envs: int) -> None:
+        index = {name: i for i, name in enumerate(world_fluents)}
+        self._dfas = tuple(dfas)
+        self._columns = [np.array([index[f] for f in dfa.fluents], dtype=np.intp) for dfa in dfas]
+        self._weights = [np.left_shift(1, np.arange(len(c), dtype=np.int64)) for c in self._columns]
+        self._initial = np.array([dfa.initial_state for dfa in dfas], dtype=np.int64)
+        self.states = np.tile(self._initial, (n_envs, 1))
+
+    def _masks(self, truth: np.ndarray, s: int) -> np.ndarray:
+        return truth[:, self._columns[s]].astype(np.int64) @ self._weights[s]
+
+    def reset(self, truth: np.ndarray, env_mask: np.ndarray | None = None) -> None:
+        """Starts the traces of the masked environments on their first observation."""
+        rows = np.arange(len(truth)) if env_mask is None else np.flatnonzero(env_mask)
+        for s, dfa in enumerate(self._dfas):
+            start = np.full(len(rows), self._initial[s])
+            self.states[rows, s] = dfa.step_batch(start, self._masks(truth[rows], s))[0]
+
+    def step(self, truth: np.ndarray) -> None:
+        """Moves every trace one letter (``truth`` is bool ``[n_envs, n_fluents]``)."""
+        for s, dfa in enumerate(self._dfas):
+            self.states[:, s] = dfa.step_batch(self.states[:, s], self._masks(truth, s))[0]
+
+    @property
+    def accepting(self) -> np.ndarray:
+        """bool ``[n_envs, n_specs]``: whether each true trace is accepted now."""
+        return np.stack(
+            [dfa.accepting[self.states[:, s]] for s, dfa in enumerate(self._dfas)], axis=1
+        )
+
+
+class BoltParts:
+    """The bolt that shapes the reward and the tracker of the true DFA states."""
+
+    def __init__(self, bolt: RestrainingBolt, truth: TruthTracker) -> None:
         self.bolt = bolt
         self.truth = truth
 
@@ -63,21 +97,7 @@ def build_bolt(
         n_envs=n_envs,
         end_on_violation=end_on_violation,
     )
-    truth = RestrainingBolt(
-        bolt.specs, world_fluents, dfas=bolt.dfas, thresholds=thresholds, n_envs=n_envs
-    )
-    return BoltParts(bolt, truth)
-
-
-def check_world_fluents(fluents: Sequence[str], specs_fluents: Sequence[str]) -> None:
-    """Raises ``UnknownFluentError`` listing the world's fluents if a spec needs others."""
-    unknown = tuple(f for f in specs_fluents if f not in fluents)
-    if unknown:
-        raise UnknownFluentError(
-            f"unknown fluent(s) {list(unknown)}; this world's fluents are {list(fluents)}",
-            unknown=unknown,
-            known=tuple(fluents),
-        )
+    return BoltParts(bolt, TruthTracker(bolt.dfas, world_fluents, n_envs=n_envs))
 
 
 def dict_observation_space(image_space: gym.Space, n_states: Sequence[int]) -> gym.spaces.Dict:

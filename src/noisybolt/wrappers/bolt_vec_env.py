@@ -82,7 +82,7 @@ class BoltVecEnv(VecEnvWrapper):
             end_on_violation=end_on_violation,
         )
         self.bolt = parts.bolt
-        self._truth_bolt = parts.truth
+        self._truth = parts.truth
         self._world = world
         self._detector = detector
         self._thresholds = thresholds
@@ -108,7 +108,7 @@ class BoltVecEnv(VecEnvWrapper):
         truth = np.asarray(self._world.true_fluents(), dtype=bool)
         probs = self._probs(self._world.bolt_images(), truth)
         self.bolt.reset(probs)
-        self._truth_bolt.reset(truth.astype(np.float64))
+        self._truth.reset(truth)
         return self._obs(obs, self.bolt.states)
 
     def _final_views(
@@ -147,7 +147,8 @@ class BoltVecEnv(VecEnvWrapper):
             images, truth = self._final_views(ended, images, truth, infos)
         probs = self._probs(images, truth)
         out = self.bolt.step(probs, done=dones)
-        true_out = self._truth_bolt.step(truth.astype(np.float64), done=dones)
+        self._truth.step(truth)
+        true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
         rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
         bands = confidence_bands(probs, self._thresholds)
         infos = list(infos)
@@ -160,8 +161,8 @@ class BoltVecEnv(VecEnvWrapper):
                     out=out,
                     probs=probs,
                     bands=bands,
-                    true_states=true_out.next_states,
-                    true_accepting=true_out.accepting,
+                    true_states=true_states,
+                    true_accepting=true_accepting,
                 )
             )
             if dones[i] and "terminal_observation" in info:
@@ -174,6 +175,5 @@ class BoltVecEnv(VecEnvWrapper):
             full = np.zeros_like(probs)
             full[ended] = first_probs
             self.bolt.reset(full, env_mask=dones)
-            full[ended] = first_truth[ended]
-            self._truth_bolt.reset(full, env_mask=dones)
+            self._truth.reset(first_truth, env_mask=dones)
         return self._obs(obs, self.bolt.states), rewards.astype(np.float32), dones, infos

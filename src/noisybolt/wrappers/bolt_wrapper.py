@@ -93,14 +93,14 @@ class RestrainingBoltWrapper(gym.Wrapper):
             end_on_violation=end_on_violation,
         )
         self.bolt = parts.bolt
-        self._truth_bolt = parts.truth
+        self._truth = parts.truth
         self.observation_space = dict_observation_space(env.observation_space, self.bolt.n_states)
 
     def _look(self) -> tuple[np.ndarray, np.ndarray]:
         truth = np.asarray(self._world.true_fluents(), dtype=bool)[None]
         images = np.asarray(self._world.bolt_image())[None]
         probs = self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
-        return probs, truth.astype(np.float64)
+        return probs, truth
 
     def _observation(self, image: Any, states: np.ndarray) -> dict[str, Any]:
         return {"image": image, "dfa": states.astype(np.int64)}
@@ -112,13 +112,13 @@ class RestrainingBoltWrapper(gym.Wrapper):
         obs, info = self.env.reset(seed=seed, options=options)
         probs, truth = self._look()
         out = self.bolt.reset(probs)
-        true_out = self._truth_bolt.reset(truth)
+        self._truth.reset(truth)
         info = dict(info)
         info.update(
             fluent_probs=probs[0],
             dfa_states=out.next_states[0],
-            true_dfa_states=true_out.next_states[0],
-            true_accepting=true_out.accepting[0],
+            true_dfa_states=self._truth.states[0].copy(),
+            true_accepting=self._truth.accepting[0],
         )
         return self._observation(obs, self.bolt.states[0]), info
 
@@ -128,7 +128,7 @@ class RestrainingBoltWrapper(gym.Wrapper):
         probs, truth = self._look()
         done = np.array([terminated or truncated])
         out = self.bolt.step(probs, done=done)
-        true_out = self._truth_bolt.step(truth, done=done)
+        self._truth.step(truth)
         if out.terminate[0] and not (terminated or truncated):
             terminated = True
         info = dict(info)
@@ -139,8 +139,8 @@ class RestrainingBoltWrapper(gym.Wrapper):
                 out=out,
                 probs=probs,
                 bands=confidence_bands(probs, self._thresholds),
-                true_states=true_out.next_states,
-                true_accepting=true_out.accepting,
+                true_states=self._truth.states.copy(),
+                true_accepting=self._truth.accepting,
             )
         )
         reward = float(env_reward) + float(out.total[0])
