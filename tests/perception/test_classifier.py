@@ -175,3 +175,28 @@ def test_bad_configs_are_refused():
         TrainingConfig(target_accuracy=1.5)
     with pytest.raises(ConfigError, match="distinct"):
         ClassifierDetector.untrained(fluent_names=("a", "a"), camera_spec=SPEC)
+    with pytest.raises(ConfigError, match="patch"):
+        ClassifierConfig(patch=0)
+
+
+def test_tile_reading_trunk_sees_one_tile_per_first_layer_output(tmp_path):
+    from noisybolt.perception.classifier import FluentNet
+
+    config = ClassifierConfig(channels=(4, 8), patch=2)
+    net = FluentNet(in_channels=3, n_fluents=2, config=config)
+    first = net.trunk[0]
+    assert first.kernel_size == (2, 2) and first.stride == (2, 2)
+    # 12x10 image of 2-pixel tiles: a 6x5 grid of cells, kept at that size afterwards.
+    assert net.trunk[:4](torch.zeros(1, 3, 12, 10)).shape == (1, 8, 6, 5)
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(0)
+        det = ClassifierDetector.untrained(fluent_names=("a", "b"), camera_spec=SPEC, config=config)
+    det.save(tmp_path / "c.safetensors")
+    loaded = load_classifier(tmp_path / "c.safetensors")
+    assert loaded.config == config
+    np.testing.assert_array_equal(loaded.predict(_images(4)), det.predict(_images(4)))
+
+
+def test_configs_saved_before_patch_existed_still_load():
+    old = {"channels": [16, 32, 32], "pool": 4, "hidden": 64}
+    assert ClassifierConfig.from_dict(old) == ClassifierConfig()

@@ -244,12 +244,37 @@ def _cache_root() -> Path:
     return Path(root) if root else Path.home() / ".cache" / "noisybolt"
 
 
-def default_classifier_path(world: str, world_kwargs: Mapping[str, Any], camera: Any) -> Path:
-    """Where the on-the-fly classifier for this world and camera is cached."""
+def classifier_architecture(camera: Any) -> Any:
+    """The classifier trained on the fly for a camera.
+
+    A camera drawn in tiles (the gridworld's) gets a tile-reading first layer
+    (``ClassifierConfig.patch``): a quarter of the default trunk's multiply-adds, which
+    is most of the bolt's cost per training frame; other cameras get the default trunk.
+    """
+    from noisybolt.perception.classifier import ClassifierConfig
+
+    tile = camera.extra.get("tile_size") if isinstance(camera.extra, Mapping) else None
+    if isinstance(tile, int) and tile > 1:
+        return ClassifierConfig(channels=(32, 32), patch=tile)
+    return ClassifierConfig()
+
+
+def default_classifier_path(
+    world: str, config: DetectorConfig, camera: Any, architecture: Any
+) -> Path:
+    """Where the on-the-fly classifier for this world, camera and recipe is cached."""
     from noisybolt.perception.compat import camera_spec_to_dict
 
     key = json.dumps(
-        {"world": world, "camera": camera_spec_to_dict(camera)}, sort_keys=True
+        {
+            "world": world,
+            "camera": camera_spec_to_dict(camera),
+            "architecture": asdict(architecture),
+            "samples": config.samples,
+            "epochs": config.epochs,
+            "seed": config.seed,
+        },
+        sort_keys=True,
     ).encode()
     digest = hashlib.sha256(key).hexdigest()[:16]
     return _cache_root() / "classifiers" / f"{world}-{digest}.safetensors"
@@ -277,15 +302,22 @@ def make_detector(
             seed=config.seed,
             fluents={name: BetaNoise.low_confidence() for name in config.low_confidence},
         )
+    architecture = classifier_architecture(camera_spec)
     path = (
         Path(config.path)
         if config.path
-        else default_classifier_path(world, world_kwargs, camera_spec)
+        else default_classifier_path(world, config, camera_spec, architecture)
     )
     if config.path is None and not path.exists():
         log(f"no cached classifier for this camera: training one ({path})")
         _train_classifier_on_the_fly(
-            path, config, world=world, world_kwargs=world_kwargs, progress=progress, log=log
+            path,
+            config,
+            architecture,
+            world=world,
+            world_kwargs=world_kwargs,
+            progress=progress,
+            log=log,
         )
     return load_classifier(path, fluent_names=fluent_names, camera_spec=camera_spec)
 
@@ -293,6 +325,7 @@ def make_detector(
 def _train_classifier_on_the_fly(
     path: Path,
     config: DetectorConfig,
+    architecture: Any,
     *,
     world: str,
     world_kwargs: Mapping[str, Any],
@@ -308,6 +341,7 @@ def _train_classifier_on_the_fly(
     )
     result = train_classifier(
         dataset,
+        config=architecture,
         training=TrainingConfig(epochs=config.epochs, seed=config.seed),
         progress=progress,
     )

@@ -71,14 +71,20 @@ class ClassifierConfig:
     """The architecture of a :class:`FluentNet`.
 
     Attributes:
-        channels: output channels of each stride-2 3x3 convolution.
+        channels: output channels of each convolution.
         pool: side of the grid the trunk's features are averaged to before the head.
         hidden: width of the dense hidden layer.
+        patch: None for a trunk of stride-2 3x3 convolutions; an integer ``p`` for a
+            camera drawn in tiles of ``p`` pixels: the first convolution then reads one
+            whole tile per output (kernel and stride ``p``) and the rest are 3x3 stride-1
+            convolutions over the grid of cells. It costs about a quarter of the default
+            trunk's multiply-adds on the gridworld's 48x48 camera.
     """
 
     channels: tuple[int, ...] = (16, 32, 32)
     pool: int = 4
     hidden: int = 64
+    patch: int | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
@@ -88,12 +94,18 @@ class ClassifierConfig:
             )
         if self.pool < 1 or self.hidden < 1:
             raise ConfigError(f"pool and hidden must be positive, got {self.pool}, {self.hidden}")
+        if self.patch is not None and int(self.patch) < 1:
+            raise ConfigError(f"patch must be None or a positive pixel count, got {self.patch}")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ClassifierConfig:
         """The config from :func:`dataclasses.asdict` output (as saved in a file)."""
+        patch = data.get("patch")  # absent from files written before it existed
         return cls(
-            channels=tuple(data["channels"]), pool=int(data["pool"]), hidden=int(data["hidden"])
+            channels=tuple(data["channels"]),
+            pool=int(data["pool"]),
+            hidden=int(data["hidden"]),
+            patch=None if patch is None else int(patch),
         )
 
 
@@ -107,8 +119,14 @@ class FluentNet(nn.Module):
         super().__init__()
         layers: list[nn.Module] = []
         previous = in_channels
-        for channels in config.channels:
-            layers += [nn.Conv2d(previous, channels, 3, stride=2, padding=1), nn.ReLU()]
+        for i, channels in enumerate(config.channels):
+            if config.patch is None:
+                conv = nn.Conv2d(previous, channels, 3, stride=2, padding=1)
+            elif i == 0:
+                conv = nn.Conv2d(previous, channels, config.patch, stride=config.patch)
+            else:
+                conv = nn.Conv2d(previous, channels, 3, stride=1, padding=1)
+            layers += [conv, nn.ReLU()]
             previous = channels
         # Average to a fixed grid rather than globally: where a thing is in the image
         # (a corner, the left column) is what most fluents are about.
@@ -205,7 +223,8 @@ class ClassifierDetector:
                 f"expected uint8 images [n, {', '.join(map(str, self.camera_spec.shape))}] "
                 f"from camera {self.camera_spec.world!r}, got {images.dtype} {images.shape}"
             )
-        self.model.eval()
+        if self.model.training:  # eval() walks every module: only when needed
+            self.model.eval()
         out = np.empty((images.shape[0], len(self.fluent_names)), dtype=np.float32)
         with torch.inference_mode():
             for start in range(0, images.shape[0], self.batch_size):
