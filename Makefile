@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.noisybolt-installed
 PYTEST_ARGS ?=
 
-.PHONY: all setup mona test test-slow demo lint typecheck bench clean
+.PHONY: all setup mona test test-slow demo walkthrough lint typecheck bench clean
 
 all: test
 
@@ -32,6 +32,9 @@ test-slow: setup
 demo: setup
 	$(VENV)/bin/noisybolt demo
 
+walkthrough: setup
+	$(VENV)/bin/noisybolt demo --walkthrough
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
 	$(VENV)/bin/ruff format --check src tests benchmarks
@@ -41,7 +44,10 @@ typecheck: $(STAMP)
 
 bench: setup
 	$(PY) benchmarks/bolt_step.py
-	$(PY) benchmarks/perception.py
+	$(PY) benchmarks/compile_time.py
+	$(PY) benchmarks/perception_world.py
+	$(PY) benchmarks/perception_classifiers.py
+	$(PY) benchmarks/training_throughput.py
 
 clean:
 	rm -rf $(VENV) build dist src/*.egg-info .pytest_cache .mypy_cache .ruff_cache
