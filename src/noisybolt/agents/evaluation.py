@@ -27,8 +27,9 @@ class EpisodeRecord:
         env_return: sum of the environment's rewards (R_π's summand).
         bolt_return: sum of the bolt's shaping rewards (reported apart).
         length: number of steps.
-        goal: whether the episode reached the task's goal (terminated, not truncated,
-            unless the world says otherwise through ``info["is_success"]``).
+        goal: whether the episode reached the task's goal: ``info["is_success"]`` of its
+            last step (SB3's convention; the gridworld's worlds set it on termination),
+            else "terminated, not truncated".
         compliant: per spec, whether the true trace is accepted by its DFA.
     """
 

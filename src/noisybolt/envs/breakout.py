@@ -187,6 +187,8 @@ def resolve_noise(noise: Any) -> tuple[NoiseFn | None, dict[str, Any]]:
 class BreakoutWorld(gym.vector.VectorEnv):
     """``num_envs`` Breakout games stepped together, seen by the agent and by the bolt.
 
+    An episode terminates when the game is lost (``termination_is_success`` is False).
+
     Gymnasium vector API with **same-step autoreset**, like
     :class:`~noisybolt.envs.gridworld_vec.VectorGridworld` and SB3: a step that ends an
     episode returns the new episode's first observation, the ended one's last in
@@ -212,6 +214,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
         screen_size: side of the agent's square grayscale frames.
         max_episode_frames: emulator frames after which an episode is truncated.
     """
+
+    termination_is_success = False
 
     def __init__(
         self,

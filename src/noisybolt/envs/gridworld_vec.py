@@ -123,6 +123,9 @@ class VectorGridworld(VectorEnv):
         render_mode: None or ``"rgb_array"`` (MiniGrid's 32-pixel tiles, no highlight).
     """
 
+    #: An episode terminates only by reaching the goal (SB3VecEnv reports ``is_success``).
+    termination_is_success = True
+
     metadata: dict[str, Any] = {  # noqa: RUF012 (Gymnasium's convention)
         "autoreset_mode": AutoresetMode.SAME_STEP,
         "render_modes": ["rgb_array"],

@@ -87,8 +87,11 @@ class SB3VecEnv(VecEnv):
         self._actions = None
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{"TimeLimit.truncated": False} for _ in range(self.num_envs)]
+        success = bool(getattr(self.venv, "termination_is_success", False))
         for i in np.flatnonzero(dones):
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+            # SB3's convention (Monitor, EvalCallback): did the ended episode succeed?
+            infos[i]["is_success"] = success and bool(terminated[i])
             infos[i]["terminal_observation"] = vinfo["final_obs"][i]
         return obs, rewards.astype(np.float32), dones, infos
 
