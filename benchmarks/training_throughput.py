@@ -77,8 +77,9 @@ def fps(variant: str, frames: int, seed: int) -> float:
     kwargs = {k: v for k, v in params.items() if k not in META_KEYS}
     policy_kwargs = dict(kwargs.pop("policy_kwargs"))
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
-    model = PPO("MultiInputPolicy", env, policy_kwargs=policy_kwargs, seed=seed, device="cpu",
-                **kwargs)
+    model = PPO(
+        "MultiInputPolicy", env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
+    )
     start = time.perf_counter()
     model.learn(frames)
     return model.num_timesteps / (time.perf_counter() - start)
@@ -98,16 +99,23 @@ def main() -> None:
         for v in variants:
             results[v].append(fps(v, args.frames, seed=r))
     med = {v: statistics.median(results[v]) for v in variants}
-    print(f"PPO on the 6x6 gridworld, 8 envs, default hyperparameters, {args.frames} frames x "
-          f"{args.rounds} rounds (median), 1 torch thread")
+    print(
+        f"PPO on the 6x6 gridworld, 8 envs, default hyperparameters, {args.frames} frames x "
+        f"{args.rounds} rounds (median), 1 torch thread"
+    )
     print(f"{'variant':<32} {'frames/s':>9}  {'vs (a)':>7}")
-    labels = {"bare": "(a) bare world", "oracle": "(b) bolt, oracle detector",
-              "classifier": "(c) bolt, noisy CNN classifier"}
+    labels = {
+        "bare": "(a) bare world",
+        "oracle": "(b) bolt, oracle detector",
+        "classifier": "(c) bolt, noisy CNN classifier",
+    }
     for v in variants:
         print(f"{labels[v]:<32} {med[v]:>9,.0f}  {med[v] / med['bare']:>7.2f}")
     lo, hi = PAPER_STACK_FPS
-    print(f"(c) vs the paper's stack ({lo}-{hi} fps, unbolted): "
-          f"{med['classifier'] / hi:.1f}x-{med['classifier'] / lo:.1f}x")
+    print(
+        f"(c) vs the paper's stack ({lo}-{hi} fps, unbolted): "
+        f"{med['classifier'] / hi:.1f}x-{med['classifier'] / lo:.1f}x"
+    )
     print("all rounds:", {v: [round(x) for x in results[v]] for v in variants})
     _ = np
 

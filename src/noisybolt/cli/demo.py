@@ -8,8 +8,8 @@ evaluated from ground truth and a GIF and a trajectory heat-map are saved.
 ``--walkthrough`` instead prints every DFA (states, accepting states, edges with their
 guards and supports), then walks one scripted episode of the gridworld — down the left
 wall through the bottom-left corner, whose fluent the bolt sees only with low confidence
-(the paper's case 4), then east to the goal — through Algorithm 1, printing per step the fluent probabilities, their
-confidence bands, every DFA's state and the reward terms.
+(the paper's case 4), then east to the goal — through Algorithm 1, printing per step the
+fluent probabilities, their confidence bands, every DFA's state and the reward terms.
 """
 
 from __future__ import annotations
