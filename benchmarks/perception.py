@@ -12,8 +12,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import perception_classifiers  # noqa: E402
-import perception_world  # noqa: E402
+import perception_classifiers
+import perception_world
 
 
 def main() -> int:
