@@ -3,6 +3,15 @@
 * :mod:`noisybolt.experiments.optimal`: exact R^c_max (and R_max) by planning on the
   product of the gridworld's true dynamics and the specs' DFAs
   (``python -m noisybolt.experiments.optimal`` prints it for the paper's specs).
+* :mod:`noisybolt.experiments.sweep`: grids of training runs from YAML (rows x settings x
+  seeds), resumable, with retries, on a local process pool or Ray Tune
+  (:mod:`noisybolt.experiments.ray_backend`); results as mean ± std tables.
+* :mod:`noisybolt.experiments.table1`: the paper's gridworld Table 1, reproduced over
+  seeds through a sweep, beside the paper's numbers.
+* :mod:`noisybolt.experiments.case4`: the paper's case 4 (corner preference under the
+  regional noise) against a clean-camera control, from ground truth.
+* :mod:`noisybolt.experiments.report`: Markdown and self-contained HTML reports of runs
+  and sweeps, with learning curves.
 
 Names are loaded on first use (PEP 562), so importing the package stays cheap and
 ``python -m noisybolt.experiments.<module>`` runs a module that was not imported yet.
@@ -14,6 +23,12 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from noisybolt.experiments.case4 import (
+        CornerVisits,
+        case4_sweep,
+        measure_corners,
+        reproduce_case4,
+    )
     from noisybolt.experiments.optimal import (
         PAPER_TABLE1_RC_MAX,
         OptimalResult,
@@ -23,6 +38,34 @@ if TYPE_CHECKING:
         optimal_constrained_return,
         optimal_unconstrained_return,
         paper_spec_optima,
+    )
+    from noisybolt.experiments.report import (
+        plot_learning_curves,
+        run_report,
+        sweep_report,
+        write_report,
+    )
+    from noisybolt.experiments.sweep import (
+        GroupSummary,
+        Stat,
+        SweepConfig,
+        SweepResult,
+        Trial,
+        TrialRecord,
+        builtin_sweeps,
+        collect_sweep,
+        load_sweep,
+        run_sweep,
+    )
+    from noisybolt.experiments.table1 import (
+        TABLE1_ROWS,
+        PaperNumbers,
+        Table1Entry,
+        Table1Result,
+        Table1Row,
+        reproduce_table1,
+        table1_sweep,
+        write_table1,
     )
 
 #: The module that defines each public name.
@@ -35,17 +78,69 @@ _SOURCES: dict[str, str] = {
     "optimal_constrained_return": "optimal",
     "optimal_unconstrained_return": "optimal",
     "paper_spec_optima": "optimal",
+    "CornerVisits": "case4",
+    "case4_sweep": "case4",
+    "measure_corners": "case4",
+    "reproduce_case4": "case4",
+    "plot_learning_curves": "report",
+    "run_report": "report",
+    "sweep_report": "report",
+    "write_report": "report",
+    "GroupSummary": "sweep",
+    "Stat": "sweep",
+    "SweepConfig": "sweep",
+    "SweepResult": "sweep",
+    "Trial": "sweep",
+    "TrialRecord": "sweep",
+    "builtin_sweeps": "sweep",
+    "collect_sweep": "sweep",
+    "load_sweep": "sweep",
+    "run_sweep": "sweep",
+    "TABLE1_ROWS": "table1",
+    "PaperNumbers": "table1",
+    "Table1Entry": "table1",
+    "Table1Result": "table1",
+    "Table1Row": "table1",
+    "reproduce_table1": "table1",
+    "table1_sweep": "table1",
+    "write_table1": "table1",
 }
 
 __all__ = [
     "PAPER_TABLE1_RC_MAX",
+    "TABLE1_ROWS",
+    "CornerVisits",
+    "GroupSummary",
     "OptimalResult",
+    "PaperNumbers",
     "SpecLike",
     "SpecOptimum",
+    "Stat",
+    "SweepConfig",
+    "SweepResult",
+    "Table1Entry",
+    "Table1Result",
+    "Table1Row",
+    "Trial",
+    "TrialRecord",
+    "builtin_sweeps",
+    "case4_sweep",
+    "collect_sweep",
     "format_optima_table",
+    "load_sweep",
+    "measure_corners",
     "optimal_constrained_return",
     "optimal_unconstrained_return",
     "paper_spec_optima",
+    "plot_learning_curves",
+    "reproduce_case4",
+    "reproduce_table1",
+    "run_report",
+    "run_sweep",
+    "sweep_report",
+    "table1_sweep",
+    "write_report",
+    "write_table1",
 ]
 
 

@@ -1,0 +1,673 @@
+"""``noisybolt reproduce table1``: the paper's gridworld rows of Table 1, measured.
+
+Eight rows (spec x algorithm), as in the paper: ``G(on_edge)`` with PPO, A2C and DQN;
+``!F(top_right_corner)`` with A2C and DQN; ``F(t & X(!F(t)))`` with PPO and A2C; the
+exclusive one-visit corner spec with A2C. Each trains over several seeds (default 3)
+under the bolt with the trained noisy classifier (camera noise ``"regional"`` by
+default), through the sweep machinery (:mod:`noisybolt.experiments.sweep`), so it
+resumes when run again and runs on Ray with ``backend="ray"``.
+
+Frames per row: ``max(60k, 2 x the paper's N_frames)`` -- 60k for the rows the paper
+solved in 4k-25k frames, 160k (A2C ``G(e)``), 100k (A2C ``!F(t)``), 266k and 330k (PPO and
+A2C on ``F(t & X(!F(t)))``); about 1.1M frames per seed, ~11 minutes per seed on one core
+of the 2-core reference machine (PPO ~1.5k, A2C ~2k, DQN ~1.2k frames/s with the
+classifier bolt). Twice the paper's budget leaves room for seeds that learn later than the
+paper's one run did, and the floor covers DQN's replay warm-up and exploration schedule
+(the paper's 4k frames for DQN is less than one exploration schedule of ours). N_frames is
+measured, not the budget: it is the first periodic evaluation at which at least 95% of
+the evaluation episodes reach the goal while complying (ground truth), so a row that
+learns faster reports fewer frames. Evaluations come every ``clip(paper N_frames / 10,
+2k, 10k)`` frames, the resolution of N_frames. ``frames_scale`` scales both.
+
+Outputs, in the output directory (which is also the sweep directory):
+``table1.md``, ``table1.csv``, ``table1.json`` and ``curves/<row>.png`` (environment return
+and compliance against frames, every seed), beside the sweep's own files.
+
+Columns: R^c_max is exact (:func:`noisybolt.experiments.optimal.optimal_constrained_return`);
+R_π and N_steps are the mean ± std over seeds of the final evaluation's mean environment
+return and episode length (every episode, ``final_eval_episodes`` of them, default 100);
+N_frames is the mean over the seeds that reached it, with a count when not all did;
+compliance and goal rate are means over seeds; *followed* is ✓ when compliance is at
+least 95% in every seed, ✗ when some seed is below, and ``?`` while seeds are missing.
+The paper's numbers stand beside ours.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from noisybolt.errors import ConfigError
+
+__all__ = [
+    "FRAMES_FACTOR",
+    "FRAMES_FLOOR",
+    "TABLE1_ROWS",
+    "PaperNumbers",
+    "Table1Entry",
+    "Table1Result",
+    "Table1Row",
+    "build_table1",
+    "reproduce_table1",
+    "select_rows",
+    "table1_report_blocks",
+    "table1_sweep",
+    "write_table1",
+]
+
+#: Default frames per row: ``max(FRAMES_FLOOR, FRAMES_FACTOR * paper N_frames)``.
+FRAMES_FACTOR = 2
+FRAMES_FLOOR = 60_000
+#: Compliance a seed needs for the row to count as followed.
+FOLLOWED_THRESHOLD = 0.95
+
+
+@dataclass(frozen=True)
+class PaperNumbers:
+    """One row of the paper's Table 1, as printed."""
+
+    rc_max: float
+    r_pi: float
+    n_steps: float
+    n_frames: int
+    followed: bool = True
+
+
+@dataclass(frozen=True)
+class Table1Row:
+    """A row to reproduce: a spec of :data:`~noisybolt.agents.specs.PAPER_SPECS` and an
+    algorithm, with the paper's numbers."""
+
+    name: str
+    spec: str
+    algo: str
+    paper: PaperNumbers
+
+    @property
+    def formula(self) -> str:
+        """The spec's LTLf formula."""
+        from noisybolt.agents.specs import PAPER_SPECS
+
+        return PAPER_SPECS[self.spec]
+
+    def frames(self, scale: float = 1.0) -> int:
+        """Frames to train (``max(60k, 2 x paper N_frames)``, times ``scale``)."""
+        base = max(FRAMES_FLOOR, FRAMES_FACTOR * self.paper.n_frames)
+        return max(1, round(base * scale))
+
+    def eval_freq(self, scale: float = 1.0) -> int:
+        """Frames between evaluations (``clip(paper N_frames / 10, 2k, 10k)``, scaled)."""
+        base = min(10_000, max(2_000, self.paper.n_frames // 10 // 1000 * 1000))
+        return max(1, round(base * scale))
+
+
+#: The paper's gridworld rows, in its order.
+TABLE1_ROWS: tuple[Table1Row, ...] = (
+    Table1Row("edge-ppo", "edge", "ppo", PaperNumbers(94, 79.48, 90, 25_000)),
+    Table1Row("edge-a2c", "edge", "a2c", PaperNumbers(94, 63.64, 75, 80_000)),
+    Table1Row("edge-dqn", "edge", "dqn", PaperNumbers(92, 74.42, 82, 4_000)),
+    Table1Row("avoid_top_right-a2c", "avoid_top_right", "a2c", PaperNumbers(82, 80.71, 60, 50_000)),
+    Table1Row("avoid_top_right-dqn", "avoid_top_right", "dqn", PaperNumbers(82, 79.0, 59, 4_000)),
+    Table1Row(
+        "top_right_once-ppo", "top_right_once", "ppo", PaperNumbers(92, 77.78, 87.13, 133_000)
+    ),
+    Table1Row(
+        "top_right_once-a2c", "top_right_once", "a2c", PaperNumbers(92, 74.54, 104.2, 165_000)
+    ),
+    Table1Row("one_corner_once-a2c", "one_corner_once", "a2c", PaperNumbers(92, 78.42, 78, 20_000)),
+)
+
+
+def select_rows(names: Sequence[str] | None) -> tuple[Table1Row, ...]:
+    """Rows by name (``edge-ppo``) or by spec (``edge``: all its rows); None: every row.
+
+    Example:
+        >>> [r.name for r in select_rows(["avoid_top_right", "edge-ppo"])]
+        ['edge-ppo', 'avoid_top_right-a2c', 'avoid_top_right-dqn']
+
+    Raises:
+        ConfigError: a name that is neither a row nor a spec of the table.
+    """
+    if not names:
+        return TABLE1_ROWS
+    wanted = {n.strip() for n in names if n.strip()}
+    known = {r.name for r in TABLE1_ROWS} | {r.spec for r in TABLE1_ROWS}
+    unknown = sorted(wanted - known)
+    if unknown:
+        raise ConfigError(
+            f"unknown Table 1 row(s) {unknown}; rows: {[r.name for r in TABLE1_ROWS]} "
+            f"(or a spec name for all its rows: {sorted({r.spec for r in TABLE1_ROWS})})"
+        )
+    return tuple(r for r in TABLE1_ROWS if r.name in wanted or r.spec in wanted)
+
+
+def table1_sweep(
+    *,
+    rows: Sequence[str] | None = None,
+    seeds: int | Sequence[int] = 3,
+    frames_scale: float = 1.0,
+    frames: int | None = None,
+    eval_freq: int | None = None,
+    detector: str = "classifier",
+    noise: str = "regional",
+    eval_episodes: int = 20,
+    final_eval_episodes: int = 100,
+    retries: int = 1,
+    cpus_per_trial: float = 1.0,
+) -> Any:
+    """The sweep that reproduces Table 1 (a :class:`~noisybolt.experiments.sweep.SweepConfig`).
+
+    Args:
+        rows: row or spec names (None: all eight rows).
+        seeds: a count, or the seeds themselves.
+        frames_scale: scales every row's frames and evaluation interval.
+        frames: frames for every row (overrides the per-row defaults and the scale); the
+            evaluation interval is then a tenth of it.
+        eval_freq: frames between evaluations for every row (default: per row).
+        detector: ``classifier`` (default), ``oracle`` or ``synthetic``.
+        noise: the bolt camera's noise (``regional``: the paper's smudged corner).
+        eval_episodes: episodes of each periodic evaluation (N_frames resolution).
+        final_eval_episodes: episodes of each seed's final evaluation (the table's R_π,
+            N_steps, compliance and goal rate).
+        retries: extra attempts of a trial that crashes.
+        cpus_per_trial: CPUs reserved per trial on Ray.
+
+    Raises:
+        ConfigError: unknown rows, or impossible values.
+    """
+    from noisybolt.experiments.sweep import SweepConfig
+
+    if not frames_scale > 0:
+        raise ConfigError(f"frames_scale must be > 0, got {frames_scale}")
+    if frames is not None and frames < 1:
+        raise ConfigError(f"frames must be >= 1, got {frames}")
+    chosen = select_rows(rows)
+    sweep_rows = []
+    for row in chosen:
+        n = frames if frames is not None else row.frames(frames_scale)
+        if eval_freq is not None:
+            every = eval_freq
+        elif frames is not None:
+            every = max(1, n // 10)
+        else:
+            every = row.eval_freq(frames_scale)
+        sweep_rows.append(
+            {
+                "name": row.name,
+                "specs": [row.spec],
+                "algo": row.algo,
+                "frames": n,
+                "eval_freq": every,
+                "checkpoint_freq": max(every, n // 5),
+            }
+        )
+    return SweepConfig.from_dict(
+        {
+            "name": "table1",
+            "base": {
+                "world": "gridworld",
+                "world_kwargs": {"noise": noise},
+                "detector": {"kind": detector},
+                "eval_episodes": eval_episodes,
+            },
+            "rows": sweep_rows,
+            "seeds": seeds if isinstance(seeds, int) else list(seeds),
+            "retries": retries,
+            "final_eval_episodes": final_eval_episodes,
+            "resources": {"cpus": cpus_per_trial},
+        }
+    )
+
+
+@dataclass(frozen=True)
+class Table1Entry:
+    """One reproduced row, beside the paper's.
+
+    Attributes:
+        row: the row (with the paper's numbers).
+        rc_max: our exact R^c_max for the spec (None if no episode complies).
+        r_pi: R_π over seeds (None when no seed finished).
+        n_steps: N_steps (mean episode length) over seeds.
+        n_frames: N_frames over the seeds that reached it.
+        n_reached: seeds that reached N_frames.
+        compliance: compliance rate over seeds.
+        compliance_min: the lowest seed's compliance.
+        goal_rate: goal rate over seeds.
+        followed: ✓ (True), ✗ (False) or undecided (None: seeds missing, none below).
+        n_seeds: seeds asked for.
+        n_done: seeds finished.
+        n_failed: seeds failed.
+        frames: frames trained per seed (the row's budget).
+    """
+
+    row: Table1Row
+    rc_max: float | None
+    r_pi: Any
+    n_steps: Any
+    n_frames: Any
+    n_reached: int
+    compliance: Any
+    compliance_min: float | None
+    goal_rate: Any
+    followed: bool | None
+    n_seeds: int
+    n_done: int
+    n_failed: int
+    frames: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (statistics as ``{"mean", "std", "n"}``)."""
+
+        def stat(value: Any) -> dict[str, Any] | None:
+            return None if value is None else value._asdict()
+
+        return {
+            "row": self.row.name,
+            "spec": self.row.spec,
+            "formula": self.row.formula,
+            "algo": self.row.algo,
+            "rc_max": self.rc_max,
+            "r_pi": stat(self.r_pi),
+            "n_steps": stat(self.n_steps),
+            "n_frames": stat(self.n_frames),
+            "n_reached": self.n_reached,
+            "compliance": stat(self.compliance),
+            "compliance_min": self.compliance_min,
+            "goal_rate": stat(self.goal_rate),
+            "followed": self.followed,
+            "n_seeds": self.n_seeds,
+            "n_done": self.n_done,
+            "n_failed": self.n_failed,
+            "frames": self.frames,
+            "paper": {
+                "rc_max": self.row.paper.rc_max,
+                "r_pi": self.row.paper.r_pi,
+                "n_steps": self.row.paper.n_steps,
+                "n_frames": self.row.paper.n_frames,
+                "followed": self.row.paper.followed,
+            },
+        }
+
+
+@dataclass(frozen=True)
+class Table1Result:
+    """The reproduced table and where it was written.
+
+    Attributes:
+        entries: one per row, in the paper's order.
+        sweep: the sweep's result (every trial).
+        files: label -> path (``markdown``, ``csv``, ``json``, and one ``curves:<row>``
+            per row).
+    """
+
+    entries: tuple[Table1Entry, ...]
+    sweep: Any
+    files: dict[str, Path]
+
+
+def _rc_max(formula: str, world_kwargs: dict[str, Any]) -> float | None:
+    from noisybolt.experiments.optimal import optimal_constrained_return
+
+    keys = ("size", "max_steps", "step_reward", "goal_reward")
+    kwargs = {k: world_kwargs[k] for k in keys if k in world_kwargs}
+    return optimal_constrained_return([formula], **kwargs).value
+
+
+def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
+    """The table's entries from a collected sweep (rows in the paper's order)."""
+    by_group = {g.group: g for g in sweep_result.groups}
+    records = {r.trial_id: r for r in sweep_result.records}
+    entries = []
+    for row in TABLE1_ROWS:
+        group = by_group.get(row.name)
+        if group is None:
+            continue
+        members = [r for r in records.values() if r.group == row.name]
+        config = _read_json(members[0].run_dir / "config.json") or {}
+        world_kwargs = dict(config.get("world_kwargs") or {})
+        frames = int(config.get("frames") or 0)
+        rates = [
+            float((r.final or {}).get("compliance", {}).get(row.spec, 0.0))
+            for r in members
+            if r.status == "done"
+        ]
+        if any(rate < FOLLOWED_THRESHOLD for rate in rates):
+            followed: bool | None = False
+        elif rates and len(rates) == group.n_trials:
+            followed = True
+        else:
+            followed = None
+        entries.append(
+            Table1Entry(
+                row=row,
+                rc_max=_rc_max(row.formula, world_kwargs),
+                r_pi=group.env_return,
+                n_steps=group.length,
+                n_frames=group.frames_to_comply,
+                n_reached=group.n_reached,
+                compliance=group.compliance.get(row.spec),
+                compliance_min=group.compliance_min.get(row.spec),
+                goal_rate=group.goal_rate,
+                followed=followed,
+                n_seeds=group.n_trials,
+                n_done=group.n_done,
+                n_failed=group.n_failed,
+                frames=frames,
+            )
+        )
+    return tuple(entries)
+
+
+def _pm(stat: Any, digits: int = 2) -> str:
+    return "—" if stat is None else f"{stat.mean:.{digits}f} ± {stat.std:.{digits}f}"
+
+
+def _num(value: float | None) -> str:
+    if value is None:
+        return "—"
+    return f"{value:g}"
+
+
+def _mark(value: bool | None) -> str:
+    return {True: "✓", False: "✗", None: "?"}[value]
+
+
+def _n_frames(entry: Table1Entry) -> str:
+    from noisybolt.experiments.sweep import format_frames
+
+    text = format_frames(entry.n_frames.mean if entry.n_frames is not None else None)
+    if entry.n_done and entry.n_reached == entry.n_done:
+        return text
+    return f"{text} ({entry.n_reached}/{entry.n_done})"
+
+
+TABLE1_HEADER: tuple[str, ...] = (
+    "LTLf spec",
+    "algo",
+    "R^c_max",
+    "paper R^c_max",
+    "R_π",
+    "paper R_π",
+    "N_steps",
+    "paper N_steps",
+    "N_frames",
+    "paper N_frames",
+    "compliance",
+    "goal rate",
+    "followed",
+    "paper",
+    "frames/seed",
+    "seeds",
+)
+
+
+def table1_rows(entries: Sequence[Table1Entry]) -> list[tuple[str, ...]]:
+    """The displayed cells of each entry (the Markdown table's rows)."""
+    from noisybolt.experiments.sweep import format_frames
+
+    rows: list[tuple[str, ...]] = []
+    for e in entries:
+        seeds = f"{e.n_done}/{e.n_seeds}" + (f", {e.n_failed} failed" if e.n_failed else "")
+        rows.append(
+            (
+                f"`{e.row.formula}`",
+                e.row.algo.upper(),
+                _num(e.rc_max),
+                _num(e.row.paper.rc_max),
+                _pm(e.r_pi),
+                _num(e.row.paper.r_pi),
+                _pm(e.n_steps, 1),
+                _num(e.row.paper.n_steps),
+                _n_frames(e),
+                format_frames(e.row.paper.n_frames),
+                "—" if e.compliance is None else f"{e.compliance.mean:.0%}",
+                "—" if e.goal_rate is None else f"{e.goal_rate.mean:.0%}",
+                _mark(e.followed),
+                _mark(e.row.paper.followed),
+                format_frames(e.frames),
+                seeds,
+            )
+        )
+    return rows
+
+
+NOTES = (
+    "R^c_max: exact, by backward induction on the product of the gridworld and the spec's "
+    "DFA (`noisybolt.experiments.optimal`), with the paper's stated rewards (-1.5 per step, "
+    "+100 at the goal, so R_max = 89.5); the paper's own values (94, 92, 82) do not follow "
+    "from those rewards, so compare R_π with our R^c_max.",
+    "R_π, N_steps: mean ± std over seeds of the final evaluation's mean environment return "
+    "and episode length (every episode, sampled actions, ground truth).",
+    "N_frames: first periodic evaluation at which ≥ 95% of the episodes reach the goal while "
+    "complying; mean over the seeds that reached it, (k/n) when not all did.",
+    "followed: ✓ when the final evaluation's compliance (ground truth, never by looking) is "
+    "≥ 95% in every seed, ✗ when some seed is below, ? while seeds are missing.",
+)
+
+
+def _markdown(entries: Sequence[Table1Entry], settings: dict[str, Any], command: str) -> str:
+    lines = ["# Table 1 (gridworld), reproduced", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    lines += [
+        f"Seeds: {settings['seeds']}; detector: `{settings['detector']}`; bolt camera noise: "
+        f"`{settings['noise']}`; final evaluation: {settings['final_eval_episodes']} episodes "
+        "per seed.",
+        "",
+        "| " + " | ".join(TABLE1_HEADER) + " |",
+        "|" + "---|" * len(TABLE1_HEADER),
+    ]
+    for cells in table1_rows(entries):
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    lines.append("")
+    lines += [f"- {note}" for note in NOTES]
+    lines.append("- Learning curves per row: `curves/<row>.png`.")
+    return "\n".join(lines) + "\n"
+
+
+def _csv(entries: Sequence[Table1Entry]) -> str:
+    header = [
+        "row", "formula", "algo", "rc_max", "paper_rc_max", "r_pi_mean", "r_pi_std",
+        "paper_r_pi", "n_steps_mean", "n_steps_std", "paper_n_steps", "n_frames_mean",
+        "n_frames_reached", "paper_n_frames", "compliance_mean", "compliance_min",
+        "goal_rate_mean", "followed", "paper_followed", "frames", "n_seeds", "n_done",
+        "n_failed",
+    ]  # fmt: skip
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(header)
+
+    def mean(stat: Any) -> str:
+        return "" if stat is None else f"{stat.mean:.6g}"
+
+    def std(stat: Any) -> str:
+        return "" if stat is None else f"{stat.std:.6g}"
+
+    for e in entries:
+        writer.writerow(
+            [
+                e.row.name, e.row.formula, e.row.algo, _num(e.rc_max).replace("—", ""),
+                e.row.paper.rc_max, mean(e.r_pi), std(e.r_pi), e.row.paper.r_pi,
+                mean(e.n_steps), std(e.n_steps), e.row.paper.n_steps, mean(e.n_frames),
+                e.n_reached, e.row.paper.n_frames, mean(e.compliance),
+                "" if e.compliance_min is None else f"{e.compliance_min:.6g}",
+                mean(e.goal_rate), "" if e.followed is None else int(e.followed),
+                int(e.row.paper.followed), e.frames, e.n_seeds, e.n_done, e.n_failed,
+            ]
+        )  # fmt: skip
+    return out.getvalue()
+
+
+def write_table1(
+    sweep_dir: str | os.PathLike[str], *, settings: dict[str, Any] | None = None
+) -> Table1Result:
+    """Collects a Table 1 sweep and writes ``table1.md/csv/json`` and ``curves/<row>.png``.
+
+    Args:
+        sweep_dir: the output directory of :func:`reproduce_table1`.
+        settings: what to print above the table (``seeds``, ``detector``, ``noise``,
+            ``final_eval_episodes``); default: read back from ``table1.json`` or the
+            trials.
+    """
+    from noisybolt.experiments.report import group_curves
+    from noisybolt.experiments.sweep import collect_sweep
+    from noisybolt.io import atomic_write_json, atomic_write_text
+
+    root = Path(sweep_dir)
+    result = collect_sweep(root)
+    entries = build_table1(result)
+    if not entries:
+        raise ConfigError(f"{root} holds no Table 1 rows")
+    if settings is None:
+        previous = _read_json(root / "table1.json") or {}
+        settings = previous.get("settings") or _settings_from(root, result)
+    command_file = root / "command.txt"
+    command = command_file.read_text().strip() if command_file.exists() else ""
+    files: dict[str, Path] = {
+        "markdown": root / "table1.md",
+        "csv": root / "table1.csv",
+        "json": root / "table1.json",
+    }
+    atomic_write_text(files["markdown"], _markdown(entries, settings, command))
+    atomic_write_text(files["csv"], _csv(entries))
+    atomic_write_json(
+        files["json"],
+        {
+            "command": command,
+            "settings": settings,
+            "notes": list(NOTES),
+            "rows": [e.to_dict() for e in entries],
+        },
+    )
+    references = {e.row.name: e.rc_max for e in entries}
+    for group, path in group_curves(root, references=references).items():
+        files[f"curves:{group}"] = path
+    return Table1Result(entries=entries, sweep=result, files=files)
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+
+
+def _settings_from(root: Path, result: Any) -> dict[str, Any]:
+    sweep = _read_json(root / "sweep.json") or {}
+    trials = sweep.get("trials") or [{}]
+    config = trials[0].get("config", {})
+    return {
+        "seeds": sorted({r.seed for r in result.records}),
+        "detector": config.get("detector", {}).get("kind"),
+        "noise": config.get("world_kwargs", {}).get("noise", "none"),
+        "final_eval_episodes": sweep.get("final_eval_episodes", 0),
+    }
+
+
+def reproduce_table1(
+    out_dir: str | os.PathLike[str],
+    *,
+    rows: Sequence[str] | None = None,
+    seeds: int | Sequence[int] = 3,
+    frames_scale: float = 1.0,
+    frames: int | None = None,
+    eval_freq: int | None = None,
+    detector: str = "classifier",
+    noise: str = "regional",
+    eval_episodes: int = 20,
+    final_eval_episodes: int = 100,
+    retries: int = 1,
+    backend: str = "local",
+    workers: int | None = None,
+    address: str | None = None,
+    argv: Sequence[str] | None = None,
+    log: Callable[[str], None] = print,
+) -> Table1Result:
+    """Trains every chosen row over seeds (or resumes), then writes the table.
+
+    Arguments are those of :func:`table1_sweep` and
+    :func:`~noisybolt.experiments.sweep.run_sweep`.
+    """
+    from noisybolt.experiments.sweep import run_sweep
+
+    sweep = table1_sweep(
+        rows=rows,
+        seeds=seeds,
+        frames_scale=frames_scale,
+        frames=frames,
+        eval_freq=eval_freq,
+        detector=detector,
+        noise=noise,
+        eval_episodes=eval_episodes,
+        final_eval_episodes=final_eval_episodes,
+        retries=retries,
+    )
+    run_sweep(sweep, out_dir, backend=backend, workers=workers, address=address, argv=argv, log=log)
+    settings = {
+        "seeds": list(sweep.seeds),
+        "detector": detector,
+        "noise": noise,
+        "final_eval_episodes": final_eval_episodes,
+        "eval_episodes": eval_episodes,
+        "frames_scale": frames_scale,
+        "frames": {t.row: t.config.frames for t in sweep.trials},
+        "eval_freq": {t.row: t.config.eval_freq for t in sweep.trials},
+        "backend": backend,
+    }
+    return write_table1(out_dir, settings=settings)
+
+
+def table1_report_blocks(sweep_dir: str | os.PathLike[str]) -> tuple[list[Any], dict[str, Any]]:
+    """The Table 1 section of a sweep report, and R^c_max per row for the curves."""
+    from noisybolt.experiments.report import Heading, Table, Text
+
+    data = _read_json(Path(sweep_dir) / "table1.json") or {}
+    entries = data.get("rows", [])
+    blocks: list[Any] = [Heading("Table 1, reproduced", 2)]
+    settings = data.get("settings", {})
+    blocks.append(
+        Text(
+            f"Seeds {settings.get('seeds')}, detector `{settings.get('detector')}`, noise "
+            f"`{settings.get('noise')}`; `table1.md`, `table1.csv`, `table1.json`."
+        )
+    )
+    rows = []
+    for e in entries:
+        paper = e["paper"]
+
+        def pm(stat: dict[str, Any] | None, digits: int = 2) -> str:
+            if stat is None:
+                return "—"
+            return f"{stat['mean']:.{digits}f} ± {stat['std']:.{digits}f}"
+
+        reached = e["n_frames"]
+        n_frames = "—" if reached is None else f"{reached['mean'] / 1000:.1f}k"
+        if e["n_reached"] != e["n_done"]:
+            n_frames += f" ({e['n_reached']}/{e['n_done']})"
+        rows.append(
+            (
+                f"`{e['formula']}`",
+                e["algo"].upper(),
+                _num(e["rc_max"]),
+                _num(paper["rc_max"]),
+                pm(e["r_pi"]),
+                _num(paper["r_pi"]),
+                pm(e["n_steps"], 1),
+                _num(paper["n_steps"]),
+                n_frames,
+                f"{paper['n_frames'] / 1000:g}k",
+                "—" if e["compliance"] is None else f"{e['compliance']['mean']:.0%}",
+                "—" if e["goal_rate"] is None else f"{e['goal_rate']['mean']:.0%}",
+                _mark(e["followed"]),
+                _mark(paper["followed"]),
+            )
+        )
+    blocks.append(Table(TABLE1_HEADER[:14], tuple(rows)))
+    blocks += [Text(f"- {note}") for note in data.get("notes", [])]
+    return blocks, {e["row"]: e["rc_max"] for e in entries}

@@ -1,0 +1,154 @@
+"""Reports: Markdown with relative links, self-contained HTML, runs and sweeps, bad paths."""
+
+from __future__ import annotations
+
+import base64
+import doctest
+import re
+from pathlib import Path
+from typing import Any
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from noisybolt.cli import main
+from noisybolt.errors import ConfigError
+from noisybolt.experiments import report as report_module
+from noisybolt.experiments.report import (
+    Code,
+    Heading,
+    Image,
+    Link,
+    Table,
+    Text,
+    plot_learning_curves,
+    render_html,
+    render_markdown,
+    run_report,
+    write_report,
+)
+from noisybolt.experiments.sweep import SweepConfig, run_sweep
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def sweep_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished trial with a GIF and a heat-map saved beside it, and a failed trial."""
+    import noisybolt.agents.training as training
+
+    real_train = training.train
+
+    def train_or_crash(config: Any, run_dir: Any, **kwargs: Any) -> Any:
+        if config.algo == "a2c":
+            raise ValueError("no A2C today")
+        return real_train(config, run_dir, **kwargs)
+
+    sweep = SweepConfig.from_dict(
+        {
+            "name": "reported",
+            "base": {
+                "detector": {"kind": "oracle"},
+                "frames": 1024,
+                "eval_freq": 512,
+                "eval_episodes": 4,
+                "checkpoint_freq": 0,
+                "specs": ["edge"],
+            },
+            "rows": [
+                {"name": "ppo", "algo": "ppo", "hyperparams": {"n_steps": 64}},
+                {"name": "a2c", "algo": "a2c"},
+            ],
+            "retries": 0,
+        }
+    )
+    out = tmp_path_factory.mktemp("report") / "sweep"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(training, "train", train_or_crash)
+        run_sweep(sweep, out, argv=["noisybolt", "sweep", "reported.yaml"], log=lambda _: None)
+    run = out / "trials" / "ppo" / "seed-0"
+    frames = np.zeros((3, 8, 8, 3), dtype=np.uint8)
+    frames[1, 2:4, 2:4] = 255
+    iio.imwrite(run / "episode.gif", frames, extension=".gif")
+    plot_learning_curves(
+        {"x": [{"frames": 1, "env_return_mean": 0.0, "success_rate": 0.0}]},
+        run / "heatmap.png",
+        title="stand-in heat-map",
+    )
+    return out
+
+
+def test_markdown_and_html_render_the_same_blocks(tmp_path: Path) -> None:
+    (tmp_path / "pic.png").write_bytes(PNG + b"fake")
+    blocks = [
+        Heading("Title"),
+        Text("see `code` and **bold** and [that](other/report.md)"),
+        Table(("a", "b|c"), (("1", Link("run", "trials/x/report")),)),
+        Code('{"k": "<v>"}', "json"),
+        Image("pic.png", "a picture"),
+        Image("missing.png"),
+    ]
+    markdown = render_markdown(blocks)
+    assert "| a | b\\|c |" in markdown
+    assert "[run](trials/x/report.md)" in markdown
+    assert "![a picture](pic.png)" in markdown
+    assert '```json\n{"k": "<v>"}\n```' in markdown
+    page = render_html(blocks, base_dir=tmp_path, title="T")
+    assert "<code>code</code>" in page and "<strong>bold</strong>" in page
+    assert '<a href="other/report.html">that</a>' in page
+    assert '<a href="trials/x/report.html">run</a>' in page
+    assert "&lt;v&gt;" in page  # escaped
+    encoded = base64.b64encode(PNG + b"fake").decode()
+    assert f'src="data:image/png;base64,{encoded}"' in page
+    assert "missing picture: missing.png" in page
+
+
+def test_run_report_holds_config_command_evaluation_curves_and_pictures(sweep_dir: Path) -> None:
+    run = sweep_dir / "trials" / "ppo" / "seed-0"
+    files = run_report(run)
+    markdown = files.markdown.read_text()
+    assert markdown.startswith("# Run seed-0")
+    assert "Command: `noisybolt sweep reported.yaml`" in markdown
+    assert "## Final evaluation" in markdown and "| compliance [edge] |" in markdown
+    assert "![learning curves](curves.png)" in markdown
+    assert "![episode](episode.gif)" in markdown and "![heatmap](heatmap.png)" in markdown
+    assert "## Evaluations during training" in markdown and "| 1,024 |" in markdown
+    assert '"algo": "ppo"' in markdown
+    assert (run / "curves.png").read_bytes()[:8] == PNG
+    page = files.html.read_text()
+    # Self-contained: every picture embedded, nothing fetched from elsewhere.
+    assert "data:image/gif;base64," in page and page.count("data:image/png;base64,") == 2
+    assert not re.search(r'src="(?!data:)', page)
+
+
+def test_sweep_report_links_every_trial_and_lists_failures(sweep_dir: Path) -> None:
+    files = write_report(sweep_dir)
+    markdown = files.markdown.read_text()
+    assert "2 trials: 1 done, 1 failed, 0 pending." in markdown
+    assert "| ppo | ppo | edge | 1/1 | 0 |" in markdown
+    assert "| a2c | a2c | edge | 0/1 | 1 |" in markdown
+    assert "![learning curves of ppo](curves/ppo.png)" in markdown
+    assert "[ppo/seed-0](trials/ppo/seed-0/report.md)" in markdown
+    assert "`a2c/seed-0`: ValueError: no A2C today" in markdown
+    assert (sweep_dir / "trials" / "ppo" / "seed-0" / "report.html").exists()
+    # The failed trial's run report shows its traceback.
+    failed = (sweep_dir / "trials" / "a2c" / "seed-0" / "report.md").read_text()
+    assert "## Failed attempts" in failed and "Traceback" in failed
+    page = files.html.read_text()
+    assert '<a href="trials/ppo/seed-0/report.html">' in page
+
+
+def test_report_command(
+    sweep_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["report", str(sweep_dir / "trials" / "ppo" / "seed-0"), "--no-html"]) == 0
+    assert "markdown:" in capsys.readouterr().out
+    assert main(["report", str(tmp_path)]) == 2
+    assert "holds neither a run" in capsys.readouterr().err
+    with pytest.raises(ConfigError, match="no evaluations to plot"):
+        plot_learning_curves({"seed 0": []}, tmp_path / "x.png", title="empty")
+
+
+def test_module_doctests_pass() -> None:
+    assert doctest.testmod(report_module).failed == 0

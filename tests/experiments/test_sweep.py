@@ -1,0 +1,367 @@
+"""Sweeps: validation before anything runs, a 2x2 grid, retries and failures, resume, Ray."""
+
+from __future__ import annotations
+
+import dataclasses
+import doctest
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from noisybolt.cli import main
+from noisybolt.errors import ConfigError
+from noisybolt.experiments import sweep as sweep_module
+from noisybolt.experiments.sweep import (
+    SweepConfig,
+    builtin_sweeps,
+    collect_sweep,
+    load_sweep,
+    run_sweep,
+)
+
+# Tiny trials: 1024 frames, oracle detector, 4 evaluation episodes (about a second each).
+TINY_BASE: dict[str, Any] = {
+    "detector": {"kind": "oracle"},
+    "frames": 1024,
+    "eval_freq": 512,
+    "eval_episodes": 4,
+    "checkpoint_freq": 512,
+}
+GRID: dict[str, Any] = {
+    "name": "grid",
+    "base": TINY_BASE,
+    "rows": [
+        {"name": "edge-ppo", "specs": ["edge"], "algo": "ppo", "hyperparams": {"n_steps": 64}},
+        {"name": "avoid-a2c", "specs": ["avoid_top_right"], "algo": "a2c"},
+    ],
+    "seeds": 2,
+}
+
+
+def _quiet(_: str) -> None:
+    pass
+
+
+def _sweep(**changes: Any) -> SweepConfig:
+    return SweepConfig.from_dict({**GRID, **changes})
+
+
+@pytest.fixture(scope="module")
+def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The 2x2 grid (2 rows x 2 seeds), run once through the CLI for this module."""
+    folder = tmp_path_factory.mktemp("sweeps")
+    config = folder / "grid.yaml"
+    config.write_text(yaml.safe_dump(GRID))
+    assert main(["sweep", str(config), "--out", str(folder / "grid")]) == 0
+    return folder / "grid"
+
+
+# ---------------------------------------------------------------------- validation
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"rowz": []}, r"unknown sweep key\(s\) \['rowz'\]"),
+        ({"rows": []}, "non-empty list"),
+        ({"rows": [{"specs": ["edge"]}]}, "needs a 'name'"),
+        ({"rows": [{"name": "a b", "specs": ["edge"]}]}, "needs a 'name' matching"),
+        ({"rows": [{"name": "a", "specs": ["edge"]}] * 2}, "two rows are named 'a'"),
+        ({"rows": [{"name": "a", "specs": ["edge"], "lr": 1}]}, r"row 'a': unknown setting 'lr'"),
+        ({"rows": [{"name": "a", "specs": ["edge"], "seed": 1}]}, "list seeds under 'seeds'"),
+        ({"rows": [{"name": "a"}]}, "no specs"),
+        ({"rows": [{"name": "a", "specs": []}]}, "specs is empty"),
+        ({"rows": [{"name": "a", "specs": ["edge"], "algo": "sac"}]}, "unknown algorithm 'sac'"),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "hyperparams": {"n_stepz": 8}}]},
+            "unknown hyperparameter 'n_stepz'",
+        ),
+        ({"rows": [{"name": "a", "specs": ["edge"], "frames": 0}]}, "frames must be >= 1"),
+        ({"rows": [{"name": "a", "specs": ["edge"], "frames": "lots"}]}, "not a frame count"),
+        ({"rows": [{"name": "a", "specs": ["edge"], "frames": True}]}, "frames must be int"),
+        ({"rows": [{"name": "a", "specs": ["edge"], "eval_freq": -1}]}, "eval_freq must be >= 0"),
+        ({"rows": [{"name": "a", "specs": ["F(flying)"]}]}, "flying"),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "world_kwargs": {"noise": "fog"}}]},
+            "fog",
+        ),
+        ({"rows": [{"name": "a", "specs": ["edge"], "world": "mars"}]}, "world 'mars'"),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "detector": {"kind": "psychic"}}]},
+            "unknown detector 'psychic'",
+        ),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "detector": {"colour": 1}}]},
+            r"unknown detector setting\(s\) \['colour'\]",
+        ),
+        (
+            {
+                "rows": [
+                    {
+                        "name": "a",
+                        "specs": ["edge"],
+                        "detector": {"kind": "classifier", "path": "/no/such.st"},
+                    }
+                ]
+            },
+            "no classifier file",
+        ),
+        ({"seeds": 0}, "seeds must be >= 1"),
+        ({"seeds": [0, 0]}, "seeds repeat"),
+        ({"seeds": [-1]}, "non-negative"),
+        ({"retries": -1}, "retries must be an integer >= 0"),
+        ({"resources": {"gpus": 1}}, r"unknown key\(s\) \['gpus'\]"),
+        ({"resources": {"cpus": 0}}, "cpus must be a number > 0"),
+        ({"settings": {"seed": [1, 2]}}, "vary seeds with 'seeds'"),
+        ({"settings": {"learning_rate": [1e-3]}}, "unknown setting 'learning_rate'"),
+        ({"settings": {"frames.x": [1]}}, "'frames' is not a mapping"),
+        ({"settings": {"cost_mode": []}}, "non-empty list"),
+        ({"settings": {"cost_mode": ["count", "count"]}}, "lists a value twice"),
+        ({"settings": {"cost_mode": ["count", "sometimes"]}}, "cost_mode must be one of"),
+        ({"base": {"frames": 1024, "success_threshold": 2}}, "success_threshold"),
+    ],
+)
+def test_bad_sweep_configs_are_refused_before_anything_runs(
+    changes: dict[str, Any], match: str
+) -> None:
+    with pytest.raises(ConfigError, match=match):
+        _sweep(**changes)
+
+
+def test_bad_config_through_the_cli_exits_2_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "bad.yaml"
+    config.write_text(yaml.safe_dump({**GRID, "rows": [{"name": "a", "specs": ["F(flying)"]}]}))
+    assert main(["sweep", str(config), "--out", str(tmp_path / "out")]) == 2
+    assert "flying" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+    (tmp_path / "broken.yaml").write_text("rows: [unclosed")
+    assert main(["sweep", str(tmp_path / "broken.yaml")]) == 2
+    assert "not valid YAML" in capsys.readouterr().err
+    assert main(["sweep", str(tmp_path / "missing.yaml")]) == 2
+    assert "built-in sweeps" in capsys.readouterr().err
+    out = str(tmp_path / "out")
+    assert main(["sweep", str(config), "--out", out, "--address", "auto"]) == 2  # needs ray
+
+
+def test_trials_cross_rows_settings_and_seeds_with_deterministic_ids() -> None:
+    sweep = _sweep(
+        settings={"world_kwargs.noise": ["none", "regional"], "hyperparams.gamma": [0.9]},
+        seeds=[3, 5],
+    )
+    ids = [t.trial_id for t in sweep.trials]
+    assert len(ids) == 2 * 2 * 1 * 2
+    assert ids[:3] == [
+        "edge-ppo/noise=none,gamma=0.9/seed-3",
+        "edge-ppo/noise=none,gamma=0.9/seed-5",
+        "edge-ppo/noise=regional,gamma=0.9/seed-3",
+    ]
+    trial = sweep.trials[2]
+    assert trial.group == "edge-ppo/noise=regional,gamma=0.9"
+    assert trial.config.world_kwargs == {"noise": "regional"}
+    assert trial.config.seed == 3
+    # Base, row and axis merge: the row's n_steps and the axis's gamma both apply.
+    assert trial.config.hyperparams["n_steps"] == 64
+    assert trial.config.hyperparams["gamma"] == 0.9
+    assert trial.config.frames == 1024 and trial.config.progress_bar is False
+    assert [t.trial_id for t in _sweep(settings={}).trials] == [
+        "edge-ppo/seed-0",
+        "edge-ppo/seed-1",
+        "avoid-a2c/seed-0",
+        "avoid-a2c/seed-1",
+    ]
+
+
+def test_builtin_sweeps_validate(tmp_path: Path) -> None:
+    assert {"edge_algorithms", "corner_noise"} <= set(builtin_sweeps())
+    for name in builtin_sweeps():
+        sweep = load_sweep(name)
+        assert sweep.name == name and sweep.trials
+    assert len(load_sweep("corner_noise").trials) == 12
+    path = tmp_path / "mine.yaml"
+    path.write_text(yaml.safe_dump({k: v for k, v in GRID.items() if k != "name"}))
+    assert load_sweep(path).name == "mine"
+
+
+def test_module_doctests_pass() -> None:
+    assert doctest.testmod(sweep_module, optionflags=doctest.ELLIPSIS).failed == 0
+
+
+def test_experiments_package_exports_each_name_from_its_module() -> None:
+    import importlib
+
+    import noisybolt.experiments as experiments
+
+    for name in experiments.__all__:
+        module = importlib.import_module(f"noisybolt.experiments.{experiments._SOURCES[name]}")
+        assert name in module.__all__
+        assert getattr(experiments, name) is getattr(module, name)
+    for module_name in ("sweep", "ray_backend", "table1", "case4", "report"):
+        module = importlib.import_module(f"noisybolt.experiments.{module_name}")
+        assert all(hasattr(module, name) for name in module.__all__), module_name
+
+
+# ---------------------------------------------------------------------- local backend
+def test_local_grid_writes_every_trial_and_one_table(grid_dir: Path) -> None:
+    sweep = json.loads((grid_dir / "sweep.json").read_text())
+    assert [t["id"] for t in sweep["trials"]] == [
+        "edge-ppo/seed-0",
+        "edge-ppo/seed-1",
+        "avoid-a2c/seed-0",
+        "avoid-a2c/seed-1",
+    ]
+    for trial in sweep["trials"]:
+        run = grid_dir / "trials" / trial["id"]
+        assert (run / "summary.json").exists() and (run / "model.zip").exists()
+        config = json.loads((run / "config.json").read_text())
+        assert config["seed"] == trial["seed"] and config["frames"] == 1024
+        assert json.loads((run / "trial.json").read_text())["status"] == "done"
+    assert (grid_dir / "command.txt").read_text().startswith("noisybolt sweep ")
+
+    results = json.loads((grid_dir / "results.json").read_text())
+    groups = {g["group"]: g for g in results["groups"]}
+    assert list(groups) == ["edge-ppo", "avoid-a2c"]
+    edge = groups["edge-ppo"]
+    assert edge["n_done"] == 2 and edge["n_failed"] == 0 and edge["algo"] == "ppo"
+    # The table's numbers are the mean and (ddof=0) std over the seeds' final evaluations.
+    finals = [
+        json.loads((grid_dir / "trials" / f"edge-ppo/seed-{s}" / "summary.json").read_text())[
+            "final"
+        ]
+        for s in (0, 1)
+    ]
+    returns = [f["env_return_mean"] for f in finals]
+    assert edge["env_return"]["mean"] == pytest.approx(sum(returns) / 2)
+    assert edge["env_return"]["std"] == pytest.approx(abs(returns[0] - returns[1]) / 2)
+    assert edge["compliance"]["edge"]["mean"] == pytest.approx(
+        sum(f["compliance"]["edge"] for f in finals) / 2
+    )
+    table = (grid_dir / "results.md").read_text()
+    assert "| edge-ppo | ppo | edge | 2/2 | 0 |" in table
+    assert "| avoid-a2c | a2c | avoid_top_right | 2/2 | 0 |" in table
+    csv_lines = (grid_dir / "results.csv").read_text().splitlines()
+    assert csv_lines[0].startswith("group,row,settings,algo,specs,n_trials,n_done,n_failed")
+    assert len(csv_lines) == 3
+
+
+def test_running_again_reuses_finished_trials_untouched(grid_dir: Path) -> None:
+    files = sorted((grid_dir / "trials").rglob("*"))
+    before = {p: p.stat().st_mtime_ns for p in files if p.is_file()}
+    lines: list[str] = []
+    result = run_sweep(_sweep(), grid_dir, log=lines.append)
+    assert "4 already finished, 0 to run" in lines[0]
+    assert result.n_done == 4
+    after = {p: p.stat().st_mtime_ns for p in files if p.is_file()}
+    assert after == before
+
+
+def test_crashing_trial_is_retried_then_reported_failed_while_others_are_kept(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import noisybolt.agents.training as training
+
+    real_train = training.train
+    calls: list[str] = []
+
+    def flaky_train(config: Any, run_dir: Any, **kwargs: Any) -> Any:
+        calls.append(Path(run_dir).parent.name)
+        if config.algo == "a2c":
+            raise RuntimeError("simulated crash in a2c")
+        return real_train(config, run_dir, **kwargs)
+
+    monkeypatch.setattr(training, "train", flaky_train)
+    config = tmp_path / "grid.yaml"
+    config.write_text(yaml.safe_dump({**GRID, "seeds": 1, "retries": 2}))
+    assert main(["sweep", str(config), "--out", str(tmp_path / "out")]) == 1
+    assert calls == ["edge-ppo", "avoid-a2c", "avoid-a2c", "avoid-a2c"]  # 1 try + 2 retries
+
+    result = collect_sweep(tmp_path / "out")
+    status = {r.trial_id: r.status for r in result.records}
+    assert status == {"edge-ppo/seed-0": "done", "avoid-a2c/seed-0": "failed"}
+    failed = result.records[1]
+    assert failed.failed_attempts == 3
+    assert failed.error == "RuntimeError: simulated crash in a2c"
+    failure = json.loads((failed.run_dir / "failure.json").read_text())
+    assert "Traceback" in failure["attempts"][-1]["traceback"]
+    groups = {g.group: g for g in result.groups}
+    assert groups["avoid-a2c"].n_failed == 1 and groups["avoid-a2c"].env_return is None
+    assert groups["edge-ppo"].n_done == 1 and groups["edge-ppo"].env_return is not None
+    table = (tmp_path / "out" / "results.md").read_text()
+    assert "| avoid-a2c | a2c | avoid_top_right | 0/1 | 1 |" in table
+    assert "`avoid-a2c/seed-0`: RuntimeError: simulated crash in a2c" in table
+
+    # Fixed, the sweep runs again: only the failed trial trains.
+    monkeypatch.setattr(training, "train", real_train)
+    lines: list[str] = []
+    result = run_sweep(load_sweep(config), tmp_path / "out", log=lines.append)
+    assert "1 already finished, 1 to run" in lines[0]
+    assert result.n_done == 2 and result.n_failed == 0
+    assert capsys.readouterr().out.count("simulated crash") >= 1
+
+
+def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
+    from noisybolt.agents.training import train
+
+    sweep = _sweep(rows=[GRID["rows"][0]], seeds=1)
+    (trial,) = sweep.trials
+    run_dir = tmp_path / "out" / "trials" / trial.trial_id
+    # What an interruption leaves: a run with a checkpoint at 512 frames, no summary.
+    train(dataclasses.replace(trial.config, frames=512), run_dir, log=_quiet)
+    (run_dir / "summary.json").unlink()
+    first = json.loads((run_dir / "metrics.json").read_text())
+
+    result = run_sweep(sweep, tmp_path / "out", log=_quiet)
+    assert result.n_done == 1 and result.records[0].frames == 1024
+    assert "resuming" in (run_dir / "log.txt").read_text()
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics[: len(first)] == first and metrics[-1]["frames"] == 1024
+
+
+def test_trial_directory_trained_with_other_settings_is_refused(grid_dir: Path) -> None:
+    changed = _sweep(base={**TINY_BASE, "eval_episodes": 6})
+    with pytest.raises(ConfigError, match=r"other settings: edge-ppo/seed-0 \(eval_episodes\)"):
+        run_sweep(changed, grid_dir, log=_quiet)
+
+
+def test_process_pool_runs_trials_in_workers(tmp_path: Path) -> None:
+    sweep = _sweep(rows=[GRID["rows"][1]], seeds=2)
+    result = run_sweep(sweep, tmp_path / "pool", workers=2, log=_quiet)
+    assert result.n_done == 2
+    assert {r.seed for r in result.records} == {0, 1}
+
+
+def test_unknown_backend_is_a_config_error(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="unknown backend 'slurm'"):
+        run_sweep(_sweep(), tmp_path, backend="slurm")
+
+
+# ---------------------------------------------------------------------- Ray backend
+def test_ray_backend_runs_a_small_grid_like_the_local_one(grid_dir: Path, tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    pytest.importorskip("ray.tune")
+    # A classifier file that exists but is garbage passes validation and fails at train
+    # time, inside the Ray worker: Tune retries it once, then it is reported failed.
+    garbage = tmp_path / "garbage.safetensors"
+    garbage.write_bytes(b"not a classifier")
+    broken = {
+        "name": "broken",
+        "specs": ["edge"],
+        "algo": "a2c",
+        "detector": {"kind": "classifier", "path": str(garbage)},
+    }
+    sweep = _sweep(rows=[GRID["rows"][1], broken], seeds=1, retries=1)
+    lines: list[str] = []
+    result = run_sweep(sweep, tmp_path / "ray", backend="ray", log=lines.append)
+    status = {r.trial_id: r.status for r in result.records}
+    assert status == {"avoid-a2c/seed-0": "done", "broken/seed-0": "failed"}, lines
+    assert (tmp_path / "ray" / "ray").is_dir()  # Tune's own files stay in the sweep dir
+    failed = result.records[1]
+    assert failed.failed_attempts == 2  # the first try and Tune's one retry
+    assert "garbage.safetensors" in str(failed.error), failed.error
+    assert any(line.startswith("ray: broken/seed-0: failed") for line in lines)
+    assert "| broken | a2c | edge | 0/1 | 1 |" in (tmp_path / "ray" / "results.md").read_text()
+    # Same seed, same config: the same numbers as the local backend's trial.
+    local = {r.trial_id: r.final for r in collect_sweep(grid_dir, write=False).records}
+    assert result.records[0].final == local["avoid-a2c/seed-0"]

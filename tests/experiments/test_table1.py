@@ -1,0 +1,242 @@
+"""``reproduce table1``: the rows and their budgets, a small reproduction, the decision rules."""
+
+from __future__ import annotations
+
+import csv
+import doctest
+import json
+from pathlib import Path
+
+import pytest
+
+from noisybolt.cli import main
+from noisybolt.errors import ConfigError
+from noisybolt.experiments import table1 as table1_module
+from noisybolt.experiments.sweep import Stat, SweepResult, TrialRecord, summarise_trials
+from noisybolt.experiments.table1 import (
+    TABLE1_ROWS,
+    build_table1,
+    select_rows,
+    table1_sweep,
+)
+
+
+@pytest.fixture(scope="module")
+def small_table(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two rows, one seed, 1k frames, oracle detector: the pipeline end to end via the CLI."""
+    out = tmp_path_factory.mktemp("table1") / "out"
+    code = main(
+        [
+            "reproduce",
+            "table1",
+            "--rows",
+            "edge-ppo,avoid_top_right-a2c",
+            "--seeds",
+            "1",
+            "--frames",
+            "1024",
+            "--detector",
+            "oracle",
+            "--eval-freq",
+            "512",
+            "--eval-episodes",
+            "4",
+            "--final-episodes",
+            "8",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    return out
+
+
+def test_the_paper_rows_in_its_order_with_its_numbers() -> None:
+    assert [(r.spec, r.algo) for r in TABLE1_ROWS] == [
+        ("edge", "ppo"),
+        ("edge", "a2c"),
+        ("edge", "dqn"),
+        ("avoid_top_right", "a2c"),
+        ("avoid_top_right", "dqn"),
+        ("top_right_once", "ppo"),
+        ("top_right_once", "a2c"),
+        ("one_corner_once", "a2c"),
+    ]
+    paper = {r.name: r.paper for r in TABLE1_ROWS}
+    assert (paper["edge-ppo"].rc_max, paper["edge-ppo"].r_pi, paper["edge-ppo"].n_frames) == (
+        94,
+        79.48,
+        25_000,
+    )
+    assert paper["edge-dqn"].rc_max == 92  # as printed, unlike the other G(e) rows
+    assert paper["top_right_once-a2c"].n_steps == 104.2
+    assert all(p.followed for p in paper.values())
+
+
+def test_default_budget_is_twice_the_papers_frames_with_a_60k_floor() -> None:
+    frames = {r.name: r.frames() for r in TABLE1_ROWS}
+    assert frames == {
+        "edge-ppo": 60_000,
+        "edge-a2c": 160_000,
+        "edge-dqn": 60_000,
+        "avoid_top_right-a2c": 100_000,
+        "avoid_top_right-dqn": 60_000,
+        "top_right_once-ppo": 266_000,
+        "top_right_once-a2c": 330_000,
+        "one_corner_once-a2c": 60_000,
+    }
+    every = {r.name: r.eval_freq() for r in TABLE1_ROWS}
+    assert every["edge-dqn"] == 2_000 and every["edge-a2c"] == 8_000
+    assert every["top_right_once-a2c"] == 10_000
+    half = {r.name: r.frames(0.5) for r in TABLE1_ROWS}
+    assert half["edge-ppo"] == 30_000
+
+
+def test_the_default_sweep_is_eight_rows_by_three_seeds_with_the_noisy_classifier() -> None:
+    sweep = table1_sweep()
+    assert len(sweep.trials) == 24 and sweep.seeds == (0, 1, 2)
+    assert sweep.final_eval_episodes == 100
+    for trial in sweep.trials:
+        assert trial.config.detector.kind == "classifier"
+        assert trial.config.world_kwargs == {"noise": "regional"}
+        row = next(r for r in TABLE1_ROWS if r.name == trial.row)
+        assert trial.config.algo == row.algo and trial.config.frames == row.frames()
+        assert trial.config.specs[0]["name"] == row.spec
+
+
+def test_rows_are_chosen_by_row_or_spec_name() -> None:
+    assert [r.name for r in select_rows(["edge"])] == ["edge-ppo", "edge-a2c", "edge-dqn"]
+    assert select_rows(None) == TABLE1_ROWS
+    with pytest.raises(ConfigError, match="unknown Table 1 row"):
+        select_rows(["edge-sac"])
+
+
+def test_bad_options_exit_2_before_anything_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    assert main(["reproduce", "table1", "--rows", "edge-sac", "--out", str(out)]) == 2
+    assert "unknown Table 1 row" in capsys.readouterr().err
+    assert main(["reproduce", "table1", "--noise", "fog", "--out", str(out)]) == 2
+    assert not out.exists()
+    with pytest.raises(SystemExit):
+        main(["reproduce", "table1", "--frames-scale", "0"])
+
+
+def test_small_reproduction_writes_the_table_beside_the_papers(small_table: Path) -> None:
+    data = json.loads((small_table / "table1.json").read_text())
+    assert data["command"].startswith("noisybolt reproduce table1 --seeds 1 ")
+    assert "--frames 1024 --rows edge-ppo,avoid_top_right-a2c" in data["command"]
+    rows = {r["row"]: r for r in data["rows"]}
+    assert list(rows) == ["edge-ppo", "avoid_top_right-a2c"]
+    edge, avoid = rows["edge-ppo"], rows["avoid_top_right-a2c"]
+    # Exact R^c_max from the planner, and the paper's numbers as printed.
+    assert edge["rc_max"] == 89.5 and avoid["rc_max"] == 88.0
+    assert edge["paper"] == {
+        "rc_max": 94,
+        "r_pi": 79.48,
+        "n_steps": 90,
+        "n_frames": 25_000,
+        "followed": True,
+    }
+    assert edge["n_done"] == 1 and edge["frames"] == 1024
+    evaluation = json.loads(
+        (small_table / "trials" / "edge-ppo" / "seed-0" / "evaluation.json").read_text()
+    )
+    assert evaluation["episodes"] == 8
+    assert edge["r_pi"]["mean"] == pytest.approx(evaluation["env_return_mean"])
+    assert edge["compliance"]["mean"] == pytest.approx(evaluation["compliance"]["edge"])
+    assert edge["followed"] is (evaluation["compliance"]["edge"] >= 0.95)
+
+    markdown = (small_table / "table1.md").read_text()
+    assert "| `G(on_edge)` | PPO | 89.5 | 94 |" in markdown
+    assert "| `!F(top_right_corner)` | A2C | 88 | 82 |" in markdown
+    assert "79.48" in markdown and "25.0k" in markdown
+    with open(small_table / "table1.csv", newline="") as handle:
+        table = list(csv.DictReader(handle))
+    assert [r["row"] for r in table] == ["edge-ppo", "avoid_top_right-a2c"]
+    assert table[1]["paper_r_pi"] == "80.71" and table[1]["rc_max"] == "88"
+    for row in ("edge-ppo", "avoid_top_right-a2c"):
+        png = small_table / "curves" / f"{row}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_running_again_reuses_the_trials(small_table: Path) -> None:
+    stamps = {p: p.stat().st_mtime_ns for p in (small_table / "trials").rglob("*") if p.is_file()}
+    code = main(
+        [
+            "reproduce",
+            "table1",
+            "--rows",
+            "edge-ppo,avoid_top_right-a2c",
+            "--seeds",
+            "1",
+            "--frames",
+            "1024",
+            "--detector",
+            "oracle",
+            "--eval-freq",
+            "512",
+            "--eval-episodes",
+            "4",
+            "--final-episodes",
+            "8",
+            "--out",
+            str(small_table),
+        ]
+    )
+    assert code == 0
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
+
+
+def _record(seed: int, compliance: float | None) -> TrialRecord:
+    final = None
+    if compliance is not None:
+        final = {
+            "env_return_mean": 80.0 + seed,
+            "length_mean": 9.0,
+            "goal_rate": 1.0,
+            "success_rate": compliance,
+            "compliance": {"edge": compliance},
+        }
+    return TrialRecord(
+        trial_id=f"edge-ppo/seed-{seed}",
+        group="edge-ppo",
+        row="edge-ppo",
+        seed=seed,
+        settings={},
+        run_dir=Path("/nonexistent"),
+        status="done" if final else "failed",
+        algo="ppo",
+        spec_names=("edge",),
+        final=final,
+        frames=60_000,
+        frames_to_comply=12_000 if compliance and compliance >= 0.95 else None,
+    )
+
+
+@pytest.mark.parametrize(
+    ("rates", "followed"),
+    [
+        ((1.0, 0.95, 0.97), True),
+        ((1.0, 0.9, 1.0), False),
+        ((1.0, None, 1.0), None),  # a seed failed: undecided unless another is below
+        ((0.5, None, 1.0), False),
+    ],
+)
+def test_followed_needs_95_percent_compliance_in_every_seed(
+    rates: tuple[float | None, ...], followed: bool | None
+) -> None:
+    records = tuple(_record(seed, rate) for seed, rate in enumerate(rates))
+    result = SweepResult(Path("/nonexistent"), "table1", records, summarise_trials(records))
+    (entry,) = build_table1(result)
+    assert entry.followed is followed
+    assert entry.rc_max == 89.5
+    done = [r for r in rates if r is not None]
+    assert entry.r_pi == Stat.of(80.0 + s for s, r in enumerate(rates) if r is not None)
+    assert entry.n_done == len(done) and entry.n_failed == len(rates) - len(done)
+    assert entry.n_reached == sum(r >= 0.95 for r in done)
+
+
+def test_module_doctests_pass() -> None:
+    assert doctest.testmod(table1_module).failed == 0
