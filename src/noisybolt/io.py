@@ -39,6 +39,8 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[A
         with os.fdopen(fd, mode) as handle:
             yield handle
             handle.flush()
+            # mkstemp makes the file private (0600); results are meant to be shared.
+            os.fchmod(handle.fileno(), 0o644)
             os.fsync(handle.fileno())
         os.replace(tmp, path)
     except BaseException:
