@@ -53,16 +53,3 @@ def test_unknown_algorithm_and_world_are_named_errors() -> None:
 def test_malformed_override_is_refused(bad: str) -> None:
     with pytest.raises(ConfigError):
         parse_overrides([bad])
-
-
-def test_atomic_writes_leave_readable_complete_files(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from noisybolt.io import atomic_open, atomic_write_json
-
-    target = tmp_path / "out.json"
-    atomic_write_json(target, {"a": 1})
-    assert target.stat().st_mode & 0o777 == 0o644
-    with pytest.raises(RuntimeError), atomic_open(target, "w") as handle:
-        handle.write("half")
-        raise RuntimeError("killed mid-write")
-    assert target.read_text() == '{\n  "a": 1\n}\n'  # the old file, intact
-    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]  # no temp file left
