@@ -30,6 +30,11 @@ def parse_frames(text: str) -> int:
     return int(value)
 
 
+def parse_interval(text: str) -> int:
+    """A frame interval; 0 turns the periodic action off (``0``, ``10k``)."""
+    return 0 if text.strip() == "0" else parse_frames(text)
+
+
 def register(subparsers: Any) -> None:
     """Adds ``noisybolt train`` and ``noisybolt evaluate``."""
     train = subparsers.add_parser(
@@ -78,9 +83,19 @@ def register(subparsers: Any) -> None:
         metavar="KEY=VALUE",
         help="hyperparameter override, e.g. --hp learning_rate=3e-4",
     )
-    train.add_argument("--eval-freq", type=parse_frames, default=10_000)
+    train.add_argument(
+        "--eval-freq",
+        type=parse_interval,
+        default=10_000,
+        help="frames between evaluations (0: only at the end)",
+    )
     train.add_argument("--eval-episodes", type=int, default=20)
-    train.add_argument("--checkpoint-freq", type=parse_frames, default=20_000)
+    train.add_argument(
+        "--checkpoint-freq",
+        type=parse_interval,
+        default=20_000,
+        help="frames between checkpoints (0: only at the end)",
+    )
     train.add_argument("--cost-mode", default="count", help="count (paper) or proportional")
     train.add_argument(
         "--unbolted",
