@@ -20,11 +20,9 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.hyperparams import algorithm_class
-from noisybolt.agents.training import TrainConfig, build_bolted_env, make_detector
-from noisybolt.envs import make_world
+from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
-from noisybolt.logic import compile_ltlf
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.rundir import RunDirectory
 
@@ -107,17 +105,8 @@ def evaluate_run(
     config = TrainConfig.from_dict(data)
     if deterministic is None:
         deterministic = config.eval_deterministic
-    probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
-    fluents = tuple(probe.fluent_names)
-    dfas = [compile_ltlf(s.formula, fluents) for s in config.spec_objects()]
-    detector = make_detector(
-        config.detector,
-        world=config.world,
-        world_kwargs=config.world_kwargs,
-        fluent_names=fluents,
-        camera_spec=probe.camera_spec,
-        progress=False,
-    )
+    setup = prepare_bolt(config, seed=seed)
+    dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
     env = build_bolted_env(config, detector, n_envs=min(8, episodes), seed=seed, dfas=dfas)
     result = evaluate_bolted_policy(

@@ -49,11 +49,13 @@ from noisybolt.wrappers import BoltVecEnv
 
 __all__ = [
     "DETECTORS",
+    "BoltSetup",
     "DetectorConfig",
     "TrainConfig",
     "TrainResult",
     "build_bolted_env",
     "make_detector",
+    "prepare_bolt",
     "train",
 ]
 
@@ -377,6 +379,49 @@ def build_bolted_env(
     )
 
 
+@dataclass(frozen=True)
+class BoltSetup:
+    """What a bolted run needs besides the environments: checked specs and the detector.
+
+    Attributes:
+        fluents: the world's fluent vocabulary.
+        dfas: every spec's DFA over it.
+        detector: the fluent detector, checked against the world's fluents and camera.
+    """
+
+    fluents: tuple[str, ...]
+    dfas: list[Any]
+    detector: FluentDetector
+
+
+def prepare_bolt(
+    config: TrainConfig,
+    *,
+    seed: int,
+    progress: bool = False,
+    log: Callable[[str], None] = print,
+) -> BoltSetup:
+    """Compiles the specs over the world's fluents and builds the detector.
+
+    Raises:
+        UnknownFluentError: a spec names a fluent the world lacks (listing the world's).
+        IncompatibleError: the detector's fluents or camera differ from the world's.
+    """
+    probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
+    fluents = tuple(probe.fluent_names)
+    dfas = _check_specs_against_world(config, fluents)
+    detector = make_detector(
+        config.detector,
+        world=config.world,
+        world_kwargs=config.world_kwargs,
+        fluent_names=fluents,
+        camera_spec=probe.camera_spec,
+        progress=progress,
+        log=log,
+    )
+    return BoltSetup(fluents=fluents, dfas=dfas, detector=detector)
+
+
 def _check_specs_against_world(config: TrainConfig, fluent_names: Sequence[str]) -> list[Any]:
     """Compiles every spec over the world's fluents (errors list the world's fluents)."""
     dfas = []
@@ -551,18 +596,8 @@ def train(
             "directory"
         )
 
-    probe = make_world(config.world, num_envs=1, seed=config.seed, **config.world_kwargs)
-    fluents = tuple(probe.fluent_names)
-    dfas = _check_specs_against_world(config, fluents)
-    detector = make_detector(
-        config.detector,
-        world=config.world,
-        world_kwargs=config.world_kwargs,
-        fluent_names=fluents,
-        camera_spec=probe.camera_spec,
-        progress=config.progress_bar,
-        log=log,
-    )
+    setup = prepare_bolt(config, seed=config.seed, progress=config.progress_bar, log=log)
+    dfas, detector = setup.dfas, setup.detector
     run.path.mkdir(parents=True, exist_ok=True)
     run.write_config(config.to_dict())
     run.write_command(argv)

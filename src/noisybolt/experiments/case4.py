@@ -112,9 +112,7 @@ def measure_corners(
     import torch
 
     from noisybolt.agents.run_evaluation import load_run_model
-    from noisybolt.agents.training import TrainConfig, build_bolted_env, make_detector
-    from noisybolt.envs import make_world
-    from noisybolt.logic import compile_ltlf
+    from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
     from noisybolt.rundir import RunDirectory
 
     if episodes < 1:
@@ -124,23 +122,15 @@ def measure_corners(
     config = TrainConfig.from_dict(run.read_config())
     if deterministic is None:
         deterministic = config.eval_deterministic
-    probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
-    fluents = tuple(probe.fluent_names)
+    setup = prepare_bolt(config, seed=seed)
+    fluents = setup.fluents
     if _TOP_RIGHT not in fluents or _BOTTOM_LEFT not in fluents:
         raise ConfigError(
             f"{config.world} has no {_TOP_RIGHT}/{_BOTTOM_LEFT} fluents: case 4 is measured "
             "in the gridworld"
         )
     tr, bl = fluents.index(_TOP_RIGHT), fluents.index(_BOTTOM_LEFT)
-    dfas = [compile_ltlf(s.formula, fluents) for s in config.spec_objects()]
-    detector = make_detector(
-        config.detector,
-        world=config.world,
-        world_kwargs=config.world_kwargs,
-        fluent_names=fluents,
-        camera_spec=probe.camera_spec,
-        progress=False,
-    )
+    dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
     n_envs = max(1, min(n_envs, episodes))
     env = build_bolted_env(config, detector, n_envs=n_envs, seed=seed, dfas=dfas)
