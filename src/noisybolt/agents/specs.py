@@ -1,10 +1,29 @@
 """The paper's specifications by name, and turning command-line text into :class:`Spec` s.
 
-Rewards: the paper gives no numbers for its bolts' rewards. Ours are per step
+Rewards: the paper gives no numbers for its bolts' rewards. By default ours are per step
 (``every_step`` timing, the paper's Algorithm 1): +1 for each step the DFA is accepting,
 and 0.5 for each low-confidence fluent on the edge taken. Both stay below the world's
 step cost (1.5 in the gridworld), so complying never pays more than reaching the goal:
-the bolt shapes *how* the agent reaches it.
+the bolt shapes *how* the agent reaches it, and staying in an accepting state forever
+earns -0.5 per step (no incentive to loiter).
+
+Per-spec settings (:data:`SPEC_SETTINGS`) may replace those defaults for one spec; none
+does at present, after measuring (``benchmarks/tuning_notes.md``):
+
+- The world's shortest path (7 actions, along the top wall through the top-right corner)
+  already complies with ``edge``, ``top_right_once`` and ``one_corner_once``: the +1 per
+  accepting step only has to keep the agent on it (or, for the two ``F`` specs, off the
+  interior routes that visit no corner).
+- ``avoid_top_right`` costs one extra step (8 actions). With gamma 0.99 the compliant
+  route is worth ~3.4 more than the shortcut (out of ~90), at 0.97 ~1.5, at 0.95 ~0;
+  at gamma 0.9 the shortcut is worth ~2.2 more, and DQN at 0.9 learned it in every
+  seed. ``episode_end`` timing with a terminal reward
+  of 50 (no loitering incentive, wide margin at any gamma) made DQN at gamma 0.9 learn
+  it in 2-6k frames, but A2C then converged on the shortcut in all three seeds within
+  100k frames (the per-step reward reaches it in 20-30k): the dense per-step signal is
+  what A2C needs. So every spec keeps the paper's per-step reward and DQN uses gamma
+  0.97 instead. Per-step rewards above the 1.5 step cost are avoided: they would pay
+  the agent for staying in an accepting state forever.
 """
 
 from __future__ import annotations
@@ -15,7 +34,7 @@ from typing import Any
 from noisybolt.bolt import Spec
 from noisybolt.errors import ConfigError
 
-__all__ = ["DEFAULT_COST", "DEFAULT_REWARD", "PAPER_SPECS", "resolve_spec"]
+__all__ = ["DEFAULT_COST", "DEFAULT_REWARD", "PAPER_SPECS", "SPEC_SETTINGS", "resolve_spec"]
 
 DEFAULT_REWARD = 1.0
 DEFAULT_COST = 0.5
@@ -31,6 +50,21 @@ PAPER_SPECS: dict[str, str] = {
     "clear_left_column": "F(brick_clear_left)",
 }
 
+#: Reward settings of built-in specs that differ from the defaults (see the module text);
+#: they fill in whatever a mapping given to :func:`resolve_spec` leaves out.
+SPEC_SETTINGS: dict[str, dict[str, Any]] = {}
+
+
+def _builtin_fields(name: str) -> dict[str, Any]:
+    fields: dict[str, Any] = {
+        "formula": PAPER_SPECS[name],
+        "terminal_reward": DEFAULT_REWARD,
+        "low_confidence_cost": DEFAULT_COST,
+        "name": name,
+    }
+    fields.update(SPEC_SETTINGS.get(name, {}))
+    return fields
+
 
 def resolve_spec(item: str | Mapping[str, Any]) -> Spec:
     """A :class:`Spec` from a built-in name, a formula, or a mapping of Spec fields.
@@ -40,21 +74,19 @@ def resolve_spec(item: str | Mapping[str, Any]) -> Spec:
         'G(on_edge)'
         >>> resolve_spec({"formula": "F(a)", "terminal_reward": 5}).terminal_reward
         5.0
+        >>> resolve_spec("avoid_top_right").reward_timing
+        'every_step'
     """
     if isinstance(item, str):
         text = item.strip()
         if text in PAPER_SPECS:
-            return Spec(
-                PAPER_SPECS[text],
-                terminal_reward=DEFAULT_REWARD,
-                low_confidence_cost=DEFAULT_COST,
-                name=text,
-            )
+            fields = _builtin_fields(text)
+            return Spec(fields.pop("formula"), **fields)
         return Spec(text, terminal_reward=DEFAULT_REWARD, low_confidence_cost=DEFAULT_COST)
     if isinstance(item, Mapping):
         fields = dict(item)
         if "name" in fields and "formula" not in fields and fields["name"] in PAPER_SPECS:
-            fields["formula"] = PAPER_SPECS[fields["name"]]
+            fields = {**_builtin_fields(fields["name"]), **fields}
         if "formula" not in fields:
             raise ConfigError(f"a spec needs a formula or a built-in name: {dict(item)}")
         known = {"formula", "terminal_reward", "low_confidence_cost", "reward_timing", "name"}
