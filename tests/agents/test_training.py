@@ -219,3 +219,15 @@ def test_a2c_with_the_oracle_learns_to_avoid_the_top_right_corner(tmp_path: Path
     assert result.final.goal_rate >= 0.9
     assert result.final.compliance["avoid_top_right"] >= 0.9
     assert result.final.length_mean >= 8  # the compliant route is one step longer
+
+
+def test_evaluating_more_often_does_not_change_training(tmp_path: Path) -> None:
+    rare = train(_config(eval_freq=2048, overrides={"n_steps": 64}), tmp_path / "a", log=_quiet)
+    often = train(_config(eval_freq=512, overrides={"n_steps": 64}), tmp_path / "b", log=_quiet)
+    assert rare.history[-1] == often.history[-1]  # same policy evaluated at 2048 frames
+
+
+def test_dqn_with_reward_normalisation_trains(tmp_path: Path) -> None:
+    config = _config(algo="dqn", overrides={"normalize_reward": True, "learning_starts": 100})
+    result = train(config, tmp_path / "run", log=_quiet)
+    assert result.frames == 2048

@@ -508,13 +508,23 @@ class _BoltCallback(BaseCallback):
         """Evaluates the current policy and records it (metrics.json, TensorBoard)."""
         model = self.model
         deterministic = self.config.eval_deterministic
-        result = evaluate_bolted_policy(
-            lambda obs: model.predict(obs, deterministic=deterministic)[0],
-            self.eval_env,
-            n_episodes=self.config.eval_episodes,
-            spec_names=self.spec_names,
-        )
         frames = int(model.num_timesteps)
+        # Sampled evaluation actions draw from torch's and numpy's global generators (DQN's
+        # epsilon uses numpy's). Draw them from generators of their own, seeded by the
+        # frame count, so that how often a run is evaluated does not change its training.
+        numpy_state = np.random.get_state()
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(self.config.seed * 1_000_003 + frames)
+            np.random.seed((self.config.seed * 1_000_003 + frames) % 2**32)
+            try:
+                result = evaluate_bolted_policy(
+                    lambda obs: model.predict(obs, deterministic=deterministic)[0],
+                    self.eval_env,
+                    n_episodes=self.config.eval_episodes,
+                    spec_names=self.spec_names,
+                )
+            finally:
+                np.random.set_state(numpy_state)
         if self.frames_to_comply is None and result.success_rate >= self.config.success_threshold:
             self.frames_to_comply = frames
         record = {"frames": frames, **result.to_dict()}
@@ -542,6 +552,23 @@ class _BoltCallback(BaseCallback):
             self.checkpoint()
             self._next_ckpt = _next_multiple(frames, self.config.checkpoint_freq)
         return True
+
+
+def _transposed(env: VecEnv) -> VecEnv:
+    """``env`` with channel-last image entries moved channel-first, as SB3 would do."""
+    from stable_baselines3.common.preprocessing import (
+        is_image_space,
+        is_image_space_channels_first,
+    )
+    from stable_baselines3.common.vec_env import VecTransposeImage
+
+    spaces = getattr(env.observation_space, "spaces", {"": env.observation_space})
+    if any(
+        is_image_space(space) and not is_image_space_channels_first(space)  # type: ignore[arg-type]
+        for space in spaces.values()
+    ):
+        return VecTransposeImage(env)
+    return env
 
 
 def _next_multiple(value: int, step: int) -> int:
@@ -606,6 +633,10 @@ def train(
         config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas
     )
     if config.hyperparams.get("normalize_reward"):
+        # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
+        # top, and off-policy replay buffers, which store VecNormalize's original (here:
+        # untransposed) observations, then get the wrong shape (DQN crashed).
+        env = _transposed(env)
         env = VecNormalize(
             env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
         )
@@ -673,12 +704,3 @@ def train(
 def _result_from_record(record: Mapping[str, Any], spec_names: Sequence[str]) -> EvalResult:
     fields = {k: v for k, v in record.items() if k in EvalResult.__dataclass_fields__}
     return EvalResult(**fields)
-
-
-def spec_fingerprint(specs: Sequence[Spec]) -> str:
-    """A short stable hash of specs (for cache keys and run names)."""
-    text = json.dumps([asdict(s) for s in specs], sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
-
-
-_ = np  # numpy is used by callers through this module's types
