@@ -512,10 +512,10 @@ class _BoltCallback(BaseCallback):
         # Sampled evaluation actions draw from torch's and numpy's global generators (DQN's
         # epsilon uses numpy's). Draw them from generators of their own, seeded by the
         # frame count, so that how often a run is evaluated does not change its training.
-        numpy_state = np.random.get_state()
+        numpy_state = np.random.get_state()  # noqa: NPY002 (SB3 uses the legacy global)
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(self.config.seed * 1_000_003 + frames)
-            np.random.seed((self.config.seed * 1_000_003 + frames) % 2**32)
+            np.random.seed((self.config.seed * 1_000_003 + frames) % 2**32)  # noqa: NPY002
             try:
                 result = evaluate_bolted_policy(
                     lambda obs: model.predict(obs, deterministic=deterministic)[0],
@@ -524,7 +524,7 @@ class _BoltCallback(BaseCallback):
                     spec_names=self.spec_names,
                 )
             finally:
-                np.random.set_state(numpy_state)
+                np.random.set_state(numpy_state)  # noqa: NPY002
         if self.frames_to_comply is None and result.success_rate >= self.config.success_threshold:
             self.frames_to_comply = frames
         record = {"frames": frames, **result.to_dict()}
@@ -564,7 +564,7 @@ def _transposed(env: VecEnv) -> VecEnv:
 
     spaces = getattr(env.observation_space, "spaces", {"": env.observation_space})
     if any(
-        is_image_space(space) and not is_image_space_channels_first(space)  # type: ignore[arg-type]
+        is_image_space(space) and not is_image_space_channels_first(space)
         for space in spaces.values()
     ):
         return VecTransposeImage(env)
