@@ -21,32 +21,35 @@ from noisybolt.experiments.table1 import (
 )
 
 
+def _small_table_argv(out: Path) -> list[str]:
+    """Two rows, one seed, 1k frames, oracle detector, into ``out``."""
+    return [
+        "reproduce",
+        "table1",
+        "--rows",
+        "edge-ppo,avoid_top_right-a2c",
+        "--seeds",
+        "1",
+        "--frames",
+        "1024",
+        "--detector",
+        "oracle",
+        "--eval-freq",
+        "512",
+        "--eval-episodes",
+        "4",
+        "--final-episodes",
+        "8",
+        "--out",
+        str(out),
+    ]
+
+
 @pytest.fixture(scope="module")
 def small_table(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two rows, one seed, 1k frames, oracle detector: the pipeline end to end via the CLI."""
     out = tmp_path_factory.mktemp("table1") / "out"
-    code = main(
-        [
-            "reproduce",
-            "table1",
-            "--rows",
-            "edge-ppo,avoid_top_right-a2c",
-            "--seeds",
-            "1",
-            "--frames",
-            "1024",
-            "--detector",
-            "oracle",
-            "--eval-freq",
-            "512",
-            "--eval-episodes",
-            "4",
-            "--final-episodes",
-            "8",
-            "--out",
-            str(out),
-        ]
-    )
+    code = main(_small_table_argv(out))
     assert code == 0
     return out
 
@@ -163,28 +166,7 @@ def test_small_reproduction_writes_the_table_beside_the_papers(small_table: Path
 
 def test_running_again_reuses_the_trials(small_table: Path) -> None:
     stamps = {p: p.stat().st_mtime_ns for p in (small_table / "trials").rglob("*") if p.is_file()}
-    code = main(
-        [
-            "reproduce",
-            "table1",
-            "--rows",
-            "edge-ppo,avoid_top_right-a2c",
-            "--seeds",
-            "1",
-            "--frames",
-            "1024",
-            "--detector",
-            "oracle",
-            "--eval-freq",
-            "512",
-            "--eval-episodes",
-            "4",
-            "--final-episodes",
-            "8",
-            "--out",
-            str(small_table),
-        ]
-    )
+    code = main(_small_table_argv(small_table))
     assert code == 0
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
 

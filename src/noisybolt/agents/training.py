@@ -39,7 +39,7 @@ from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
 from noisybolt.agents.specs import resolve_spec
 from noisybolt.bolt import COST_MODES, Spec, Thresholds
-from noisybolt.envs import known_worlds, make_world
+from noisybolt.envs import SB3VecEnv, known_worlds, make_world
 from noisybolt.errors import ConfigError, UnknownFluentError, UnknownNameError
 from noisybolt.io import atomic_open, atomic_write_json
 from noisybolt.logic import compile_ltlf
@@ -364,8 +364,6 @@ def build_bolted_env(
     dfas: Sequence[Any] | None = None,
 ) -> BoltVecEnv:
     """The world as an SB3 ``VecEnv``, monitored, with the bolt on top."""
-    from noisybolt.envs import SB3VecEnv
-
     world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_kwargs)
     venv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
     return BoltVecEnv(
