@@ -231,3 +231,47 @@ def test_dqn_with_reward_normalisation_trains(tmp_path: Path) -> None:
     config = _config(algo="dqn", overrides={"normalize_reward": True, "learning_starts": 100})
     result = train(config, tmp_path / "run", log=_quiet)
     assert result.frames == 2048
+
+
+def test_keep_best_keeps_the_model_of_the_best_shaped_return(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import torch
+    from stable_baselines3 import PPO
+
+    from noisybolt.agents import training
+
+    evaluated: dict[int, dict[str, torch.Tensor]] = {}  # the policy each evaluation saw
+    original = training._BoltCallback.evaluate
+
+    def spy(self: training._BoltCallback) -> training.EvalResult:
+        state = {k: v.clone() for k, v in self.model.policy.state_dict().items()}
+        evaluated[int(self.model.num_timesteps)] = state
+        return original(self)
+
+    monkeypatch.setattr(training._BoltCallback, "evaluate", spy)
+    config = _config(keep_best=True, frames=3072, eval_freq=512)
+    result = train(config, tmp_path / "run", log=_quiet)
+    run = tmp_path / "run"
+    metrics = json.loads((run / "metrics.json").read_text())
+    shaped = [m["env_return_mean"] + m["bolt_return_mean"] for m in metrics]
+    best = max(range(len(shaped)), key=lambda i: (shaped[i], i))  # ties: the later one
+    frames = metrics[best]["frames"]
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["frames"] == 3072
+    assert summary["kept_model"]["frames"] == frames
+    assert summary["kept_model"]["shaped_return"] == pytest.approx(shaped[best])
+    assert summary["final"] == {k: v for k, v in metrics[best].items() if k != "frames"}
+    assert result.final.env_return_mean == metrics[best]["env_return_mean"]
+    kept = PPO.load(run / "model.zip", device="cpu").policy.state_dict()
+    assert all(torch.equal(kept[k], evaluated[frames][k]) for k in kept)
+    for other, state in evaluated.items():
+        if other != frames:
+            assert not all(torch.equal(kept[k], state[k]) for k in kept)
+
+
+def test_without_keep_best_the_last_model_is_kept(tmp_path: Path) -> None:
+    train(_config(), tmp_path / "run", log=_quiet)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["kept_model"] == {"frames": 2048, "chosen_by": "last"}
+    assert not (tmp_path / "run" / "best").exists()

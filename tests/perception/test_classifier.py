@@ -200,3 +200,51 @@ def test_tile_reading_trunk_sees_one_tile_per_first_layer_output(tmp_path):
 def test_configs_saved_before_patch_existed_still_load():
     old = {"channels": [16, 32, 32], "pool": 4, "hidden": 64}
     assert ClassifierConfig.from_dict(old) == ClassifierConfig()
+
+
+@pytest.mark.parametrize(
+    ("config", "height", "width"),
+    [
+        (ClassifierConfig(channels=(32, 32), patch=8), 48, 48),  # the gridworld's
+        (ClassifierConfig(), 84, 84),  # Breakout's: stride-2 3x3 convolutions
+        (ClassifierConfig(channels=(4, 8), patch=8), 84, 90),  # tiles that do not divide
+        (ClassifierConfig(channels=(4, 8, 8), pool=3), 7, 9),  # odd sizes, pool 3
+    ],
+)
+def test_fast_inference_is_the_network(config, height, width):
+    from noisybolt.perception.classifier import FluentNet, images_to_tensor
+
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(1)
+        net = FluentNet(in_channels=3, n_fluents=5, config=config).eval()
+    images = np.random.default_rng(2).integers(0, 256, (6, height, width, 3), dtype=np.uint8)
+    with torch.inference_mode():
+        want = net(images_to_tensor(images))
+        got = net.infer(torch.from_numpy(images))
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5)
+
+
+def test_fast_inference_follows_weight_updates(detector):
+    # The derived matrices are cached: an optimiser step, a state-dict load and a
+    # replaced parameter must each be seen by the next prediction.
+    images = _images(4)
+    before = detector.predict(images)
+    net = detector.model
+    optimiser = torch.optim.SGD(net.parameters(), lr=0.5)
+    net.train()
+    loss = net(torch.rand(4, 3, *SPEC.shape[:2])).sum()
+    loss.backward()
+    optimiser.step()
+    stepped = detector.predict(images)
+    assert not np.allclose(stepped, before)
+    with torch.inference_mode():
+        want = torch.sigmoid(net(torch.from_numpy(images).permute(0, 3, 1, 2).float() / 255))
+    np.testing.assert_allclose(stepped, want.numpy(), rtol=1e-5, atol=1e-6)
+    saved = {k: v.clone() for k, v in net.state_dict().items()}
+    with torch.no_grad():
+        net.head[2].bias.add_(3.0)
+    assert not np.allclose(detector.predict(images), stepped)
+    net.load_state_dict(saved)
+    np.testing.assert_allclose(detector.predict(images), stepped, rtol=1e-6)
+    net.head[2].bias = torch.nn.Parameter(net.head[2].bias.detach() - 3.0)
+    assert (detector.predict(images) < stepped).all()

@@ -7,7 +7,9 @@ A run directory holds::
     metrics.json           one record per evaluation (returns, compliance, success, frames)
     checkpoints/latest.json  points to the newest complete checkpoint folder
     checkpoints/step_N/    model.zip (+ vecnormalize.pkl, replay_buffer.pkl)
-    model.zip              the final model (+ vecnormalize.pkl)
+    best/                  with ``keep_best``: the model of the best periodic evaluation
+    model.zip              the final model (+ vecnormalize.pkl): the last one, or with
+                           ``keep_best`` the best one
     tensorboard/           TensorBoard logs
     summary.json           the final evaluation and the first frame count of compliance
 
@@ -62,6 +64,7 @@ __all__ = [
 DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
 #: Settings that may change when a run is resumed.
 RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar")
+BEST_DIR = "best"
 
 
 @dataclass(frozen=True)
@@ -122,6 +125,13 @@ class TrainConfig:
         cost_mode: ``"count"`` or ``"proportional"``.
         bolted: False trains the same agent without a bolt (for comparison): specs are
             still tracked for compliance metrics, with zero rewards.
+        keep_best: the run's final model is the one of the periodic evaluation with the
+            highest mean *shaped* return (environment + bolt rewards, as the bolt sees
+            them through its detector), not the last one, as RL Zoo keeps
+            ``best_model.zip``. Ground truth never chooses: compliance is measured on the
+            kept model afterwards. It guards a result against late drift (a policy that
+            complied for 200k frames and then found an equally short route past the spec
+            is not what the training signal prefers).
         progress_bar: show a progress bar.
     """
 
@@ -142,6 +152,7 @@ class TrainConfig:
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
     bolted: bool = True
+    keep_best: bool = False
     progress_bar: bool = True
 
     def __post_init__(self) -> None:
@@ -448,6 +459,19 @@ def _save_model_files(model: BaseAlgorithm, env: VecEnv, folder: Path) -> None:
             pickle.dump(env, handle)
 
 
+def _copy_model_files(source: Path, folder: Path) -> None:
+    """Copies a saved model (and its normaliser) into ``folder``, each file atomically."""
+    for name in ("model.zip", "vecnormalize.pkl"):
+        if (source / name).exists():
+            with atomic_open(folder / name, "wb") as handle:
+                handle.write((source / name).read_bytes())
+
+
+def shaped_return(result: EvalResult) -> float:
+    """What the agent is trained to maximise, as measured: env + bolt return (means)."""
+    return float(result.env_return_mean + result.bolt_return_mean)
+
+
 def _save_checkpoint(
     model: BaseAlgorithm, env: VecEnv, run: RunDirectory, state: dict[str, Any]
 ) -> None:
@@ -487,6 +511,7 @@ class _BoltCallback(BaseCallback):
         spec_names: Sequence[str],
         history: list[dict[str, Any]],
         frames_to_comply: int | None,
+        best: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(verbose=0)
         self.config = config
@@ -495,6 +520,7 @@ class _BoltCallback(BaseCallback):
         self.spec_names = list(spec_names)
         self.history = history
         self.frames_to_comply = frames_to_comply
+        self.best = best
         self._next_eval = self._next_ckpt = 0
 
     def _init_callback(self) -> None:
@@ -528,6 +554,14 @@ class _BoltCallback(BaseCallback):
         record = {"frames": frames, **result.to_dict()}
         self.history.append(record)
         self.run.write_metrics(self.history)
+        if self.config.keep_best:
+            score = shaped_return(result)
+            # Ties go to the later (longer trained) model.
+            if self.best is None or score >= self.best["shaped_return"]:
+                env = model.get_env()
+                assert env is not None
+                _save_model_files(model, env, self.run.file(BEST_DIR))
+                self.best = {"frames": frames, "shaped_return": score}
         for key in ("env_return_mean", "length_mean", "goal_rate", "success_rate"):
             model.logger.record(f"eval/{key}", getattr(result, key))
         for name, rate in result.compliance.items():
@@ -538,7 +572,11 @@ class _BoltCallback(BaseCallback):
         """Saves a complete checkpoint."""
         env = self.model.get_env()
         assert env is not None
-        state = {"frames_to_comply": self.frames_to_comply, "history": self.history}
+        state = {
+            "frames_to_comply": self.frames_to_comply,
+            "history": self.history,
+            "best": self.best,
+        }
         _save_checkpoint(self.model, env, self.run, state)
 
     def _on_step(self) -> bool:
@@ -644,6 +682,7 @@ def train(
 
     history: list[dict[str, Any]] = []
     frames_to_comply: int | None = None
+    best: dict[str, Any] | None = None
     checkpoint = _latest_checkpoint(run) if resume else None
     if checkpoint is not None:
         if isinstance(env, VecNormalize) and (checkpoint / "vecnormalize.pkl").exists():
@@ -654,6 +693,7 @@ def train(
         state = json.loads((checkpoint / "state.json").read_text())
         history = list(state.get("history", []))
         frames_to_comply = state.get("frames_to_comply")
+        best = state.get("best")
         log(f"resuming {run.path} from {model.num_timesteps} frames")
     else:
         model = _make_model(config, env, run)
@@ -666,6 +706,7 @@ def train(
         spec_names=spec_names,
         history=history,
         frames_to_comply=frames_to_comply,
+        best=best,
     )
     remaining = config.frames - model.num_timesteps
     if remaining > 0:
@@ -683,10 +724,19 @@ def train(
     if final is None:
         final = _result_from_record(history[-1], spec_names)
     callback.checkpoint()
-    _save_model_files(model, env, run.path)
+    kept: dict[str, Any] = {"frames": int(model.num_timesteps), "chosen_by": "last"}
+    if config.keep_best and callback.best is not None:
+        best_frames = callback.best["frames"]
+        record = next(r for r in reversed(history) if r["frames"] == best_frames)
+        final = _result_from_record(record, spec_names)
+        kept = {"frames": best_frames, "chosen_by": "best shaped return", **callback.best}
+        _copy_model_files(run.file(BEST_DIR), run.path)
+    else:
+        _save_model_files(model, env, run.path)
     summary = {
         "frames": int(model.num_timesteps),
         "frames_to_comply": callback.frames_to_comply,
+        "kept_model": kept,
         "final": final.to_dict(),
     }
     atomic_write_json(run.file("summary.json"), summary)

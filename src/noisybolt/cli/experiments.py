@@ -162,6 +162,12 @@ def register(subparsers: Any) -> None:
         "--final-episodes", type=_count, default=100, help="final evaluation episodes per seed"
     )
     table1.add_argument("--retries", type=_count, default=1)
+    table1.add_argument(
+        "--last-model",
+        action="store_true",
+        help="report each seed's last model, not the one of its evaluation with the best "
+        "shaped (env + bolt) return",
+    )
     table1.add_argument("--out", type=Path, default=Path("runs/table1"))
     _add_backend_options(table1)
     table1.set_defaults(func=_table1)
@@ -253,6 +259,7 @@ def _table1(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         final_episodes=args.final_episodes,
         retries=args.retries,
+        last_model=args.last_model,
         out=args.out,
         backend=args.backend,
         address=args.address,
@@ -270,6 +277,7 @@ def _table1(args: argparse.Namespace) -> int:
         eval_episodes=max(1, args.eval_episodes),
         final_eval_episodes=args.final_episodes,
         retries=args.retries,
+        keep_best=not args.last_model,
         backend=args.backend,
         workers=_workers(args),
         address=args.address,

@@ -102,6 +102,12 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="train without the bolt's rewards (compliance still measured)",
     )
+    train.add_argument(
+        "--keep-best",
+        action="store_true",
+        help="keep the model of the evaluation with the best shaped (env + bolt) return, "
+        "not the last one (best/ holds it; ground truth never chooses)",
+    )
     train.add_argument("--out", type=Path, default=None, help="run directory (default runs/...)")
     train.add_argument("--resume", action="store_true", help="continue the run in --out")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -156,6 +162,7 @@ def _train(args: argparse.Namespace) -> int:
         checkpoint_freq=args.checkpoint_freq,
         cost_mode=args.cost_mode,
         bolted=not args.unbolted,
+        keep_best=args.keep_best,
         progress_bar=not args.no_progress,
     )
     out = args.out or Path("runs") / f"{args.world}-{args.algo}-seed{args.seed}"

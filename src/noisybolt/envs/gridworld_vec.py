@@ -310,9 +310,8 @@ class VectorGridworld(VectorEnv):
         Computed once per step (repeated calls return the same array).
         """
         if self._bolt_cache is None:
-            self._bolt_cache = self._camera.capture(
-                self._x, self._y, self._dir, rng=self._noise_rng
-            )
+            self._capture()
+        assert self._bolt_cache is not None
         return self._bolt_cache
 
     def true_fluents(self) -> np.ndarray:
@@ -325,14 +324,29 @@ class VectorGridworld(VectorEnv):
         Equal to :meth:`bolt_images` for rooms whose episode did not just end.
         """
         if self._final_bolt_cache is None:
-            images = self.bolt_images()
-            if self._done.any():
-                images = images.copy()
-                idx = np.flatnonzero(self._done)
-                fx, fy, fd = (a[idx] for a in self._final)
-                images[idx] = self._camera.capture(fx, fy, fd, rng=self._noise_rng)
-            self._final_bolt_cache = images
+            self._capture()
+        assert self._final_bolt_cache is not None
         return self._final_bolt_cache
+
+    def _capture(self) -> None:
+        """Fills both image caches with one camera call (noise has a per-call overhead)."""
+        if not self._done.any():
+            self._bolt_cache = self._final_bolt_cache = self._camera.capture(
+                self._x, self._y, self._dir, rng=self._noise_rng
+            )
+            return
+        idx = np.flatnonzero(self._done)
+        both = self._camera.capture(
+            *(
+                np.concatenate([now, final[idx]])
+                for now, final in zip((self._x, self._y, self._dir), self._final, strict=True)
+            ),
+            rng=self._noise_rng,
+        )
+        self._bolt_cache = both[: self.num_envs]
+        final = both[: self.num_envs].copy()
+        final[idx] = both[self.num_envs :]
+        self._final_bolt_cache = final
 
     def final_true_fluents(self) -> np.ndarray:
         """Ground truth of the states the last step reached, before autoreset."""

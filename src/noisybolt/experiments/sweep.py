@@ -26,8 +26,9 @@ optional *settings* axes crossed with both::
 Trial settings are ``world``, ``world_kwargs``, ``specs``, ``algo``, ``hyperparams``,
 ``n_envs``, ``detector``, ``frames``, ``eval_freq``, ``eval_episodes``, ``eval_envs``,
 ``eval_deterministic``, ``success_threshold``, ``checkpoint_freq``, ``thresholds``,
-``cost_mode``, ``bolted`` and ``progress_bar`` (off by default in sweeps); mappings merge
-key by key (base, then row, then settings axis), everything else is replaced. The seed of
+``cost_mode``, ``bolted``, ``keep_best`` and ``progress_bar`` (off by default in
+sweeps); mappings merge key by key (base, then row, then settings axis), everything else
+is replaced. The seed of
 a trial seeds its world, agent and evaluation; the detector keeps its own seed (0 unless
 set), so every trial of a sweep shares one cached classifier.
 
@@ -139,6 +140,7 @@ TRIAL_SETTINGS: dict[str, tuple[type, ...]] = {
     "thresholds": (dict,),
     "cost_mode": (str,),
     "bolted": (bool,),
+    "keep_best": (bool,),
     "progress_bar": (bool,),
 }
 _MAPPINGS = frozenset({"world_kwargs", "hyperparams", "detector", "thresholds"})

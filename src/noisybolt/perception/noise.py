@@ -143,6 +143,14 @@ def _rounded_quantiles(sigma: float) -> np.ndarray:
     return table
 
 
+@lru_cache(maxsize=64)
+def _scaled_quantiles(sigma: float) -> np.ndarray:
+    """``sigma * _normal_quantiles()`` in float32, exactly as that product rounds."""
+    table = np.float32(sigma) * _normal_quantiles()
+    table.setflags(write=False)
+    return table
+
+
 def _uniform16(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
     count = math.prod(shape)
     return np.frombuffer(rng.bytes(2 * count), dtype=np.uint16).reshape(shape)
@@ -347,19 +355,6 @@ def _boxes(model: str, boxes: Any) -> tuple[tuple[float, float, float, float], .
     return parsed  # type: ignore[return-value]
 
 
-def _displace(patch: np.ndarray, shift: float, rng: np.random.Generator) -> np.ndarray:
-    """Roll each patch circularly along its longer side by a random number of pixels."""
-    n, h, w, _ = patch.shape
-    along_width = w >= h
-    length = w if along_width else h
-    steps = rng.integers(0, max(1, round(shift * length)), size=n)
-    index = (np.arange(length)[None, :] - steps[:, None]) % length
-    images = np.arange(n)[:, None]
-    if along_width:  # advanced indices split by a slice come first: [n, w, h, c]
-        return np.ascontiguousarray(patch[images, :, index].transpose(0, 2, 1, 3))
-    return patch[images, index]
-
-
 @dataclass(frozen=True)
 class RegionalDegradation(NoiseModel):
     """A warped, smudged pane over part of the image: what shows through it is displaced,
@@ -437,17 +432,68 @@ class RegionalDegradation(NoiseModel):
         h, w = images.shape[1:3]
         out = images.copy()
         for r0, c0, r1, c1 in self.pixel_boxes(h, w):
-            clean = images[:, r0:r1, c0:c1].astype(np.float32)
-            patch = _displace(clean, self.shift, rng) if self.shift > 0 else clean
-            smudge = gaussian_blur(patch, self.blur * min(r1 - r0, c1 - c0))
-            mean = smudge.mean(axis=(1, 2), keepdims=True)
-            smudge = mean + self.contrast * (smudge - mean)
-            if self.sigma > 0:
-                smudge += self.sigma * standard_normal(rng, patch.shape)
+            clean = images[:, r0:r1, c0:c1]
+            smudge = self._displace_and_blur(clean, rng)  # [n, C, h, w]
+            n, channels, bh, bw = smudge.shape
+            mean = smudge.reshape(n * channels, bh * bw).mean(axis=1)
+            smudge *= self.contrast
+            smudge += ((1.0 - self.contrast) * mean).reshape(n, channels, 1, 1)
+            smudge = smudge.transpose(0, 2, 3, 1)  # a view, [n, h, w, C] like the noise
+            if self.sigma > 0:  # sigma * standard_normal(rng, shape), one pass fewer
+                smudge += _scaled_quantiles(self.sigma).take(_uniform16(rng, clean.shape))
             if self.strength < 1.0:
-                smudge = (1.0 - self.strength) * clean + self.strength * smudge
+                smudge = (1.0 - self.strength) * clean.astype(np.float32) + self.strength * smudge
             out[:, r0:r1, c0:c1] = _to_uint8(smudge)
         return out
+
+    def _displace_and_blur(self, clean: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """float32 ``[n, C, h, w]``: the box rolled circularly along its longer side and blurred.
+
+        Both are linear maps along each axis, so they are applied as two matrix products
+        per image: the roll along the longer side folded into that side's blur matrix,
+        one precomputed matrix per roll distance. A box is a few thousand values: the cost
+        of the separate gather, blur and transposes was per-call overhead, not arithmetic.
+        """
+        n, h, w, _ = clean.shape
+        planes = clean.transpose(0, 3, 1, 2).astype(np.float32)  # [n, C, h, w]
+        sigma = self.blur * min(h, w)
+        along_width = w >= h
+        length = w if along_width else h
+        if self.shift > 0:
+            steps = rng.integers(0, max(1, round(self.shift * length)), size=n)
+        else:
+            steps = np.zeros(n, dtype=np.int64)
+        rolled = _rolled_blur_matrices(length, sigma)[steps][:, None]  # [n, 1, L, L]
+        if along_width:
+            return np.matmul(np.matmul(_blur_or_identity(h, sigma), planes), rolled)
+        # Rolling a column is rolling the transposed row: the same matrices, transposed.
+        left = rolled.swapaxes(-1, -2)
+        return np.matmul(np.matmul(left, planes), _blur_or_identity(w, sigma).T)
+
+
+@lru_cache(maxsize=64)
+def _blur_or_identity(length: int, sigma: float) -> np.ndarray:
+    """:func:`_blur_matrix`, or the identity for ``sigma <= 0`` (no blur)."""
+    if sigma <= 0:
+        out = np.eye(length, dtype=np.float32)
+        out.setflags(write=False)
+        return out
+    return _blur_matrix(length, sigma)
+
+
+@lru_cache(maxsize=64)
+def _rolled_blur_matrices(length: int, sigma: float) -> np.ndarray:
+    """``[length, length, length]``: for each roll ``s``, the matrix ``M`` with
+    ``x @ M = blur(np.roll(x, s))`` for a row vector ``x``;
+    ``M.T @ X`` does the same to the columns of ``X``.
+    """
+    blur = _blur_or_identity(length, sigma)
+    out = np.empty((length, length, length), dtype=np.float32)
+    for s in range(length):
+        roll = np.roll(np.eye(length, dtype=np.float32), s, axis=1)  # x @ roll = roll(x, s)
+        out[s] = roll @ blur.T
+    out.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True)
