@@ -22,7 +22,7 @@ from noisybolt.envs.breakout import (
     make_breakout_world,
     set_bricks,
 )
-from noisybolt.errors import ConfigError, UnknownNameError
+from noisybolt.errors import ConfigError, UnknownFluentError, UnknownNameError
 from noisybolt.perception.dataset import SupportsCollectionStates, collect_samples
 from noisybolt.perception.protocols import BoltObservable
 
@@ -224,9 +224,17 @@ def test_bolt_view_meets_the_protocol():
     assert images.dtype == np.uint8 and images.shape == (3, 64, 64, 3)
     np.testing.assert_array_equal(images, world.bolt_images())  # cached until the next step
     truth = world.true_fluents()
-    assert truth.dtype == np.bool_ and truth.shape == (3, 1)
+    assert world.fluent_names == breakout.FLUENT_NAMES
+    assert world.fluent_names[1:] == tuple(f"left_gone_row{r}" for r in range(6))
+    assert truth.dtype == np.bool_ and truth.shape == (3, 7)
+    assert not truth.any()  # a full wall
     assert world.camera_spec.shape == (64, 64, 3)
-    assert world.camera_spec.extra["fluents"] == {"brick_clear_left": {"left_columns": 1}}
+    assert world.camera_spec.extra["fluents"] == {
+        "brick_clear_left": {"left_columns": 1},
+        **{f"left_gone_row{r}": {} for r in range(6)},
+    }
+    one = make_breakout_world(num_envs=1, fluents=["brick_clear_left"], left_columns=2)
+    assert one.camera_spec.extra["fluents"] == {"brick_clear_left": {"left_columns": 2}}
 
 
 def test_collection_states_give_both_values_and_true_labels():
@@ -236,12 +244,29 @@ def test_collection_states_give_both_values_and_true_labels():
     labels = []
     for _ in range(10):
         world.sample_collection_states(rng)
-        truth = world.true_fluents()[:, 0]
-        shown = ~world.frames()[:, 57:93, 8:16].any(axis=(1, 2, 3))  # left column empty
-        np.testing.assert_array_equal(truth, shown)
+        truth = world.true_fluents()
+        frames = world.frames()
+        shown = ~frames[:, 57:93, 8:16].any(axis=(1, 2, 3))  # left column empty
+        np.testing.assert_array_equal(truth[:, 0], shown)
+        for row in range(6):  # each brick of the left column, from the picture
+            ys, xs = brick_box(row, 0)
+            np.testing.assert_array_equal(truth[:, 1 + row], ~frames[:, ys, xs].any(axis=(1, 2, 3)))
         labels.append(truth)
-    frac = np.mean(labels)
-    assert 0.25 < frac < 0.75
+    frac = np.mean(labels, axis=(0, 1))
+    assert 0.25 < frac[0] < 0.75
+    assert ((frac[1:] > 0.5) & (frac[1:] < 0.95)).all()  # gone: half the walls, and more
+
+
+def test_a_subset_of_fluents_in_any_order():
+    world = make_breakout_world(num_envs=2, seed=0, fluents=["left_gone_row5", "brick_clear_left"])
+    world.reset(seed=0)
+    world.sample_collection_states(np.random.default_rng(3))
+    full = make_breakout_world(num_envs=2, seed=0)
+    assert world.fluent_names == ("left_gone_row5", "brick_clear_left")
+    np.testing.assert_array_equal(
+        world.true_fluents(), breakout.breakout_fluents(world.rams())[:, [6, 0]]
+    )
+    assert full.true_fluents().shape == (2, 7)
 
 
 def test_collect_samples_from_breakout_is_balanced():
@@ -259,6 +284,8 @@ def test_bad_settings_are_refused():
         left_columns_clear(np.zeros(128, np.uint8), 19)
     with pytest.raises(ConfigError, match="noise"):
         BreakoutWorld(num_envs=1, noise=42)
+    with pytest.raises(UnknownFluentError, match="left_gone_row0"):
+        BreakoutWorld(num_envs=1, fluents=["left_gone_row6"])
     with pytest.raises(UnknownNameError, match="gaussian"):
         BreakoutWorld(num_envs=1, noise="pink")
     world = BreakoutWorld(num_envs=1, noise=lambda images, rng: images[:, :10])

@@ -39,7 +39,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
-from noisybolt.agents.specs import resolve_spec
+from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, Spec, Thresholds
 from noisybolt.envs import SB3VecEnv, known_worlds, make_world
 from noisybolt.errors import ConfigError, UnknownFluentError, UnknownNameError
@@ -192,7 +192,7 @@ class TrainConfig:
         **kwargs: Any,
     ) -> TrainConfig:
         """A config with specs resolved (names or formulas) and hyperparameters loaded."""
-        resolved = [asdict(resolve_spec(s)) for s in specs]
+        resolved = [asdict(resolve_spec(s)) for s in expand_specs(specs)]
         params = load_hyperparams(world, algo, overrides)
         if n_envs is not None:
             params["n_envs"] = int(n_envs)

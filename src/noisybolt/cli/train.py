@@ -49,7 +49,9 @@ def register(subparsers: Any) -> None:
         default=[],
         metavar="NAME|FORMULA",
         help="a built-in spec name (edge, avoid_top_right, top_right_once, one_corner_once, "
-        "clear_left_column) or an LTLf formula over the world's fluents; repeat for several",
+        "clear_left_column, left_row0..left_row5), a group of them (left_column_milestones: "
+        "clear_left_column and one spec per brick of Breakout's left column) or an LTLf "
+        "formula over the world's fluents; repeat for several",
     )
     train.add_argument("--algo", default="ppo", help="ppo, a2c or dqn (default ppo)")
     train.add_argument(

@@ -16,6 +16,10 @@ The bolt's side (:class:`~noisybolt.perception.protocols.BoltObservable`):
 
 * fluent ``brick_clear_left``: every brick of the leftmost ``left_columns`` brick
   column(s) is gone, read from RAM (:func:`bricks_present`);
+* fluents ``left_gone_row0`` .. ``left_gone_row5``: the brick of that row (0 = top) in
+  the leftmost column is gone: the milestones on the way to ``brick_clear_left``, so that
+  a bolt can reward progress the agent can actually make (``F(brick_clear_left)`` alone
+  pays nothing until the whole column is gone, which random play never achieves);
 * camera: the colour frame (210x160) resized to ``camera_size`` squared with
   ``cv2.INTER_AREA``, then the camera's own seeded noise.
 
@@ -35,14 +39,14 @@ they stay); :meth:`BreakoutWorld.sample_collection_states` waits for that.
 Example:
     >>> world = make_breakout_world(num_envs=2, seed=0)
     >>> obs, info = world.reset(seed=0)
-    >>> obs.shape, world.bolt_images().shape, world.true_fluents().tolist()
-    ((2, 4, 84, 84), (2, 84, 84, 3), [[False], [False]])
+    >>> obs.shape, world.bolt_images().shape, world.true_fluents().any()
+    ((2, 4, 84, 84), (2, 84, 84, 3), np.False_)
     >>> world.close()
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import ale_py
@@ -52,6 +56,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
+from noisybolt.envs.fluents import select_fluents
 from noisybolt.errors import ConfigError
 from noisybolt.perception.noise import make_noise
 from noisybolt.perception.protocols import CameraSpec
@@ -61,8 +66,10 @@ __all__ = [
     "BRICK_COLUMNS",
     "BRICK_ROWS",
     "FLUENT_NAMES",
+    "LEFT_ROW_FLUENTS",
     "BreakoutWorld",
     "NoiseFn",
+    "breakout_fluents",
     "brick_box",
     "bricks_present",
     "left_columns_clear",
@@ -71,8 +78,11 @@ __all__ = [
     "set_bricks",
 ]
 
-FLUENT_NAMES: tuple[str, ...] = ("brick_clear_left",)
 BRICK_ROWS = 6
+#: ``left_gone_row{r}``: the leftmost column's brick of row ``r`` (0 = top) is gone.
+LEFT_ROW_FLUENTS: tuple[str, ...] = tuple(f"left_gone_row{r}" for r in range(BRICK_ROWS))
+#: Every Breakout fluent, in the column order of :func:`breakout_fluents`.
+FLUENT_NAMES: tuple[str, ...] = ("brick_clear_left", *LEFT_ROW_FLUENTS)
 BRICK_COLUMNS = 18
 
 #: ``(byte group base, bit mask)`` of each brick column, left to right; a brick of row
@@ -128,6 +138,20 @@ def left_columns_clear(ram: np.ndarray, left_columns: int = 1) -> np.ndarray:
     if not 1 <= left_columns <= BRICK_COLUMNS:
         raise ConfigError(f"left_columns must be in 1..{BRICK_COLUMNS}, got {left_columns}")
     return np.asarray(~bricks_present(ram)[..., :left_columns].any(axis=(-1, -2)))
+
+
+def breakout_fluents(ram: np.ndarray, left_columns: int = 1) -> np.ndarray:
+    """bool ``[n, 7]``: every fluent of :data:`FLUENT_NAMES` for RAMs ``[n, 128]``.
+
+    Example:
+        >>> ram = np.zeros((1, 128), np.uint8)
+        >>> ram[0, 30:36] = 0xC0  # the leftmost column standing ...
+        >>> ram[0, 30 + 5 - 4] = 0  # ... but for its brick in row 4
+        >>> breakout_fluents(ram).astype(int).tolist()
+        [[0, 0, 0, 0, 0, 1, 0]]
+    """
+    gone = ~bricks_present(ram)[..., :, 0]  # [n, rows]: the leftmost column
+    return np.concatenate([left_columns_clear(ram, left_columns)[..., None], gone], axis=-1)
 
 
 def set_bricks(ale: ale_py.ALEInterface, present: np.ndarray) -> None:
@@ -206,6 +230,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
             :mod:`noisybolt.perception.noise` (e.g. ``"gaussian:sigma=12"``) or a callable
             ``noise(images, rng) -> images``; see :func:`resolve_noise`.
         left_columns: how many brick columns, from the left, ``brick_clear_left`` covers.
+        fluents: the bolt's fluents, in order (default: all of :data:`FLUENT_NAMES`).
         camera_size: side of the bolt's square colour image.
         frame_skip: frames per action.
         noop_max: a reset is followed by 1..``noop_max`` random no-ops (0: none).
@@ -224,6 +249,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         seed: int | None = None,
         noise: Any = None,
         left_columns: int = 1,
+        fluents: Sequence[str] | None = None,
         camera_size: int = 84,
         frame_skip: int = 4,
         noop_max: int = 30,
@@ -249,6 +275,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
             raise ConfigError(
                 f"repeat_action_probability must be in [0, 1], got {repeat_action_probability}"
             )
+        self._fluent_names, self._fluent_columns = select_fluents("breakout", FLUENT_NAMES, fluents)
         noise_fn, noise_description = resolve_noise(noise)
         self.metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
         self.autoreset_mode = AutoresetMode.SAME_STEP
@@ -291,8 +318,13 @@ class BreakoutWorld(gym.vector.VectorEnv):
             noise=noise_description,
             extra={
                 "source": "ALE RGB frame 210x160, cv2.INTER_AREA",
-                # Changes what the fluent means, so a classifier must not cross it.
-                "fluents": {"brick_clear_left": {"left_columns": left_columns}},
+                # What each fluent means (left_columns changes brick_clear_left), so a
+                # classifier, and the cache of classifiers trained on the fly, must not
+                # cross them.
+                "fluents": {
+                    name: ({"left_columns": left_columns} if name == "brick_clear_left" else {})
+                    for name in self._fluent_names
+                },
             },
         )
 
@@ -433,8 +465,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
     # -- the bolt's view ------------------------------------------------------------------
     @property
     def fluent_names(self) -> tuple[str, ...]:
-        """``("brick_clear_left",)``."""
-        return FLUENT_NAMES
+        """The bolt's fluents, in the column order of :meth:`true_fluents`."""
+        return self._fluent_names
 
     @property
     def camera_spec(self) -> CameraSpec:
@@ -450,15 +482,18 @@ class BreakoutWorld(gym.vector.VectorEnv):
         return np.stack([ale.getScreenRGB() for ale in self._ales])
 
     def true_fluents(self) -> np.ndarray:
-        """bool ``[num_envs, 1]``: ``brick_clear_left`` from RAM."""
-        return left_columns_clear(self.rams(), self.left_columns)[:, None]
+        """bool ``[num_envs, n_fluents]``: the fluents from RAM."""
+        return self._fluents(self.rams())
+
+    def _fluents(self, rams: np.ndarray) -> np.ndarray:
+        return breakout_fluents(rams, self.left_columns)[:, self._fluent_columns]
 
     def final_true_fluents(self) -> np.ndarray:
         """Ground truth of the states the last step reached, before autoreset."""
         rams = self.rams()
         for i, ram in self._final_ram.items():
             rams[i] = ram
-        return left_columns_clear(rams, self.left_columns)[:, None]
+        return self._fluents(rams)
 
     @property
     def dones(self) -> np.ndarray:
@@ -552,6 +587,7 @@ def make_breakout_world(
     noise: Any = None,
     obs_mode: str | None = None,
     left_columns: int = 1,
+    fluents: Sequence[str] | None = None,
     camera_size: int = 84,
     frame_skip: int = 4,
     noop_max: int = 30,
@@ -569,6 +605,7 @@ def make_breakout_world(
         obs_mode: the agent's observation: None or ``"stack"`` (the only one: the
             standard preprocessed grayscale frame stack).
         left_columns: brick columns covered by ``brick_clear_left``.
+        fluents: the bolt's fluents, in order (default: all of :data:`FLUENT_NAMES`).
         camera_size: side of the bolt's square colour image.
         frame_skip: frames per action.
         noop_max: at most this many random no-ops after a reset.
@@ -581,7 +618,7 @@ def make_breakout_world(
         ConfigError: for an unknown ``obs_mode`` or an out-of-range setting.
 
     Example:
-        >>> world = make_breakout_world(num_envs=1, seed=3, left_columns=2)
+        >>> world = make_breakout_world(num_envs=1, seed=3, fluents=["brick_clear_left"])
         >>> world.fluent_names, world.camera_spec.shape
         (('brick_clear_left',), (84, 84, 3))
     """
@@ -592,6 +629,7 @@ def make_breakout_world(
         seed=seed,
         noise=noise,
         left_columns=left_columns,
+        fluents=fluents,
         camera_size=camera_size,
         frame_skip=frame_skip,
         noop_max=noop_max,

@@ -68,7 +68,8 @@ from minigrid.core.mission import MissionSpace
 from minigrid.core.world_object import Goal
 from minigrid.minigrid_env import MiniGridEnv
 
-from noisybolt.errors import ConfigError, UnknownFluentError, UnknownNameError
+from noisybolt.envs.fluents import select_fluents
+from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.perception.cameras import TileCompositor
 from noisybolt.perception.noise import (
     DEFAULT_REGION,
@@ -241,22 +242,7 @@ def resolve_fluents(fluents: Sequence[str] | None) -> tuple[tuple[str, ...], np.
     Raises:
         UnknownFluentError: if a name is not a gridworld fluent.
     """
-    if fluents is None:
-        return GRIDWORLD_FLUENTS, np.arange(len(GRIDWORLD_FLUENTS))
-    if isinstance(fluents, str):
-        fluents = (fluents,)
-    names = tuple(fluents)
-    unknown = tuple(n for n in names if n not in GRIDWORLD_FLUENTS)
-    if unknown:
-        raise UnknownFluentError(
-            f"unknown gridworld fluent(s) {', '.join(map(repr, unknown))}; known: "
-            f"{', '.join(GRIDWORLD_FLUENTS)}",
-            unknown=unknown,
-            known=GRIDWORLD_FLUENTS,
-        )
-    if len(set(names)) != len(names):
-        raise ConfigError(f"fluents must not repeat a name, got {names}")
-    return names, np.array([GRIDWORLD_FLUENTS.index(n) for n in names], dtype=np.intp)
+    return select_fluents("gridworld", GRIDWORLD_FLUENTS, fluents)
 
 
 def gridworld_fluents(
