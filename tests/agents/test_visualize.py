@@ -241,3 +241,19 @@ def test_public_api_and_docstring_examples() -> None:
         assert getattr(viz, name).__doc__ or name == "BAND_COLOURS"
     result = doctest.testmod(viz, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.failed == 0 and result.attempted > 0
+
+
+def test_a_breakout_game_records_and_draws() -> None:
+    from noisybolt.envs.breakout import BreakoutEnv
+    from noisybolt.perception.detectors import OracleDetector
+
+    game = BreakoutEnv(seed=0, fluents=["left_gone_row5", "brick_clear_left"])
+    specs = [resolve_spec("left_row5"), resolve_spec("clear_left_column")]
+    env = RestrainingBoltWrapper(game, specs, OracleDetector(game.fluent_names))
+    rng = np.random.default_rng(0)
+    rec = record_episode(env, lambda obs: int(rng.integers(0, 4)), seed=1, max_steps=12)
+    assert rec.n_steps == 12
+    assert rec.frames[0].shape == (210, 160, 3) and rec.bolt_images[0].shape == (84, 84, 3)
+    assert rec.positions is None  # no cells to draw a heat-map of
+    frames = render_episode_frames(rec, action_names=["no-op", "fire", "right", "left"])
+    assert len(frames) == 13

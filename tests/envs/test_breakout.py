@@ -329,3 +329,42 @@ def test_a_classifier_learns_brick_clear_left_from_the_colour_frame():
     )
     assert report["brick_clear_left"].accuracy > 0.98
     assert report["brick_clear_left"].auroc > 0.99
+
+
+def test_single_game_env_is_the_world_of_one_and_shows_the_end() -> None:
+    settings = {"seed": 5, "noise": "gaussian:sigma=8", "max_episode_frames": 120}
+    env = breakout.BreakoutEnv(**settings)
+    world = make_breakout_world(num_envs=1, **settings)
+    obs, _ = env.reset(seed=5)
+    want, _ = world.reset(seed=5)
+    np.testing.assert_array_equal(obs, want[0])
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        action = int(rng.integers(0, 4))
+        obs, reward, terminated, truncated, _ = env.step(action)
+        w_obs, w_reward, w_term, w_trunc, info = world.step(np.array([action]))
+        assert (reward, terminated, truncated) == (w_reward[0], w_term[0], w_trunc[0])
+        if terminated or truncated:  # the game's last state, not the next game's first
+            np.testing.assert_array_equal(obs, info["final_obs"][0])
+            np.testing.assert_array_equal(env.bolt_image(), world.final_bolt_images()[0])
+            np.testing.assert_array_equal(env.true_fluents(), world.final_true_fluents()[0])
+            assert not np.array_equal(env.render(), world.frames()[0])
+            break
+        np.testing.assert_array_equal(obs, w_obs[0])
+        np.testing.assert_array_equal(env.bolt_image(), world.bolt_images()[0])
+        np.testing.assert_array_equal(env.true_fluents(), world.true_fluents()[0])
+        np.testing.assert_array_equal(env.render(), world.frames()[0])
+    else:
+        pytest.fail("120 emulator frames should truncate the game within 200 steps")
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(0)
+    env.reset()
+    env.step(0)
+    with pytest.raises(ConfigError, match="render_mode"):
+        breakout.BreakoutEnv(render_mode="human")
+
+
+def test_single_game_env_passes_gymnasium_checks() -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(breakout.BreakoutEnv(seed=0), skip_render_check=True)

@@ -50,11 +50,29 @@ def load_run_model(run: RunDirectory, config: TrainConfig) -> BaseAlgorithm:
 
 def _single_env(config: TrainConfig) -> Any:
     """One (non-vectorised) environment of the run's world, for recordings."""
-    if config.world != "gridworld":
-        raise ConfigError(f"GIFs and heat-maps are drawn for the gridworld, not {config.world!r}")
-    from noisybolt.envs.gridworld import GridworldEnv
+    kwargs = dict(config.world_kwargs)
+    if config.world == "gridworld":
+        from noisybolt.envs.gridworld import GridworldEnv
 
-    return GridworldEnv(**dict(config.world_kwargs))
+        return GridworldEnv(**kwargs)
+    if config.world == "breakout":
+        from noisybolt.envs.breakout import BreakoutEnv
+
+        return BreakoutEnv(**kwargs)
+    raise ConfigError(f"GIFs are drawn for the gridworld and Breakout, not {config.world!r}")
+
+
+#: Steps recorded per episode, per world (None: the whole episode); a Breakout game can
+#: last thousands of steps.
+GIF_STEPS: dict[str, int | None] = {"gridworld": None, "breakout": 600}
+#: GIF frame rate per world.
+GIF_FPS: dict[str, float] = {"gridworld": 4.0, "breakout": 15.0}
+
+#: Action names drawn in GIFs, per world (in the worlds' action order).
+ACTION_NAMES: dict[str, tuple[str, ...]] = {
+    "gridworld": ("left", "right", "forward", "no-op"),
+    "breakout": ("no-op", "fire", "right", "left"),
+}
 
 
 def _recordings(
@@ -71,7 +89,8 @@ def _recordings(
 
     env = RestrainingBoltWrapper(_single_env(config), config.spec_objects(), detector)
     policy = policy_from_model(model, deterministic=deterministic)
-    return [record_episode(env, policy, seed=seed + i) for i in range(episodes)]
+    limit = GIF_STEPS.get(config.world)
+    return [record_episode(env, policy, seed=seed + i, max_steps=limit) for i in range(episodes)]
 
 
 def evaluate_run(
@@ -92,7 +111,7 @@ def evaluate_run(
         episodes: evaluation episodes K.
         seed: seeds the evaluation world.
         deterministic: greedy actions; None uses the run's ``eval_deterministic``.
-        gif: where to save one recorded episode (gridworld), or None.
+        gif: where to save one recorded episode (gridworld or Breakout), or None.
         heatmap: where to save the trajectory heat-map (gridworld), or None.
         heatmap_episodes: episodes drawn in the heat-map.
         overrides: config fields to change for this evaluation only (e.g. another
@@ -105,6 +124,8 @@ def evaluate_run(
     config = TrainConfig.from_dict(data)
     if deterministic is None:
         deterministic = config.eval_deterministic
+    if heatmap is not None and config.world != "gridworld":
+        raise ConfigError(f"heat-maps are drawn for the gridworld, not {config.world!r}")
     setup = prepare_bolt(config, seed=seed)
     dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
@@ -131,7 +152,10 @@ def evaluate_run(
         )
         if gif is not None:
             files["gif"] = save_episode_gif(
-                recordings[0], gif, action_names=["left", "right", "forward", "no-op"]
+                recordings[0],
+                gif,
+                fps=GIF_FPS.get(config.world, 4.0),
+                action_names=ACTION_NAMES.get(config.world),
             )
         if heatmap is not None:
             size = int(config.world_kwargs.get("size", 6))

@@ -67,6 +67,7 @@ __all__ = [
     "BRICK_ROWS",
     "FLUENT_NAMES",
     "LEFT_ROW_FLUENTS",
+    "BreakoutEnv",
     "BreakoutWorld",
     "NoiseFn",
     "breakout_fluents",
@@ -578,6 +579,98 @@ class BreakoutWorld(gym.vector.VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         """Releases the consoles."""
         self._ales = []
+
+
+class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
+    """One game of :class:`BreakoutWorld` as a plain Gymnasium env, with the bolt's
+    single-env API (``bolt_image``, ``true_fluents``), for
+    :class:`~noisybolt.wrappers.RestrainingBoltWrapper` and recorded episodes (GIFs).
+
+    After a step that ends the game it shows that game's last state (observation, bolt
+    image, fluents, ``render()``) until :meth:`reset`, as a Gymnasium env must, although
+    the world underneath has already started the next game.
+
+    Args:
+        render_mode: ``"rgb_array"`` (the raw colour frame) or None.
+        **kwargs: :class:`BreakoutWorld` settings (``seed``, ``noise``, ``fluents``, ...).
+
+    Example:
+        >>> env = BreakoutEnv(seed=0, fluents=["left_gone_row5"])
+        >>> obs, _ = env.reset(seed=0)
+        >>> obs.shape, env.bolt_image().shape, env.true_fluents().tolist(), env.render().shape
+        ((4, 84, 84), (84, 84, 3), [False], (210, 160, 3))
+        >>> env.close()
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}  # noqa: RUF012 (gym's API)
+
+    def __init__(self, *, render_mode: str | None = "rgb_array", **kwargs: Any) -> None:
+        if render_mode not in (None, "rgb_array"):
+            raise ConfigError(
+                f"breakout: render_mode must be 'rgb_array' or None, not {render_mode!r}"
+            )
+        kwargs.pop("obs_mode", None)  # the world's factory option; the stack is the only one
+        self._world = BreakoutWorld(num_envs=1, **kwargs)
+        self.render_mode = render_mode
+        self.observation_space = self._world.single_observation_space
+        self.action_space = self._world.single_action_space
+        self._ended = False
+
+    @property
+    def world(self) -> BreakoutWorld:
+        """The one-game world underneath."""
+        return self._world
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Starts a new game (re-seeded when ``seed`` is given)."""
+        super().reset(seed=seed)
+        obs, info = self._world.reset(seed=seed, options=options)
+        self._ended = False
+        return obs[0], {"lives": int(info["lives"][0])}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """One agent step (``frame_skip`` frames)."""
+        if self._ended:
+            raise RuntimeError("the game has ended: call reset()")
+        obs, rewards, terminated, truncated, info = self._world.step(np.array([int(action)]))
+        self._ended = bool(terminated[0] or truncated[0])
+        if self._ended:
+            obs = info["final_obs"][0][None]
+        return obs[0], float(rewards[0]), bool(terminated[0]), bool(truncated[0]), {}
+
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """The bolt's fluents."""
+        return self._world.fluent_names
+
+    @property
+    def camera_spec(self) -> CameraSpec:
+        """The bolt camera's size and noise."""
+        return self._world.camera_spec
+
+    def bolt_image(self) -> np.ndarray:
+        """uint8 ``[S, S, 3]``: the bolt's noisy view of the state the last step reached."""
+        images = self._world.final_bolt_images() if self._ended else self._world.bolt_images()
+        return images[0]
+
+    def true_fluents(self) -> np.ndarray:
+        """bool ``[n_fluents]``: the ground truth of that state."""
+        world = self._world
+        return (world.final_true_fluents() if self._ended else world.true_fluents())[0]
+
+    def render(self) -> np.ndarray | None:
+        """The raw colour frame (210x160) of that state."""
+        if self.render_mode is None:
+            return None
+        if self._ended and 0 in self._world._final_rgb:
+            return self._world._final_rgb[0].copy()
+        return self._world.frames()[0]
+
+    def close(self) -> None:
+        """Releases the console."""
+        self._world.close()
 
 
 def make_breakout_world(
