@@ -105,6 +105,9 @@ def test_the_default_sweep_is_eight_rows_by_three_seeds_with_the_noisy_classifie
         row = next(r for r in TABLE1_ROWS if r.name == trial.row)
         assert trial.config.algo == row.algo and trial.config.frames == row.frames()
         assert trial.config.specs[0]["name"] == row.spec
+        # Each seed keeps its best shaped-return model; DQN is evaluated greedily.
+        assert trial.config.keep_best
+        assert trial.config.eval_deterministic == (row.algo == "dqn")
 
 
 def test_rows_are_chosen_by_row_or_spec_name() -> None:

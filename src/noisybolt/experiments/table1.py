@@ -209,6 +209,10 @@ def table1_sweep(
                 "frames": n,
                 "eval_freq": every,
                 "checkpoint_freq": max(every, n // 5),
+                # DQN's policy is its greedy one: sampling its actions would add the
+                # training schedule's epsilon, measuring exploration rather than what was
+                # learned (PPO and A2C learn a distribution and are evaluated sampling it).
+                "eval_deterministic": row.algo == "dqn",
             }
         )
     return SweepConfig.from_dict(
@@ -448,7 +452,8 @@ NOTES = (
     "+100 at the goal, so R_max = 89.5); the paper's own values (94, 92, 82) do not follow "
     "from those rewards, so compare R_π with our R^c_max.",
     "R_π, N_steps: mean ± std over seeds of the final evaluation's mean environment return "
-    "and episode length (every episode, sampled actions, ground truth).",
+    "and episode length (every episode, ground truth; PPO and A2C sample their actions, "
+    "DQN acts greedily).",
     "N_frames: first periodic evaluation at which ≥ 95% of the episodes reach the goal while "
     "complying; mean over the seeds that reached it, (k/n) when not all did.",
     "followed: ✓ when the final evaluation's compliance (ground truth, never by looking) is "
