@@ -275,3 +275,17 @@ def test_without_keep_best_the_last_model_is_kept(tmp_path: Path) -> None:
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["kept_model"] == {"frames": 2048, "chosen_by": "last"}
     assert not (tmp_path / "run" / "best").exists()
+
+
+def test_the_best_model_survives_a_resume(tmp_path: Path) -> None:
+    config = {"keep_best": True, "eval_freq": 512}
+    train(_config(frames=1536, **config), tmp_path / "run", log=_quiet)
+    first = json.loads((tmp_path / "run" / "summary.json").read_text())["kept_model"]
+    train(_config(frames=3072, **config), tmp_path / "run", resume=True, log=_quiet)
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    shaped = [m["env_return_mean"] + m["bolt_return_mean"] for m in metrics]
+    best = max(range(len(shaped)), key=lambda i: (shaped[i], i))
+    kept = json.loads((tmp_path / "run" / "summary.json").read_text())["kept_model"]
+    assert kept["frames"] == metrics[best]["frames"]
+    if first["shaped_return"] > max(shaped[3:]):  # the first leg's model is still the best
+        assert kept["frames"] == first["frames"]
