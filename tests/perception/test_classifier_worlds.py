@@ -34,7 +34,9 @@ def test_files_refuse_a_world_they_were_not_made_for(tmp_path):
     with pytest.raises(IncompatibleError, match="camera noise differs"):
         load_dataset(tmp_path / "d.npz", world=clean)
     breakout = make_world("breakout", num_envs=1, seed=0)
-    with pytest.raises(IncompatibleError, match=r"missing \['brick_clear_left'\]") as info:
+    with pytest.raises(
+        IncompatibleError, match=r"missing \['brick_clear_left', 'left_gone_row0'"
+    ) as info:
         load_classifier(tmp_path / "c.safetensors", world=breakout)
     assert "camera world differs" in str(info.value)
     assert "camera height differs" in str(info.value)
