@@ -265,6 +265,8 @@ def test_keep_best_keeps_the_model_of_the_best_shaped_return(
     assert result.final.env_return_mean == metrics[best]["env_return_mean"]
     kept = PPO.load(run / "model.zip", device="cpu").policy.state_dict()
     assert all(torch.equal(kept[k], evaluated[frames][k]) for k in kept)
+    # Only the kept one stays under best/ once a checkpoint names it.
+    assert [f.name for f in (run / "best").iterdir()] == [f"step_{frames:012d}"]
     for other, state in evaluated.items():
         if other != frames:
             assert not all(torch.equal(kept[k], state[k]) for k in kept)

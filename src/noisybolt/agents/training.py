@@ -7,7 +7,7 @@ A run directory holds::
     metrics.json           one record per evaluation (returns, compliance, success, frames)
     checkpoints/latest.json  points to the newest complete checkpoint folder
     checkpoints/step_N/    model.zip (+ vecnormalize.pkl, replay_buffer.pkl)
-    best/                  with ``keep_best``: the model of the best periodic evaluation
+    best/step_N/           with ``keep_best``: the model of the best periodic evaluation
     model.zip              the final model (+ vecnormalize.pkl): the last one, or with
                            ``keep_best`` the best one
     tensorboard/           TensorBoard logs
@@ -467,6 +467,10 @@ def _copy_model_files(source: Path, folder: Path) -> None:
                 handle.write((source / name).read_bytes())
 
 
+def _best_folder(run: RunDirectory, frames: int) -> Path:
+    return run.file(BEST_DIR) / f"step_{frames:012d}"
+
+
 def shaped_return(result: EvalResult) -> float:
     """What the agent is trained to maximise, as measured: env + bolt return (means)."""
     return float(result.env_return_mean + result.bolt_return_mean)
@@ -560,7 +564,7 @@ class _BoltCallback(BaseCallback):
             if self.best is None or score >= self.best["shaped_return"]:
                 env = model.get_env()
                 assert env is not None
-                _save_model_files(model, env, self.run.file(BEST_DIR))
+                _save_model_files(model, env, _best_folder(self.run, frames))
                 self.best = {"frames": frames, "shaped_return": score}
         for key in ("env_return_mean", "length_mean", "goal_rate", "success_rate"):
             model.logger.record(f"eval/{key}", getattr(result, key))
@@ -578,6 +582,13 @@ class _BoltCallback(BaseCallback):
             "best": self.best,
         }
         _save_checkpoint(self.model, env, self.run, state)
+        # Only now that the newest checkpoint names this best model may the older ones
+        # go: a run killed earlier resumes from a checkpoint naming one of them.
+        if self.best is not None:
+            keep = _best_folder(self.run, self.best["frames"])
+            for folder in self.run.file(BEST_DIR).glob("step_*"):
+                if folder != keep:
+                    shutil.rmtree(folder, ignore_errors=True)
 
     def _on_step(self) -> bool:
         frames = self.model.num_timesteps
@@ -730,7 +741,7 @@ def train(
         record = next(r for r in reversed(history) if r["frames"] == best_frames)
         final = _result_from_record(record, spec_names)
         kept = {"frames": best_frames, "chosen_by": "best shaped return", **callback.best}
-        _copy_model_files(run.file(BEST_DIR), run.path)
+        _copy_model_files(_best_folder(run, best_frames), run.path)
     else:
         _save_model_files(model, env, run.path)
     summary = {
