@@ -174,15 +174,17 @@ class FluentNet(nn.Module):
         return torch.addmm(plan.out_bias, x, plan.out)
 
     def _inference_plan(self, height: int, width: int) -> _InferencePlan:
-        # Which tensors and how often modified in place (optimiser steps, load_state_dict);
-        # cheaper than walking self.parameters() on every call.
-        versions = tuple(
-            (id(tensor), tensor._version)
+        # Which tensors, and how often modified in place (optimiser steps,
+        # load_state_dict); cheaper than walking self.parameters() on every call. The
+        # plan holds the tensors themselves, so their ids cannot be reused while it lives.
+        sources = tuple(
+            tensor
             for layer in (*self.trunk, *self.head)
             if isinstance(layer, nn.Conv2d | nn.Linear)
             for tensor in (layer.weight, layer.bias)
             if tensor is not None
         )
+        versions = tuple((id(tensor), tensor._version) for tensor in sources)
         cached = self._plans.get((height, width))
         if cached is not None and cached.versions == versions:
             return cached
@@ -216,6 +218,7 @@ class FluentNet(nn.Module):
                 _adaptive_pool_matrix(w, pool),
             )
             plan = _InferencePlan(
+                sources=sources,
                 versions=versions,
                 convs=tuple(convs),
                 hidden=folded.reshape(folded.shape[0], -1).t().contiguous(),
@@ -231,6 +234,7 @@ class FluentNet(nn.Module):
 class _InferencePlan:
     """:meth:`FluentNet.infer`'s weights for one input size, as matrices."""
 
+    sources: tuple[torch.Tensor, ...]
     versions: tuple[tuple[int, int], ...]
     convs: tuple[tuple[torch.Tensor, torch.Tensor, int, int, int], ...]
     hidden: torch.Tensor
