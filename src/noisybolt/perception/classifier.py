@@ -334,10 +334,18 @@ class ClassifierDetector:
         if self.model.training:  # eval() walks every module: only when needed
             self.model.eval()
         out = np.empty((images.shape[0], len(self.fluent_names)), dtype=np.float32)
+        # The matrix-product path wins for the tile-reading trunk (0.27 -> 0.16 ms for 8
+        # gridworld images); for strided 3x3 convolutions over an 84x84 frame, torch's own
+        # convolution is faster at batch 8 and up (measured 0.14 vs 0.18 ms per image).
+        fast = self.config.patch is not None
         pixels = torch.from_numpy(np.ascontiguousarray(images))
         with torch.inference_mode():
             for start in range(0, images.shape[0], self.batch_size):
-                logits = self.model.infer(pixels[start : start + self.batch_size])
+                batch = pixels[start : start + self.batch_size]
+                if fast:
+                    logits = self.model.infer(batch)
+                else:
+                    logits = self.model(batch.permute(0, 3, 1, 2).float().div_(255.0))
                 out[start : start + logits.shape[0]] = torch.sigmoid(logits).numpy()
         return out
 
