@@ -341,11 +341,10 @@ class ClassifierDetector:
         pixels = torch.from_numpy(np.ascontiguousarray(images))
         with torch.inference_mode():
             for start in range(0, images.shape[0], self.batch_size):
-                batch = pixels[start : start + self.batch_size]
                 if fast:
-                    logits = self.model.infer(batch)
+                    logits = self.model.infer(pixels[start : start + self.batch_size])
                 else:
-                    logits = self.model(batch.permute(0, 3, 1, 2).float().div_(255.0))
+                    logits = self.model(images_to_tensor(images[start : start + self.batch_size]))
                 out[start : start + logits.shape[0]] = torch.sigmoid(logits).numpy()
         return out
 
