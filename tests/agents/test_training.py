@@ -142,6 +142,30 @@ def test_spec_over_unknown_fluent_fails_before_anything_is_written(tmp_path: Pat
     assert not (tmp_path / "run").exists()
 
 
+def test_life_loss_terminal_in_a_world_without_lives_is_refused(tmp_path: Path) -> None:
+    config = _config(overrides={"n_steps": 64, "life_loss_terminal": True})
+    with pytest.raises(ConfigError, match="no lives"):
+        train(config, tmp_path / "run", log=_quiet)
+    assert not (tmp_path / "run").exists()
+
+
+def test_atari_conventions_reach_the_training_envs_only() -> None:
+    from noisybolt.agents.training import build_bolted_env
+    from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.wrappers import ClipGameReward
+
+    config = TrainConfig.create(
+        world="breakout", specs=["left_row5"], detector=DetectorConfig(kind="oracle")
+    )
+    assert config.hyperparams["clip_reward"] and config.hyperparams["fire_on_reset"]
+    detector = OracleDetector(("brick_clear_left", *(f"left_gone_row{r}" for r in range(6))))
+    train_env = build_bolted_env(config, detector, n_envs=1, seed=0, training=True)
+    eval_env = build_bolted_env(config, detector, n_envs=1, seed=0)
+    assert isinstance(train_env.venv, ClipGameReward)
+    assert not isinstance(eval_env.venv, ClipGameReward)
+    assert train_env.world.fire_on_reset and eval_env.world.fire_on_reset  # type: ignore[attr-defined]
+
+
 def test_detector_for_other_fluents_is_refused(tmp_path: Path) -> None:
     from noisybolt.envs import make_world
     from noisybolt.perception.classifier import ClassifierDetector

@@ -33,7 +33,17 @@ __all__ = [
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN}
 
 #: noisybolt's own keys, consumed before the rest reaches the SB3 constructor.
-META_KEYS: frozenset[str] = frozenset({"n_envs", "normalize_reward", "image_features"})
+META_KEYS: frozenset[str] = frozenset(
+    {
+        "n_envs",
+        "normalize_reward",
+        "image_features",
+        # Atari conventions (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset)
+        "fire_on_reset",
+        "clip_reward",
+        "life_loss_terminal",
+    }
+)
 
 # Constructor arguments that noisybolt sets itself.
 _RESERVED = frozenset(

@@ -47,7 +47,7 @@ from noisybolt.io import atomic_open, atomic_write_json
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.rundir import RunDirectory
-from noisybolt.wrappers import BoltVecEnv
+from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
 __all__ = [
     "DETECTORS",
@@ -373,10 +373,22 @@ def build_bolted_env(
     n_envs: int,
     seed: int,
     dfas: Sequence[Any] | None = None,
+    training: bool = False,
 ) -> BoltVecEnv:
-    """The world as an SB3 ``VecEnv``, monitored, with the bolt on top."""
-    world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_kwargs)
-    venv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
+    """The world as an SB3 ``VecEnv``, monitored, with the bolt on top.
+
+    The Atari conventions among the hyperparameters: ``fire_on_reset`` is part of the
+    world (training and evaluation alike); ``clip_reward`` (the game's score clipped to
+    its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
+    above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
+    """
+    world_kwargs = dict(config.world_kwargs)
+    if config.hyperparams.get("fire_on_reset"):
+        world_kwargs["fire_on_reset"] = True
+    world = make_world(config.world, num_envs=n_envs, seed=seed, **world_kwargs)
+    venv: VecEnv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
+    if training and config.hyperparams.get("clip_reward"):
+        venv = ClipGameReward(venv)
     return BoltVecEnv(
         venv,
         config.spec_objects(),
@@ -670,15 +682,25 @@ def train(
             "directory"
         )
 
+    if config.hyperparams.get("life_loss_terminal"):
+        probe = make_world(config.world, num_envs=1, seed=0, **config.world_kwargs)
+        if not callable(getattr(probe, "lives", None)):
+            raise ConfigError(
+                f"life_loss_terminal: the {config.world!r} world has no lives (it needs a "
+                "lives() method); remove the hyperparameter"
+            )
     setup = prepare_bolt(config, seed=config.seed, progress=config.progress_bar, log=log)
     dfas, detector = setup.dfas, setup.detector
     run.path.mkdir(parents=True, exist_ok=True)
     run.write_config(config.to_dict())
     run.write_command(argv)
 
-    env: VecEnv = build_bolted_env(
-        config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas
+    bolted = build_bolted_env(
+        config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas, training=True
     )
+    env: VecEnv = bolted
+    if config.hyperparams.get("life_loss_terminal"):
+        env = LifeLossTerminal(env, bolted.world.lives)  # type: ignore[attr-defined]
     if config.hyperparams.get("normalize_reward"):
         # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
         # top, and off-policy replay buffers, which store VecNormalize's original (here:

@@ -104,6 +104,7 @@ _BRICK_BYTE = np.array(
 _BRICK_MASK = np.array(
     [[mask for _, mask in BRICK_BITS] for _ in range(BRICK_ROWS)], dtype=np.uint8
 )
+_FIRE = 1  # FIRE's index in Breakout's minimal action set (NOOP, FIRE, RIGHT, LEFT)
 _WALL_SETTLE_FRAMES = 40  # the game sets its wall up during the first 36 frames of a game
 
 NoiseFn = Callable[[np.ndarray, np.random.Generator], np.ndarray]
@@ -239,6 +240,11 @@ class BreakoutWorld(gym.vector.VectorEnv):
         frame_stack: frames in the agent's observation.
         screen_size: side of the agent's square grayscale frames.
         max_episode_frames: emulator frames after which an episode is truncated.
+        fire_on_reset: press FIRE (one agent step's frames) after every reset and every lost
+            life, as SB3's ``FireResetEnv`` with ``EpisodicLifeEnv`` does: Breakout waits
+            for FIRE to serve the ball, and an agent that has not learnt to press it
+            wastes its episode until truncation. Off by default (plain ALE v5); the
+            Breakout training settings turn it on (``configs/hyperparams/breakout.yaml``).
     """
 
     termination_is_success = False
@@ -258,6 +264,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         frame_stack: int = 4,
         screen_size: int = 84,
         max_episode_frames: int = 108_000,
+        fire_on_reset: bool = False,
     ) -> None:
         if num_envs < 1:
             raise ConfigError(f"num_envs must be >= 1, got {num_envs}")
@@ -289,6 +296,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self.frame_stack = frame_stack
         self.screen_size = screen_size
         self.max_episode_frames = max_episode_frames
+        self.fire_on_reset = bool(fire_on_reset)
         self._noise = noise_fn
         self._seed = seed
 
@@ -369,8 +377,27 @@ class BreakoutWorld(gym.vector.VectorEnv):
                     ale.reset_game()
         ale.getScreenGrayscale(self._grey[i, 0])
         self._grey[i, 1].fill(0)
+        if self.fire_on_reset:
+            self._act(i, _FIRE)
         self._stack[i] = self._processed(i)
         self._lives[i] = ale.lives()
+
+    def _act(self, i: int, action: int) -> int:
+        """One agent step of game ``i`` (``frame_skip`` frames of minimal action index
+        ``action``); keeps the last two frames for max-pooling; returns the score gained."""
+        ale = self._ales[i]
+        chosen = self._actions[action]
+        last, second = self.frame_skip - 1, self.frame_skip - 2
+        total = 0
+        for t in range(self.frame_skip):
+            total += ale.act(chosen)
+            if ale.game_over():  # terminal or truncated: keep the last processed frames
+                break
+            if t == second:
+                ale.getScreenGrayscale(self._grey[i, 1])
+            elif t == last:
+                ale.getScreenGrayscale(self._grey[i, 0])
+        return total
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -420,18 +447,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
         truncated = np.zeros(self.num_envs, dtype=bool)
         self._clear_step_state()
         final_obs: np.ndarray | None = None
-        last, second = self.frame_skip - 1, self.frame_skip - 2
         for i, ale in enumerate(self._ales):
-            action = self._actions[int(actions[i])]
-            total = 0
-            for t in range(self.frame_skip):
-                total += ale.act(action)
-                if ale.game_over():  # terminal or truncated: keep the last processed frames
-                    break
-                if t == second:
-                    ale.getScreenGrayscale(self._grey[i, 1])
-                elif t == last:
-                    ale.getScreenGrayscale(self._grey[i, 0])
+            total = self._act(i, int(actions[i]))
+            if self.fire_on_reset and not ale.game_over() and ale.lives() < self._lives[i]:
+                total += self._act(i, _FIRE)  # serve the next ball
             rewards[i] = total
             terminated[i] = ale.game_over(with_truncation=False)
             truncated[i] = ale.game_truncated()
@@ -473,6 +492,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
     def camera_spec(self) -> CameraSpec:
         """The bolt camera's size and noise."""
         return self._camera_spec
+
+    def lives(self) -> np.ndarray:
+        """Lives left in each game (int ``[num_envs]``; a new game starts with 5)."""
+        return self._lives.copy()
 
     def rams(self) -> np.ndarray:
         """uint8 ``[num_envs, 128]``: every console's RAM now."""
@@ -688,6 +711,7 @@ def make_breakout_world(
     frame_stack: int = 4,
     screen_size: int = 84,
     max_episode_frames: int = 108_000,
+    fire_on_reset: bool = False,
 ) -> BreakoutWorld:
     """The registry's factory for ``"breakout"`` (``make_world("breakout", ...)``).
 
@@ -706,6 +730,7 @@ def make_breakout_world(
         frame_stack: frames in the agent's observation.
         screen_size: side of the agent's frames.
         max_episode_frames: truncation limit in emulator frames.
+        fire_on_reset: press FIRE after every reset and lost life.
 
     Raises:
         ConfigError: for an unknown ``obs_mode`` or an out-of-range setting.
@@ -730,4 +755,5 @@ def make_breakout_world(
         frame_stack=frame_stack,
         screen_size=screen_size,
         max_episode_frames=max_episode_frames,
+        fire_on_reset=fire_on_reset,
     )

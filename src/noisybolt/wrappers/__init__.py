@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+from noisybolt.wrappers.atari import ClipGameReward, LifeLossTerminal
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
 from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
 
-__all__ = ["BoltObservableEnv", "BoltVecEnv", "RestrainingBoltWrapper"]
+__all__ = [
+    "BoltObservableEnv",
+    "BoltVecEnv",
+    "ClipGameReward",
+    "LifeLossTerminal",
+    "RestrainingBoltWrapper",
+]
