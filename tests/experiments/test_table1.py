@@ -89,8 +89,8 @@ def test_default_budget_is_twice_the_papers_frames_with_a_60k_floor() -> None:
         "one_corner_once-a2c": 60_000,
     }
     every = {r.name: r.eval_freq() for r in TABLE1_ROWS}
-    assert every["edge-dqn"] == 2_000 and every["edge-a2c"] == 8_000
-    assert every["top_right_once-a2c"] == 10_000
+    assert every["edge-dqn"] == 1_000 and every["edge-a2c"] == 8_000
+    assert every["edge-ppo"] == 2_000 and every["top_right_once-a2c"] == 10_000
     half = {r.name: r.frames(0.5) for r in TABLE1_ROWS}
     assert half["edge-ppo"] == 30_000
 
