@@ -315,3 +315,33 @@ def test_the_best_model_survives_a_resume(tmp_path: Path) -> None:
     assert kept["frames"] == metrics[best]["frames"]
     if first["shaped_return"] > max(shaped[3:]):  # the first leg's model is still the best
         assert kept["frames"] == first["frames"]
+
+
+def test_entropy_schedule_moves_linearly_and_stops_at_its_end() -> None:
+    from noisybolt.agents.training import EntropySchedule
+
+    schedule = EntropySchedule(0.05, 0.01, 1000)
+    assert schedule.value(0) == pytest.approx(0.05)
+    assert schedule.value(500) == pytest.approx(0.03)
+    assert schedule.value(1000) == pytest.approx(0.01)
+    assert schedule.value(5000) == pytest.approx(0.01)
+    with pytest.raises(ConfigError, match="coefficients must be >= 0"):
+        EntropySchedule(-0.1, 0.0, 10)
+
+
+def test_entropy_schedule_reaches_the_model_before_each_rollout(tmp_path: Path) -> None:
+    # 8 envs x 64 steps = 512 frames a rollout; the last rollout starts at 1536 of 2048
+    # frames, when the coefficient is 0.05 + (0.01 - 0.05) * 1536 / 2048 = 0.02.
+    from stable_baselines3 import PPO
+
+    config = _config(overrides={"n_steps": 64, "ent_coef": 0.05, "ent_coef_final": 0.01})
+    train(config, tmp_path / "run", log=_quiet)
+    model = PPO.load(tmp_path / "run" / "model.zip", device="cpu")
+    assert model.ent_coef == pytest.approx(0.02)
+
+
+def test_entropy_schedule_for_dqn_is_refused(tmp_path: Path) -> None:
+    config = _config(algo="dqn", overrides={"ent_coef_final": 0.0})
+    with pytest.raises(ConfigError, match="DQN has no entropy bonus"):
+        train(config, tmp_path / "run", log=_quiet)
+    assert not (tmp_path / "run").exists()

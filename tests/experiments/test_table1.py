@@ -76,23 +76,23 @@ def test_the_paper_rows_in_its_order_with_its_numbers() -> None:
     assert all(p.followed for p in paper.values())
 
 
-def test_default_budget_is_twice_the_papers_frames_with_a_60k_floor() -> None:
+def test_default_budget_is_twice_the_papers_frames_with_a_30k_floor() -> None:
     frames = {r.name: r.frames() for r in TABLE1_ROWS}
     assert frames == {
-        "edge-ppo": 60_000,
+        "edge-ppo": 50_000,
         "edge-a2c": 160_000,
-        "edge-dqn": 60_000,
+        "edge-dqn": 30_000,
         "avoid_top_right-a2c": 100_000,
-        "avoid_top_right-dqn": 60_000,
+        "avoid_top_right-dqn": 30_000,
         "top_right_once-ppo": 266_000,
         "top_right_once-a2c": 330_000,
-        "one_corner_once-a2c": 60_000,
+        "one_corner_once-a2c": 40_000,
     }
     every = {r.name: r.eval_freq() for r in TABLE1_ROWS}
     assert every["edge-dqn"] == 1_000 and every["edge-a2c"] == 8_000
     assert every["edge-ppo"] == 2_000 and every["top_right_once-a2c"] == 10_000
     half = {r.name: r.frames(0.5) for r in TABLE1_ROWS}
-    assert half["edge-ppo"] == 30_000
+    assert half["edge-ppo"] == 25_000
 
 
 def test_the_default_sweep_is_eight_rows_by_three_seeds_with_the_noisy_classifier() -> None:

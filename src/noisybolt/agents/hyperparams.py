@@ -38,6 +38,8 @@ META_KEYS: frozenset[str] = frozenset(
         "n_envs",
         "normalize_reward",
         "image_features",
+        # PPO/A2C: ent_coef moves linearly to this over the run (training.EntropySchedule)
+        "ent_coef_final",
         # Atari conventions (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset)
         "fire_on_reset",
         "clip_reward",

@@ -53,6 +53,7 @@ __all__ = [
     "DETECTORS",
     "BoltSetup",
     "DetectorConfig",
+    "EntropySchedule",
     "TrainConfig",
     "TrainResult",
     "build_bolted_env",
@@ -515,6 +516,43 @@ def _latest_checkpoint(run: RunDirectory) -> Path | None:
 
 
 # ---------------------------------------------------------------------- callbacks
+class EntropySchedule(BaseCallback):
+    """PPO's and A2C's entropy coefficient moved linearly from ``start`` to ``end``.
+
+    SB3 reads ``model.ent_coef`` at every update but offers schedules only for the learning
+    rate and PPO's clip range. A high bonus early keeps the policy trying routes that pay a
+    little more (A2C settled on ``!F(t)``'s shortcut through the corner at 0.01); a low one
+    late lets it act as surely as it has learnt (at 0.05 throughout, sampled ``G(on_edge)``
+    episodes stepped off the edge in up to 6 %). The value is set before each rollout from
+    the frames done, so a resumed run continues the same schedule.
+
+    Args:
+        start: coefficient at frame 0.
+        end: coefficient from ``frames`` on.
+        frames: frames over which it moves (the run's budget).
+    """
+
+    def __init__(self, start: float, end: float, frames: int) -> None:
+        super().__init__(verbose=0)
+        if start < 0 or end < 0 or frames < 1:
+            raise ConfigError(
+                f"entropy schedule: coefficients must be >= 0 and frames >= 1, got {start}, "
+                f"{end}, {frames}"
+            )
+        self.start, self.end, self.frames = float(start), float(end), int(frames)
+
+    def value(self, frames_done: int) -> float:
+        """The coefficient after ``frames_done`` frames."""
+        progress = min(1.0, max(0, frames_done) / self.frames)
+        return self.start + (self.end - self.start) * progress
+
+    def _on_rollout_start(self) -> None:
+        self.model.ent_coef = self.value(self.model.num_timesteps)  # type: ignore[attr-defined]
+
+    def _on_step(self) -> bool:
+        return True
+
+
 class _BoltCallback(BaseCallback):
     """Periodic evaluation (compliance from ground truth) and atomic checkpoints."""
 
@@ -682,6 +720,11 @@ def train(
             "directory"
         )
 
+    if config.hyperparams.get("ent_coef_final") is not None and config.algo not in ("ppo", "a2c"):
+        raise ConfigError(
+            f"ent_coef_final: {config.algo.upper()} has no entropy bonus (only PPO and A2C); "
+            "remove the hyperparameter"
+        )
     if config.hyperparams.get("life_loss_terminal"):
         probe = make_world(config.world, num_envs=1, seed=0, **config.world_kwargs)
         if not callable(getattr(probe, "lives", None)):
@@ -741,11 +784,20 @@ def train(
         frames_to_comply=frames_to_comply,
         best=best,
     )
+    callbacks: list[BaseCallback] = [callback]
+    if config.hyperparams.get("ent_coef_final") is not None:
+        callbacks.append(
+            EntropySchedule(
+                float(config.hyperparams.get("ent_coef", 0.0)),
+                float(config.hyperparams["ent_coef_final"]),
+                config.frames,
+            )
+        )
     remaining = config.frames - model.num_timesteps
     if remaining > 0:
         model.learn(
             total_timesteps=remaining,
-            callback=CallbackList([callback]),
+            callback=CallbackList(callbacks),
             reset_num_timesteps=checkpoint is None,
             progress_bar=config.progress_bar,
             tb_log_name="run",

@@ -7,13 +7,14 @@ under the bolt with the trained noisy classifier (camera noise ``"regional"`` by
 default), through the sweep machinery (:mod:`noisybolt.experiments.sweep`), so it
 resumes when run again and runs on Ray with ``backend="ray"``.
 
-Frames per row: ``max(60k, 2 x the paper's N_frames)`` -- 60k for the rows the paper
-solved in 4k-25k frames, 160k (A2C ``G(e)``), 100k (A2C ``!F(t)``), 266k and 330k (PPO and
-A2C on ``F(t & X(!F(t)))``); about 1.1M frames per seed, ~11 minutes per seed on one core
-of the 2-core reference machine (PPO ~1.5k, A2C ~2k, DQN ~1.2k frames/s with the
-classifier bolt). Twice the paper's budget leaves room for seeds that learn later than the
-paper's one run did, and the floor covers DQN's replay warm-up and exploration schedule
-(the paper's 4k frames for DQN is less than one exploration schedule of ours). N_frames is
+Frames per row: ``max(30k, 2 x the paper's N_frames)`` -- 30k for the DQN rows (the
+paper's 4k), 40k (A2C, exclusive corner), 50k (PPO ``G(e)``), 160k (A2C ``G(e)``), 100k (A2C
+``!F(t)``), 266k and 330k (PPO and A2C on ``F(t & X(!F(t)))``); about 1.0M frames per seed.
+On one core of the 2-core reference machine, with the classifier bolt, PPO trains ~1.5k,
+A2C ~1.7k and DQN ~170 frames/s (one gradient step per frame), so the table takes about 25
+minutes with two workers. Twice the paper's budget leaves room for seeds that learn later
+than the paper's one run did, and the floor covers DQN's replay warm-up and exploration
+schedule (3k frames: ``exploration_fraction`` 0.1 of 30k). N_frames is
 measured, not the budget: it is the first periodic evaluation at which at least 95% of
 the evaluation episodes reach the goal while complying (ground truth), so a row that
 learns faster reports fewer frames. Evaluations come every ``clip(paper N_frames / 10,
@@ -64,7 +65,7 @@ __all__ = [
 
 #: Default frames per row: ``max(FRAMES_FLOOR, FRAMES_FACTOR * paper N_frames)``.
 FRAMES_FACTOR = 2
-FRAMES_FLOOR = 60_000
+FRAMES_FLOOR = 30_000
 #: Compliance a seed needs for the row to count as followed.
 FOLLOWED_THRESHOLD = 0.95
 
@@ -98,7 +99,7 @@ class Table1Row:
         return PAPER_SPECS[self.spec]
 
     def frames(self, scale: float = 1.0) -> int:
-        """Frames to train (``max(60k, 2 x paper N_frames)``, times ``scale``)."""
+        """Frames to train (``max(30k, 2 x paper N_frames)``, times ``scale``)."""
         base = max(FRAMES_FLOOR, FRAMES_FACTOR * self.paper.n_frames)
         return max(1, round(base * scale))
 
