@@ -48,14 +48,26 @@ def minigrid_batch_step(
 
 
 @pytest.mark.parametrize(
-    ("obs_mode", "steps", "max_steps", "size"),
-    [("grid", 1500, 40, 6), ("view", 1500, 40, 6), ("rgb", 400, 25, 6), ("view", 600, 60, 7)],
+    ("obs_mode", "steps", "max_steps", "size", "heading"),
+    [
+        ("grid", 1500, 40, 6, "east"),
+        ("view", 1500, 40, 6, "east"),
+        ("rgb", 400, 25, 6, "east"),
+        ("view", 600, 60, 7, "east"),
+        ("view", 800, 40, 6, "south"),
+    ],
 )
 def test_vectorised_form_is_identical_to_minigrid_envs(
-    obs_mode: str, steps: int, max_steps: int, size: int
+    obs_mode: str, steps: int, max_steps: int, size: int, heading: str
 ) -> None:
     n = 6
-    kwargs = {"obs_mode": obs_mode, "max_steps": max_steps, "size": size, "obs_tile_size": 4}
+    kwargs = {
+        "obs_mode": obs_mode,
+        "max_steps": max_steps,
+        "size": size,
+        "obs_tile_size": 4,
+        "start_heading": heading,
+    }
     envs = [GridworldEnv(**kwargs) for _ in range(n)]
     world = VectorGridworld(n, **kwargs)
     ref = np.stack([env.reset(seed=i)[0] for i, env in enumerate(envs)])
@@ -313,3 +325,22 @@ def test_public_api_is_documented_and_examples_run(module: str) -> None:
         if isinstance(obj, type | types.FunctionType):
             assert obj.__doc__, f"{module}.{name} has no docstring"
     assert doctest.testmod(mod, optionflags=doctest.ELLIPSIS).failed == 0
+
+
+@pytest.mark.parametrize(("heading", "after_forward"), [("east", (2, 1)), ("south", (1, 2))])
+def test_start_heading_sets_where_the_first_step_goes(
+    heading: str, after_forward: tuple[int, int]
+) -> None:
+    env = GridworldEnv(start_heading=heading)
+    env.reset(seed=0)
+    env.step(2)  # forward
+    assert tuple(int(v) for v in env.agent_pos) == after_forward
+    world = VectorGridworld(1, start_heading=heading)
+    world.reset(seed=0)
+    facing = dict(zip(world.fluent_names, world.true_fluents()[0], strict=True))
+    assert facing["facing_down" if heading == "south" else "facing_right"]
+
+
+def test_unknown_start_heading_lists_the_known_ones() -> None:
+    with pytest.raises(UnknownNameError, match="east, south, west, north"):
+        VectorGridworld(1, start_heading="up")

@@ -98,3 +98,10 @@ def test_corner_visits_from_fluents_agree_with_the_positions(case4_dir: Path) ->
 def test_measuring_needs_episodes(case4_dir: Path) -> None:
     with pytest.raises(ConfigError, match="episodes must be >= 1"):
         measure_corners(case4_dir / "trials" / "control" / "seed-0", episodes=0)
+
+
+def test_case4_start_heading_reaches_both_conditions_and_east_stays_implicit() -> None:
+    south = case4_sweep(seeds=1, frames=6_000, start_heading="south")
+    assert {t.config.world_kwargs.get("start_heading") for t in south.trials} == {"south"}
+    east = case4_sweep(seeds=1, frames=6_000)
+    assert all("start_heading" not in t.config.world_kwargs for t in east.trials)

@@ -198,6 +198,12 @@ def register(subparsers: Any) -> None:
     case4.add_argument(
         "--detector", default="classifier", choices=("classifier", "oracle", "synthetic")
     )
+    case4.add_argument(
+        "--start-heading",
+        default="east",
+        help="the agent's heading at the start: east (the paper's; the top-right route is "
+        "shorter) or south (the smudged bottom-left route is shorter), west, north",
+    )
     case4.add_argument("--out", type=Path, default=Path("runs/case4"))
     _add_backend_options(case4)
     case4.set_defaults(func=_case4)
@@ -300,6 +306,7 @@ def _case4(args: argparse.Namespace) -> int:
         episodes=args.episodes,
         algo=args.algo,
         detector=args.detector,
+        start_heading=args.start_heading,
         out=args.out,
         backend=args.backend,
         address=args.address,
@@ -318,6 +325,7 @@ def _case4(args: argparse.Namespace) -> int:
         workers=_workers(args),
         address=args.address,
         argv=argv,
+        start_heading=args.start_heading,
     )
     print((args.out / "case4.md").read_text())
     return 1 if data["failed_trials"] else 0

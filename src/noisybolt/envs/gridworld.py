@@ -86,6 +86,7 @@ __all__ = [
     "GRIDWORLD_FLUENTS",
     "MINIGRID_ACTIONS",
     "OBS_MODES",
+    "START_HEADINGS",
     "GridAction",
     "GridworldCamera",
     "GridworldConfig",
@@ -117,6 +118,8 @@ OBS_MODES: tuple[str, ...] = ("grid", "view", "rgb")
 DIRECTION_VECTORS = np.array([[1, 0], [0, 1], [-1, 0], [0, -1]], dtype=np.intp)
 
 _EAST, _SOUTH, _WEST, _NORTH = 0, 1, 2, 3
+#: The agent's possible start headings, by name (MiniGrid's direction numbers).
+START_HEADINGS: dict[str, int] = {"east": _EAST, "south": _SOUTH, "west": _WEST, "north": _NORTH}
 
 
 class GridAction(IntEnum):
@@ -172,10 +175,14 @@ class GridworldConfig:
         obs_mode: the agent's observation, one of :data:`OBS_MODES`.
         obs_tile_size: pixels per cell of the ``"rgb"`` observation.
         camera_tile_size: pixels per cell of the bolt's camera.
+        start_heading: where the agent faces at the start, top-left (:data:`START_HEADINGS`):
+            ``"east"`` (the paper's, MiniGrid's default) makes the route by the top-right
+            corner one turn shorter than the one by the bottom-left corner, ``"south"`` the
+            reverse.
 
     Raises:
         ConfigError: for an out-of-range value (the message names the parameter).
-        UnknownNameError: for an unknown ``obs_mode``.
+        UnknownNameError: for an unknown ``obs_mode`` or ``start_heading``.
     """
 
     size: int = 6
@@ -185,9 +192,16 @@ class GridworldConfig:
     obs_mode: str = "grid"
     obs_tile_size: int = 8
     camera_tile_size: int = 8
+    start_heading: str = "east"
 
     def __post_init__(self) -> None:
         _check_int("size", self.size, low=4)
+        if self.start_heading not in START_HEADINGS:
+            raise UnknownNameError(
+                f"unknown start_heading {self.start_heading!r}; known: {', '.join(START_HEADINGS)}",
+                name=str(self.start_heading),
+                known=tuple(START_HEADINGS),
+            )
         if self.max_steps is not None:
             _check_int("max_steps", self.max_steps, low=1)
         _check_float("step_reward", self.step_reward)
@@ -209,7 +223,7 @@ class GridworldConfig:
     @property
     def start(self) -> tuple[int, int, int]:
         """The agent's start ``(x, y, heading)``."""
-        return (1, 1, _EAST)
+        return (1, 1, START_HEADINGS[self.start_heading])
 
     @property
     def goal(self) -> tuple[int, int]:
@@ -429,6 +443,7 @@ class GridworldEnv(MiniGridEnv):
         obs_mode: ``"grid"``, ``"view"`` or ``"rgb"``.
         obs_tile_size: pixels per cell of the ``"rgb"`` observation.
         camera_tile_size: pixels per cell of the bolt's camera.
+        start_heading: the agent's heading at the start (see :class:`GridworldConfig`).
         noise: the bolt camera's noise spec.
         fluents: the bolt's fluents, in order (default: all of :data:`GRIDWORLD_FLUENTS`).
         render_mode: MiniGrid's ``"human"`` or ``"rgb_array"``.
@@ -445,6 +460,7 @@ class GridworldEnv(MiniGridEnv):
         obs_mode: str = "grid",
         obs_tile_size: int = 8,
         camera_tile_size: int = 8,
+        start_heading: str = "east",
         noise: NoiseSpec = "none",
         fluents: Sequence[str] | None = None,
         render_mode: str | None = None,
@@ -458,6 +474,7 @@ class GridworldEnv(MiniGridEnv):
             obs_mode=obs_mode,
             obs_tile_size=obs_tile_size,
             camera_tile_size=camera_tile_size,
+            start_heading=start_heading,
         )
         self._fluent_names, self._fluent_columns = resolve_fluents(fluents)
         self._camera = GridworldCamera(size=size, tile_size=camera_tile_size, noise=noise)

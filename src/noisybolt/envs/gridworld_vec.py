@@ -117,6 +117,8 @@ class VectorGridworld(VectorEnv):
         obs_mode: ``"grid"``, ``"view"`` or ``"rgb"`` (see :mod:`noisybolt.envs.gridworld`).
         obs_tile_size: pixels per cell of the ``"rgb"`` observation.
         camera_tile_size: pixels per cell of the bolt's camera.
+        start_heading: the agent's heading at the start (see
+            :class:`~noisybolt.envs.gridworld.GridworldConfig`).
         noise: the bolt camera's noise spec.
         fluents: the bolt's fluents, in order (default: all seven).
         seed: seeds the camera noise now; ``reset(seed=...)`` re-seeds it.
@@ -142,6 +144,7 @@ class VectorGridworld(VectorEnv):
         obs_mode: str = "grid",
         obs_tile_size: int = 8,
         camera_tile_size: int = 8,
+        start_heading: str = "east",
         noise: NoiseSpec = "none",
         fluents: Sequence[str] | None = None,
         seed: int | None = None,
@@ -159,6 +162,7 @@ class VectorGridworld(VectorEnv):
             obs_mode=obs_mode,
             obs_tile_size=obs_tile_size,
             camera_tile_size=camera_tile_size,
+            start_heading=start_heading,
         )
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
