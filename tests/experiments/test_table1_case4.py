@@ -105,3 +105,11 @@ def test_case4_start_heading_reaches_both_conditions_and_east_stays_implicit() -
     assert {t.config.world_kwargs.get("start_heading") for t in south.trials} == {"south"}
     east = case4_sweep(seeds=1, frames=6_000)
     assert all("start_heading" not in t.config.world_kwargs for t in east.trials)
+
+
+def test_case4_low_confidence_cost_reaches_the_spec() -> None:
+    sweep = case4_sweep(seeds=1, frames=6_000, low_confidence_cost=3.0)
+    specs = {json.dumps(t.config.specs, sort_keys=True) for t in sweep.trials}
+    assert len(specs) == 1
+    (spec,) = sweep.trials[0].config.specs
+    assert spec["name"] == "one_corner_once" and spec["low_confidence_cost"] == 3.0

@@ -204,6 +204,13 @@ def register(subparsers: Any) -> None:
         help="the agent's heading at the start: east (the paper's; the top-right route is "
         "shorter) or south (the smudged bottom-left route is shorter), west, north",
     )
+    case4.add_argument(
+        "--low-confidence-cost",
+        type=float,
+        default=None,
+        help="the spec's charge per low-confidence fluent on the edge taken (default: the "
+        "built-in 0.5)",
+    )
     case4.add_argument("--out", type=Path, default=Path("runs/case4"))
     _add_backend_options(case4)
     case4.set_defaults(func=_case4)
@@ -307,6 +314,7 @@ def _case4(args: argparse.Namespace) -> int:
         algo=args.algo,
         detector=args.detector,
         start_heading=args.start_heading,
+        low_confidence_cost=args.low_confidence_cost,
         out=args.out,
         backend=args.backend,
         address=args.address,
@@ -326,6 +334,7 @@ def _case4(args: argparse.Namespace) -> int:
         address=args.address,
         argv=argv,
         start_heading=args.start_heading,
+        low_confidence_cost=args.low_confidence_cost,
     )
     print((args.out / "case4.md").read_text())
     return 1 if data["failed_trials"] else 0

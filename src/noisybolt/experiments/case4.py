@@ -206,6 +206,7 @@ def case4_sweep(
     eval_episodes: int = 20,
     retries: int = 1,
     start_heading: str = "east",
+    low_confidence_cost: float | None = None,
 ) -> Any:
     """The two-condition sweep (a :class:`~noisybolt.experiments.sweep.SweepConfig`).
 
@@ -215,7 +216,8 @@ def case4_sweep(
     as Table 1's row). ``start_heading``: the agent's heading at the start; facing
     ``"east"`` (the paper's) the route by the clearly seen top-right corner is one turn
     shorter, so preferring it says nothing about perception; facing ``"south"`` the
-    smudged bottom-left corner is on the shorter route.
+    smudged bottom-left corner is on the shorter route. ``low_confidence_cost``: the
+    spec's charge for a low-confidence fluent on the edge taken (None: the built-in 0.5).
     """
     from noisybolt.experiments.sweep import SweepConfig
 
@@ -225,7 +227,11 @@ def case4_sweep(
             "name": "case4",
             "base": {
                 "world": "gridworld",
-                "specs": ["one_corner_once"],
+                "specs": [
+                    "one_corner_once"
+                    if low_confidence_cost is None
+                    else {"name": "one_corner_once", "low_confidence_cost": low_confidence_cost}
+                ],
                 "algo": algo,
                 "detector": {"kind": detector},
                 "frames": frames,
@@ -315,6 +321,7 @@ def reproduce_case4(
     argv: Sequence[str] | None = None,
     log: Callable[[str], None] = print,
     start_heading: str = "east",
+    low_confidence_cost: float | None = None,
 ) -> dict[str, Any]:
     """Trains both conditions over seeds (or resumes), measures corner visits, writes files.
 
@@ -338,6 +345,7 @@ def reproduce_case4(
         eval_freq=eval_freq,
         eval_episodes=eval_episodes,
         start_heading=start_heading,
+        low_confidence_cost=low_confidence_cost,
     )
     result = run_sweep(
         sweep, out_dir, backend=backend, workers=workers, address=address, argv=argv, log=log
@@ -379,6 +387,7 @@ def reproduce_case4(
         "detector": detector,
         "frames": frames,
         "start_heading": start_heading,
+        "low_confidence_cost": low_confidence_cost,
         "episodes_per_seed": episodes,
         "conditions": dict(CONDITIONS),
         "pooled": pooled,
@@ -431,7 +440,9 @@ def _markdown(data: dict[str, Any]) -> str:
         "",
         f"Command: `{data['command']}`",
         "",
-        f"Spec `one_corner_once`, {data['algo'].upper()}, detector `{data['detector']}`, "
+        f"Spec `one_corner_once` (low-confidence cost "
+        f"{data.get('low_confidence_cost') or 0.5}), {data['algo'].upper()}, "
+        f"detector `{data['detector']}`, "
         f"{data['frames']:,} frames per seed, {data['episodes_per_seed']} evaluation episodes "
         "per seed; corners, goal and compliance from ground truth. The agent starts top-left "
         f"facing {data.get('start_heading', 'east')}: "
