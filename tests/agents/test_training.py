@@ -164,6 +164,11 @@ def test_atari_conventions_reach_the_training_envs_only() -> None:
     assert isinstance(train_env.venv, ClipGameReward)
     assert not isinstance(eval_env.venv, ClipGameReward)
     assert train_env.world.fire_on_reset and eval_env.world.fire_on_reset  # type: ignore[attr-defined]
+    from noisybolt.agents.run_evaluation import _single_env
+
+    recorded = _single_env(config)  # the GIF's game serves the ball too
+    assert recorded.world.fire_on_reset
+    recorded.close()
 
 
 def test_detector_for_other_fluents_is_refused(tmp_path: Path) -> None:

@@ -50,7 +50,7 @@ def load_run_model(run: RunDirectory, config: TrainConfig) -> BaseAlgorithm:
 
 def _single_env(config: TrainConfig) -> Any:
     """One (non-vectorised) environment of the run's world, for recordings."""
-    kwargs = dict(config.world_kwargs)
+    kwargs = config.world_settings
     if config.world == "gridworld":
         from noisybolt.envs.gridworld import GridworldEnv
 

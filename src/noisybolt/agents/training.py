@@ -200,6 +200,15 @@ class TrainConfig:
         return cls(world=world, specs=tuple(resolved), algo=algo, hyperparams=params, **kwargs)
 
     @property
+    def world_settings(self) -> dict[str, Any]:
+        """``world_kwargs`` plus the world settings held among the hyperparameters (the
+        Atari convention ``fire_on_reset``): what every world of the run is built with."""
+        settings = dict(self.world_kwargs)
+        if self.hyperparams.get("fire_on_reset"):
+            settings["fire_on_reset"] = True
+        return settings
+
+    @property
     def n_envs(self) -> int:
         """Training environments."""
         return int(self.hyperparams.get("n_envs", 1))
@@ -383,10 +392,7 @@ def build_bolted_env(
     its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
     above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
     """
-    world_kwargs = dict(config.world_kwargs)
-    if config.hyperparams.get("fire_on_reset"):
-        world_kwargs["fire_on_reset"] = True
-    world = make_world(config.world, num_envs=n_envs, seed=seed, **world_kwargs)
+    world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
     venv: VecEnv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
     if training and config.hyperparams.get("clip_reward"):
         venv = ClipGameReward(venv)
