@@ -113,3 +113,16 @@ def test_case4_low_confidence_cost_reaches_the_spec() -> None:
     assert len(specs) == 1
     (spec,) = sweep.trials[0].config.specs
     assert spec["name"] == "one_corner_once" and spec["low_confidence_cost"] == 3.0
+
+
+def test_case4_markdown_states_the_cost_and_the_shorter_route(case4_dir: Path) -> None:
+    from noisybolt.experiments.case4 import _markdown
+
+    markdown = (case4_dir / "case4.md").read_text()
+    assert "(low-confidence cost 0.5)" in markdown
+    assert "facing east: the route by the top-right corner is one turn shorter" in markdown
+    data = json.loads((case4_dir / "case4.json").read_text())
+    data.update(low_confidence_cost=0.0, start_heading="south")
+    other = _markdown(data)
+    assert "(low-confidence cost 0.0)" in other  # a zero charge is not the default's 0.5
+    assert "facing south: the route by the bottom-left corner is one turn shorter" in other

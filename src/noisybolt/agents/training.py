@@ -732,7 +732,7 @@ def train(
             "remove the hyperparameter"
         )
     if config.hyperparams.get("life_loss_terminal"):
-        probe = make_world(config.world, num_envs=1, seed=0, **config.world_kwargs)
+        probe = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
         if not callable(getattr(probe, "lives", None)):
             raise ConfigError(
                 f"life_loss_terminal: the {config.world!r} world has no lives (it needs a "

@@ -433,26 +433,30 @@ def _table(data: dict[str, Any]) -> tuple[tuple[str, ...], list[tuple[str, ...]]
     return header, rows
 
 
+#: What the start heading does to the two routes (the others: see the heat-maps).
+_SHORTER_ROUTE = {
+    "east": "the route by the top-right corner is one turn shorter.",
+    "south": "the route by the bottom-left corner is one turn shorter.",
+}
+
+
 def _markdown(data: dict[str, Any]) -> str:
+    from noisybolt.agents.specs import DEFAULT_COST
+
     header, rows = _table(data)
+    cost = data.get("low_confidence_cost")
+    cost = DEFAULT_COST if cost is None else cost
+    heading = data.get("start_heading", "east")
     lines = [
         "# Case 4: which corner does the agent detour through?",
         "",
         f"Command: `{data['command']}`",
         "",
-        f"Spec `one_corner_once` (low-confidence cost "
-        f"{data.get('low_confidence_cost') or 0.5}), {data['algo'].upper()}, "
+        f"Spec `one_corner_once` (low-confidence cost {cost}), {data['algo'].upper()}, "
         f"detector `{data['detector']}`, "
         f"{data['frames']:,} frames per seed, {data['episodes_per_seed']} evaluation episodes "
         "per seed; corners, goal and compliance from ground truth. The agent starts top-left "
-        f"facing {data.get('start_heading', 'east')}: "
-        + (
-            "the route by the top-right corner is one turn shorter."
-            if data.get("start_heading", "east") == "east"
-            else "the route by the bottom-left corner is one turn shorter."
-            if data.get("start_heading") == "south"
-            else "see the heat-maps for the routes."
-        ),
+        f"facing {heading}: {_SHORTER_ROUTE.get(heading, 'see the heat-maps for the routes.')}",
         "",
         "| " + " | ".join(header) + " |",
         "|" + "---|" * len(header),
