@@ -48,3 +48,49 @@ def test_goal_comes_from_is_success_and_compliance_from_the_true_dfa() -> None:
     assert reached.goal and reached.length == 7 and reached.env_return == pytest.approx(89.5)
     assert reached.compliant == (False,)  # went through the top-right corner
     assert not stuck.goal and stuck.length == 20 and stuck.compliant == (True,)
+
+
+def test_false_acceptance_by_hand() -> None:
+    episodes = [
+        # bolt accepted spec a, truth did not: a false acceptance of a
+        EpisodeRecord(1.0, 1.0, 5, True, (False, True), bolt_accepting=(True, True)),
+        # the bolt missed what happened (b): not a false acceptance
+        EpisodeRecord(1.0, 0.0, 5, True, (True, True), bolt_accepting=(True, False)),
+        EpisodeRecord(1.0, 0.0, 5, True, (False, False), bolt_accepting=(False, False)),
+        EpisodeRecord(1.0, 1.0, 5, True, (False, True), bolt_accepting=(True, True)),
+    ]
+    assert summarise(episodes, ["a", "b"]).false_acceptance == pytest.approx({"a": 0.5, "b": 0.0})
+    # Records without the bolt's view (older runs) give no figure rather than a wrong one.
+    assert summarise([EpisodeRecord(1.0, 0.0, 5, True, (True,))], ["a"]).false_acceptance == {}
+
+
+class _SeesTheCornerEverywhere(OracleDetector):
+    """A detector whose only fluent it lies about is the top-right corner: always seen."""
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        probs = super().predict(images, truth=truth)
+        probs[:, list(self.fluent_names).index("top_right_corner")] = 1.0
+        return probs
+
+
+def test_a_bolt_that_sees_what_is_not_there_is_counted_as_falsely_accepting() -> None:
+    # The agent never moves, so F(top_right_corner) is never true; the lying detector
+    # moves the bolt's DFA to its accepting sink on the first observation.
+    world = VectorGridworld(num_envs=1, max_steps=5, seed=0)
+    spec = {"formula": "F(top_right_corner)", "name": "visit"}
+    honest = BoltVecEnv(SB3VecEnv(world), [resolve_spec(spec)], OracleDetector(world.fluent_names))
+
+    def wait(obs: object) -> np.ndarray:
+        return np.array([GridAction.NOOP])
+
+    truthful = evaluate_bolted_policy(wait, honest, n_episodes=2, spec_names=["visit"])
+    assert truthful.compliance == {"visit": 0.0}
+    assert truthful.false_acceptance == {"visit": 0.0}
+    world = VectorGridworld(num_envs=1, max_steps=5, seed=0)
+    lying = BoltVecEnv(
+        SB3VecEnv(world), [resolve_spec(spec)], _SeesTheCornerEverywhere(world.fluent_names)
+    )
+    fooled = evaluate_bolted_policy(wait, lying, n_episodes=2, spec_names=["visit"])
+    assert fooled.compliance == {"visit": 0.0}
+    assert fooled.false_acceptance == {"visit": 1.0}
+    assert fooled.bolt_return_mean > 0  # and it paid for it

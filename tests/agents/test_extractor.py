@@ -55,3 +55,32 @@ def test_bad_spaces_are_named_errors() -> None:
         BoltFeaturesExtractor(gym.spaces.Dict({"dfa": gym.spaces.MultiDiscrete([2])}))
     with pytest.raises(ConfigError, match="at least 4"):
         BoltFeaturesExtractor(_space((3, 3, 3), [2]))
+
+
+def test_the_2013_dqn_convolutions_on_an_atari_frame() -> None:
+    # 84 -> (84 - 8) / 4 + 1 = 20 -> (20 - 4) / 2 + 1 = 9; 32 channels: 32 * 9 * 9 = 2592.
+    extractor = BoltFeaturesExtractor(_space((4, 84, 84), [2]), cnn="atari2013")
+    convs = [m for m in extractor.convs if isinstance(m, torch.nn.Conv2d)]
+    assert [(c.out_channels, c.kernel_size, c.stride) for c in convs] == [
+        (16, (8, 8), (4, 4)),
+        (32, (4, 4), (2, 2)),
+    ]
+    assert extractor.features_dim == 2592 + 2
+    projected = BoltFeaturesExtractor(_space((4, 84, 84), [2]), cnn="atari2013", image_features=256)
+    assert projected.features_dim == 256 + 2
+
+
+def test_cnn_kinds_override_the_choice_by_size() -> None:
+    grid_on_frame = BoltFeaturesExtractor(_space((3, 40, 40), None), cnn="grid")
+    assert grid_on_frame.features_dim == 64 * 37 * 37  # three 2x2 convolutions: 40 -> 37
+    nature = BoltFeaturesExtractor(_space((3, 40, 40), None))  # auto: >= 36 on each side
+    assert nature.features_dim == 64 * 1 * 1
+
+
+def test_bad_cnn_settings_are_named_errors() -> None:
+    with pytest.raises(ConfigError, match="unknown cnn 'resnet'"):
+        BoltFeaturesExtractor(_space((3, 84, 84), None), cnn="resnet")
+    with pytest.raises(ConfigError, match="'atari2013' convolutions need at least 20"):
+        BoltFeaturesExtractor(_space((3, 19, 30), None), cnn="atari2013")
+    with pytest.raises(ConfigError, match="'nature' convolutions need at least 36"):
+        BoltFeaturesExtractor(_space((3, 35, 84), None), cnn="nature")

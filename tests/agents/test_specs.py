@@ -28,7 +28,7 @@ def test_milestone_specs_pay_once_per_brick() -> None:
     assert (spec.formula, spec.name) == ("F(left_gone_row3)", "left_row3")
     assert (spec.reward_timing, spec.terminal_reward, spec.low_confidence_cost) == (
         "on_entry",
-        5.0,
+        1.0,
         0.5,
     )
     assert resolve_spec("clear_left_column").reward_timing == "every_step"  # the paper's
@@ -74,8 +74,8 @@ def test_knocking_out_a_left_brick_pays_its_milestone_once() -> None:
     set_bricks(world._ales[0], wall)
     _, reward, _, infos = env.step(noop)
     paid = dict(zip([s.name for s in specs], infos[0]["bolt_terminal"], strict=True))
-    assert paid == {s.name: (5.0 if s.name == "left_row5" else 0.0) for s in specs}
-    assert reward[0] == 5.0  # no game points: the brick was removed, not hit
+    assert paid == {s.name: (1.0 if s.name == "left_row5" else 0.0) for s in specs}
+    assert reward[0] == 1.0  # no game points: the brick was removed, not hit
     _, reward, _, infos = env.step(noop)
     assert reward[0] == 0.0 and not infos[0]["bolt_terminal"].any()
     names = [s.name for s in specs]

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+import torch
 
 from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 from noisybolt.cli import main
@@ -343,6 +344,34 @@ def test_entropy_schedule_reaches_the_model_before_each_rollout(tmp_path: Path) 
     train(config, tmp_path / "run", log=_quiet)
     model = PPO.load(tmp_path / "run" / "model.zip", device="cpu")
     assert model.ent_coef == pytest.approx(0.02)
+
+
+def test_an_unknown_cnn_is_refused_before_anything_is_written(tmp_path: Path) -> None:
+    config = _config(overrides={"cnn": "resnet"})
+    with pytest.raises(ConfigError, match="cnn: unknown convolutions 'resnet'"):
+        train(config, tmp_path / "run", log=_quiet)
+    assert not (tmp_path / "run").exists()
+
+
+def test_breakout_agents_get_the_2013_dqn_network() -> None:
+    from noisybolt.agents.training import _make_model, build_bolted_env
+    from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.rundir import RunDirectory
+
+    for algo in ("ppo", "a2c", "dqn"):
+        config = TrainConfig.create(
+            world="breakout", algo=algo, specs=["left_row5"], detector=DetectorConfig(kind="oracle")
+        )
+        assert config.hyperparams["cnn"] == "atari2013"
+        detector = OracleDetector(("brick_clear_left", *(f"left_gone_row{r}" for r in range(6))))
+        env = build_bolted_env(config, detector, n_envs=1, seed=0, training=True)
+        model = _make_model(config, env, RunDirectory("unused"))
+        policy = model.q_net if algo == "dqn" else model.policy  # type: ignore[attr-defined]
+        extractor = policy.features_extractor
+        assert sum(isinstance(m, torch.nn.Conv2d) for m in extractor.convs.modules()) == 2
+        # 256 image features and the one-hot state of left_row5's two-state DFA
+        assert extractor.features_dim == 256 + 2
+        env.close()
 
 
 def test_entropy_schedule_for_dqn_is_refused(tmp_path: Path) -> None:

@@ -31,6 +31,8 @@ class EpisodeRecord:
             last step (SB3's convention; the gridworld's worlds set it on termination),
             else "terminated, not truncated".
         compliant: per spec, whether the true trace is accepted by its DFA.
+        bolt_accepting: per spec, whether the bolt's own DFA (run on what it *perceived*)
+            ended the episode accepting; empty where not recorded.
     """
 
     env_return: float
@@ -38,11 +40,19 @@ class EpisodeRecord:
     length: int
     goal: bool
     compliant: tuple[bool, ...]
+    bolt_accepting: tuple[bool, ...] = ()
 
 
 @dataclass(frozen=True)
 class EvalResult:
-    """Summary over K episodes (means and standard deviations over episodes)."""
+    """Summary over K episodes (means and standard deviations over episodes).
+
+    ``false_acceptance`` is, per spec, the fraction of episodes whose bolt DFA ended
+    accepting while the true trace was not accepted: what the bolt paid for and never
+    happened. With a noisy camera and an ``F(x)`` spec one false positive of ``x`` is
+    enough (the DFA never leaves its accepting sink), so over long episodes this measures
+    how far the bolt's rewards can be trusted. Empty where episodes did not record it.
+    """
 
     n_episodes: int
     env_return_mean: float
@@ -53,6 +63,7 @@ class EvalResult:
     compliance: dict[str, float]
     success_rate: float
     episodes: tuple[EpisodeRecord, ...] = field(repr=False, default=())
+    false_acceptance: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self, *, with_episodes: bool = False) -> dict[str, Any]:
         """A JSON-able dict (episodes only when asked)."""
@@ -79,6 +90,11 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
     returns = np.array([e.env_return for e in episodes])
     compliant = np.array([e.compliant for e in episodes], dtype=bool).reshape(len(episodes), -1)
     goal = np.array([e.goal for e in episodes])
+    false_acceptance: dict[str, float] = {}
+    if all(len(e.bolt_accepting) == compliant.shape[1] for e in episodes):
+        bolt = np.array([e.bolt_accepting for e in episodes], dtype=bool).reshape(compliant.shape)
+        false = bolt & ~compliant
+        false_acceptance = {name: float(false[:, i].mean()) for i, name in enumerate(spec_names)}
     return EvalResult(
         n_episodes=len(episodes),
         env_return_mean=float(returns.mean()),
@@ -89,6 +105,7 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
         compliance={name: float(compliant[:, i].mean()) for i, name in enumerate(spec_names)},
         success_rate=float((goal & compliant.all(axis=1)).mean()),
         episodes=tuple(episodes),
+        false_acceptance=false_acceptance,
     )
 
 
@@ -144,6 +161,7 @@ def evaluate_bolted_policy(
                         length=int(lengths[i]),
                         goal=goal,
                         compliant=tuple(bool(a) for a in info["true_accepting"]),
+                        bolt_accepting=tuple(bool(a) for a in info["dfa_accepting"]),
                     )
                 )
                 counts[i] += 1

@@ -20,20 +20,53 @@ from torch import nn
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["BoltFeaturesExtractor", "conv_stack"]
+__all__ = ["CNN_KINDS", "BoltFeaturesExtractor", "conv_stack"]
 
 #: Images with both sides at least this large get the Nature-DQN convolutions.
 LARGE_IMAGE_MIN_SIDE = 36
 
+#: The convolution stacks :func:`conv_stack` builds, by name (``auto``: by image size).
+CNN_KINDS = ("auto", "nature", "atari2013", "grid")
 
-def conv_stack(in_channels: int, height: int, width: int) -> nn.Sequential:
-    """Convolutions sized for the image: Nature-DQN for Atari frames, 2×2 ones for grids.
 
-    The small stack follows the paper's own code base (rl-starter-files: three 2×2
-    convolutions of 16, 32, 64 channels), without its max-pool so that a 6×6 room still
-    leaves a 3×3 map.
+def conv_stack(in_channels: int, height: int, width: int, kind: str = "auto") -> nn.Sequential:
+    """Convolutions for the agent's image.
+
+    ``kind``:
+
+    - ``nature``: the Nature DQN's three convolutions (32 8×8/4, 64 4×4/2, 64 3×3/1), what
+      SB3's ``NatureCNN`` and the RL Zoo's Atari agents use; needs 36×36 or more.
+    - ``atari2013``: the 2013 DQN's two (16 8×8/4, 32 4×4/2; Mnih et al., "Playing Atari
+      with Deep Reinforcement Learning"): on an 84×84 frame about a quarter of the Nature
+      stack's multiply-adds and a 2,592-long output against 3,136, for more frames per
+      hour on a CPU (``benchmarks/breakout_network.py`` measures it); needs 20×20 or more.
+    - ``grid``: the paper's own code base for MiniGrid (rl-starter-files: three 2×2
+      convolutions of 16, 32, 64 channels), without its max-pool so that a 6×6 room still
+      leaves a 3×3 map; needs 4×4 or more.
+    - ``auto`` (default): ``nature`` for images at least 36 on each side, else ``grid``.
+
+    Raises:
+        ConfigError: an unknown ``kind``, or an image too small for it.
     """
-    if min(height, width) >= LARGE_IMAGE_MIN_SIDE:
+    if kind not in CNN_KINDS:
+        raise ConfigError(f"unknown cnn {kind!r}; known: {list(CNN_KINDS)}")
+    if kind == "auto":
+        kind = "nature" if min(height, width) >= LARGE_IMAGE_MIN_SIDE else "grid"
+    smallest = {"nature": LARGE_IMAGE_MIN_SIDE, "atari2013": 20, "grid": 4}[kind]
+    if min(height, width) < smallest:
+        raise ConfigError(
+            f"the agent's image is {height}×{width}: the {kind!r} convolutions need at least "
+            f"{smallest}×{smallest}"
+        )
+    if kind == "atari2013":
+        return nn.Sequential(
+            nn.Conv2d(in_channels, 16, kernel_size=8, stride=4),
+            nn.ReLU(),
+            nn.Conv2d(16, 32, kernel_size=4, stride=2),
+            nn.ReLU(),
+            nn.Flatten(),
+        )
+    if kind == "nature":
         return nn.Sequential(
             nn.Conv2d(in_channels, 32, kernel_size=8, stride=4),
             nn.ReLU(),
@@ -43,8 +76,6 @@ def conv_stack(in_channels: int, height: int, width: int) -> nn.Sequential:
             nn.ReLU(),
             nn.Flatten(),
         )
-    if min(height, width) < 4:
-        raise ConfigError(f"the agent's image is {height}×{width}: at least 4×4 is needed")
     return nn.Sequential(
         nn.Conv2d(in_channels, 16, kernel_size=2),
         nn.ReLU(),
@@ -72,6 +103,7 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
         dfa_key: key of the DFA states (absent or empty for an unbolted agent).
         image_features: if given, a linear layer + ReLU projects the flattened
             convolution output to this many features before the DFA states are appended.
+        cnn: which convolutions (see :func:`conv_stack`; default by image size).
 
     Example:
         >>> space = gym.spaces.Dict({
@@ -90,6 +122,7 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
         image_key: str = "image",
         dfa_key: str = "dfa",
         image_features: int | None = None,
+        cnn: str = "auto",
     ) -> None:
         if not isinstance(observation_space, gym.spaces.Dict):
             raise ConfigError(
@@ -105,7 +138,7 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
             raise ConfigError(f"the agent's image must be 3-D (H, W, C), got shape {shape}")
         first = _channels_first(shape)
         channels, height, width = shape if first else (shape[2], shape[0], shape[1])
-        convs = conv_stack(channels, height, width)
+        convs = conv_stack(channels, height, width, cnn)
         with torch.no_grad():
             n_conv = int(convs(torch.zeros(1, channels, height, width)).shape[1])
         projection: nn.Module = nn.Identity()

@@ -38,6 +38,8 @@ META_KEYS: frozenset[str] = frozenset(
         "n_envs",
         "normalize_reward",
         "image_features",
+        # the agent's convolutions (extractor.conv_stack): auto, nature, atari2013, grid
+        "cnn",
         # PPO/A2C: ent_coef moves linearly to this over the run (training.EntropySchedule)
         "ent_coef_final",
         # Atari conventions (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset)

@@ -37,7 +37,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
-from noisybolt.agents.extractor import BoltFeaturesExtractor
+from noisybolt.agents.extractor import CNN_KINDS, BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, Spec, Thresholds
@@ -685,6 +685,8 @@ def _make_model(config: TrainConfig, env: VecEnv, run: RunDirectory) -> BaseAlgo
     extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", {}) or {})
     if config.hyperparams.get("image_features") is not None:
         extractor_kwargs["image_features"] = int(config.hyperparams["image_features"])
+    if config.hyperparams.get("cnn") is not None:
+        extractor_kwargs["cnn"] = str(config.hyperparams["cnn"])
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     cls = algorithm_class(config.algo)
@@ -731,6 +733,9 @@ def train(
             f"ent_coef_final: {config.algo.upper()} has no entropy bonus (only PPO and A2C); "
             "remove the hyperparameter"
         )
+    cnn = config.hyperparams.get("cnn")
+    if cnn is not None and cnn not in CNN_KINDS:
+        raise ConfigError(f"cnn: unknown convolutions {cnn!r}; known: {list(CNN_KINDS)}")
     if config.hyperparams.get("life_loss_terminal"):
         probe = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
         if not callable(getattr(probe, "lives", None)):

@@ -133,6 +133,7 @@ def bolt_info(
         "fluent_probs": probs[index],
         "confidence_bands": bands[index],
         "dfa_states": out.next_states[index],
+        "dfa_accepting": out.accepting[index],
         "dfa_violated": out.violated[index],
         "true_dfa_states": true_states[index],
         "true_accepting": true_accepting[index],
