@@ -5,7 +5,10 @@
 Per evaluation (rows: frames): each run's game score (mean ± std over the evaluation's
 episodes), the share of episodes that cleared the whole left column (``clear_left_column``
 from ground truth), and the mean number of the left column's bricks gone at the end of an
-episode (the sum of the ``left_row*`` compliance rates, also from ground truth).
+episode (the sum of the ``left_row*`` compliance rates, also from ground truth), and the
+bolt's false acceptances: the share of episodes in which some spec's DFA, run on what the
+bolt perceived, ended accepting while the true trace did not (the largest over the specs;
+"—" for runs recorded before the bolt's view was kept).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ def _records(run: Path) -> dict[int, dict]:
 
 def _cell(record: dict | None) -> list[str]:
     if record is None:
-        return ["", "", ""]
+        return ["", "", "", ""]
     rates = record["compliance"]
     bricks = sum(v for k, v in rates.items() if k.startswith("left_row"))
     cleared = rates.get("clear_left_column")
@@ -29,7 +32,13 @@ def _cell(record: dict | None) -> list[str]:
         f"{record['env_return_mean']:.1f} ± {record['env_return_std']:.1f}",
         "—" if cleared is None else f"{cleared:.0%}",
         f"{bricks:.2f}" if any(k.startswith("left_row") for k in rates) else "—",
+        _false_acceptance(record),
     ]
+
+
+def _false_acceptance(record: dict) -> str:
+    false = record.get("false_acceptance") or {}
+    return f"{max(false.values()):.0%}" if false else "—"
 
 
 def main(argv: list[str]) -> None:
@@ -37,7 +46,7 @@ def main(argv: list[str]) -> None:
     records = [_records(r) for r in runs]
     header = ["frames"]
     for run in runs:
-        header += [f"{run.name}: score", "column cleared", "left bricks gone"]
+        header += [f"{run.name}: score", "column cleared", "left bricks gone", "bolt false acc."]
     print("| " + " | ".join(header) + " |")
     print("|" + "---:|" * len(header))
     for frames in sorted(set().union(*records)):

@@ -7,7 +7,7 @@ env, computed from the world's ground truth), ends in an accepting state.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -107,6 +107,22 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
         episodes=tuple(episodes),
         false_acceptance=false_acceptance,
     )
+
+
+def describe_false_acceptance(summary: Mapping[str, Any]) -> str | None:
+    """One line on an evaluation's ``false_acceptance`` (None where it was not recorded).
+
+    Example:
+        >>> describe_false_acceptance({"false_acceptance": {"a": 0.0, "b": 0.25}})
+        'b 25%'
+        >>> describe_false_acceptance({"false_acceptance": {"a": 0.0}})
+        'none'
+    """
+    rates = summary.get("false_acceptance") or {}
+    if not rates:
+        return None
+    falsely = [f"{name} {rate:.0%}" for name, rate in rates.items() if rate > 0]
+    return ", ".join(falsely) if falsely else "none"
 
 
 def evaluate_bolted_policy(

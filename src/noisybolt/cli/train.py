@@ -184,6 +184,8 @@ def format_eval_table(
     final: dict[str, Any], *, frames: int | None = None, frames_to_comply: int | None = None
 ) -> str:
     """A plain-text table of an evaluation (the one ``train`` and ``evaluate`` print)."""
+    from noisybolt.agents.evaluation import describe_false_acceptance
+
     rows = [
         ("episodes", f"{final['n_episodes']}"),
         ("env return R_pi", f"{final['env_return_mean']:.2f} ± {final['env_return_std']:.2f}"),
@@ -194,6 +196,9 @@ def format_eval_table(
     for name, rate in final["compliance"].items():
         rows.append((f"compliance [{name}]", f"{rate:.0%}"))
     rows.append(("goal and compliant", f"{final['success_rate']:.0%}"))
+    falsely = describe_false_acceptance(final)
+    if falsely is not None:
+        rows.append(("bolt falsely accepting (episodes)", falsely))
     if frames is not None:
         rows.append(("frames trained", f"{frames:,}"))
     if frames is not None or frames_to_comply is not None:

@@ -346,6 +346,8 @@ def group_curves(
 
 # ---------------------------------------------------------------------- run reports
 def _final_table(final: Mapping[str, Any]) -> Table:
+    from noisybolt.agents.evaluation import describe_false_acceptance
+
     rows: list[tuple[str | Link, ...]] = [
         ("episodes", str(final.get("n_episodes", "?"))),
         (
@@ -359,6 +361,9 @@ def _final_table(final: Mapping[str, Any]) -> Table:
     for name, rate in final.get("compliance", {}).items():
         rows.append((f"compliance [{name}]", f"{rate:.0%}"))
     rows.append(("goal and compliant", f"{final['success_rate']:.0%}"))
+    falsely = describe_false_acceptance(final)
+    if falsely is not None:
+        rows.append(("bolt falsely accepting (episodes)", falsely))
     return Table(("metric", "value"), tuple(rows))
 
 
