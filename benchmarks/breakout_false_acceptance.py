@@ -16,6 +16,10 @@ Breakout (FIRE after reset and lost lives) under the bolt with ``left_column_mil
 
     .venv/bin/python benchmarks/breakout_false_acceptance.py [--episodes 32] \
         [--noise none --noise gaussian:sigma=50 ...]
+
+A trained agent plays longer games than a random one; to measure a trained policy under
+any camera: ``noisybolt evaluate RUN --stochastic --noise NOISE`` (its table has the
+false acceptances per spec).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from typing import Any
 
 import numpy as np
 import torch
-from stable_baselines3.common.vec_env import VecEnv, VecMonitor
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor
 
 from noisybolt.agents.evaluation import evaluate_bolted_policy
 from noisybolt.agents.specs import expand_specs, resolve_spec
@@ -36,35 +40,29 @@ from noisybolt.wrappers import BoltVecEnv
 DEFAULT_NOISES = ("none", "gaussian:sigma=50", "gaussian:sigma=40+occlusion:count=2,size=0.25")
 
 
-class FrameCounter:
-    """Counts, per fluent, false positives and low-band readings on every bolted step."""
+class FrameCounter(VecEnvWrapper):
+    """Counts, per fluent, false positives and low-band readings on every bolted step
+    (from the step's ``fluent_probs`` and ``true_fluents`` infos)."""
 
-    def __init__(self, n_fluents: int) -> None:
+    def __init__(self, venv: VecEnv, n_fluents: int) -> None:
+        super().__init__(venv)
         self.false_positive = np.zeros(n_fluents)
         self.negative = np.zeros(n_fluents)
         self.low = np.zeros(n_fluents)
         self.frames = 0
 
-    def __call__(self, env: VecEnv, dones: np.ndarray) -> None:
-        del dones
-        bolt: Any = env
-        probs, truth = bolt.last_probs, bolt.last_truth
+    def reset(self) -> Any:
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        obs, rewards, dones, infos = self.venv.step_wait()
+        probs = np.stack([info["fluent_probs"] for info in infos])
+        truth = np.stack([info["true_fluents"] for info in infos]).astype(bool)
         self.false_positive += ((probs >= 0.5) & ~truth).sum(axis=0)
         self.negative += (~truth).sum(axis=0)
         self.low += ((probs >= 0.5) & (probs <= 0.9)).sum(axis=0)
         self.frames += len(probs)
-
-
-class _Recording(BoltVecEnv):
-    """The bolted env, keeping the fluent probabilities and ground truth of each step's
-    transition (the first ``num_envs`` rows the detector is given: an episode's last view;
-    rows after them are the new episodes' first views)."""
-
-    def _probs(self, images: np.ndarray, truth: np.ndarray) -> np.ndarray:
-        probs = super()._probs(images, truth)
-        self.last_probs = probs[: self.num_envs]
-        self.last_truth = truth[: self.num_envs].astype(bool)
-        return probs
+        return obs, rewards, dones, infos
 
 
 def measure(noise: str, episodes: int, n_envs: int, seed: int) -> None:
@@ -79,20 +77,19 @@ def measure(noise: str, episodes: int, n_envs: int, seed: int) -> None:
         log=lambda _: None,
     )
     names = expand_specs(["left_column_milestones"])
-    env = _Recording(
+    bolted = BoltVecEnv(
         VecMonitor(SB3VecEnv(world)),  # type: ignore[arg-type]
         [resolve_spec(name) for name in names],
         detector,
         world=world,
     )
+    counter = FrameCounter(bolted, len(world.fluent_names))
     rng = np.random.default_rng(seed)
-    counter = FrameCounter(len(world.fluent_names))
     result = evaluate_bolted_policy(
         lambda obs: rng.integers(0, 4, size=n_envs),
-        env,
+        counter,
         n_episodes=episodes,
         spec_names=names,
-        on_step=counter,
     )
     print(
         f"\nnoise {noise}: {result.n_episodes} random-play episodes, "

@@ -223,6 +223,19 @@ def test_evaluate_command_prints_the_table(
     saved = json.loads((tmp_path / "run" / "evaluation.json").read_text())
     assert saved["n_episodes"] == 4
 
+    # Under another camera: written beside the run's own evaluation, not over it. The
+    # oracle detector ignores the camera, so the same seed gives the same episodes.
+    assert main(["evaluate", str(tmp_path / "run"), "--episodes", "4", "--noise", "blur"]) == 0
+    assert "compliance [edge]" in capsys.readouterr().out
+    (other,) = (tmp_path / "run").glob("evaluation-*.json")
+    noisy = json.loads(other.read_text())
+    assert noisy["overrides"] == {"world_kwargs": {"noise": "blur"}}
+    assert json.loads((tmp_path / "run" / "evaluation.json").read_text()) == saved
+    assert noisy["env_return_mean"] == saved["env_return_mean"]
+    assert main(["evaluate", str(tmp_path / "run"), "--noise", "smudge:level=3"]) == 2
+    assert "smudge" in capsys.readouterr().err
+    assert len(list((tmp_path / "run").glob("evaluation*.json"))) == 2
+
 
 def test_ppo_with_the_oracle_learns_to_follow_the_edge_to_the_goal(tmp_path: Path) -> None:
     config = _config(

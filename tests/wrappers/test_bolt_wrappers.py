@@ -105,6 +105,9 @@ def test_true_dfa_states_follow_ground_truth_not_the_detector() -> None:
     _, _, _, _, info = wrapped.step(int(GridAction.FORWARD))
     assert info["true_accepting"].tolist() == [True]  # really on the edge
     assert info["bolt_terminal"].tolist() == [0.0]  # the blind bolt thinks it left it
+    assert info["dfa_accepting"].tolist() == [False]
+    on_edge = list(env.fluent_names).index("on_edge")
+    assert info["true_fluents"][on_edge] and not info["fluent_probs"][on_edge]
 
 
 def test_spec_over_an_unknown_fluent_lists_the_worlds_fluents() -> None:
@@ -144,7 +147,8 @@ def test_batched_bolt_equals_single_wrappers(obs_mode: str) -> None:
             sobs, sreward, sterm, strunc, sinfo = single.step(int(actions[i]))
             assert rewards[i] == pytest.approx(sreward, abs=1e-5)
             assert dones[i] == (sterm or strunc)
-            np.testing.assert_array_equal(infos[i]["true_dfa_states"], sinfo["true_dfa_states"])
+            for key in ("true_dfa_states", "true_fluents", "dfa_accepting"):
+                np.testing.assert_array_equal(infos[i][key], sinfo[key])
             if dones[i]:
                 n_done += 1
                 terminal = infos[i]["terminal_observation"]

@@ -8,6 +8,7 @@ the DFA states and fluent probabilities per step) and a trajectory heat-map.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from collections.abc import Mapping
@@ -137,11 +138,16 @@ def evaluate_run(
         spec_names=[s.name for s in config.spec_objects()],
     )
     files: dict[str, Path] = {}
-    out = run.file("evaluation.json")
-    atomic_write_json(
-        out,
-        {"episodes": episodes, "seed": seed, "deterministic": deterministic, **result.to_dict()},
-    )
+    record: dict[str, Any] = {"episodes": episodes, "seed": seed, "deterministic": deterministic}
+    name = "evaluation.json"
+    if overrides:
+        # Another camera (or other settings) than the run's own: kept beside, not over,
+        # the run's evaluation, and named by what changed.
+        record["overrides"] = dict(overrides)
+        digest = hashlib.sha256(json.dumps(record["overrides"], sort_keys=True).encode())
+        name = f"evaluation-{digest.hexdigest()[:8]}.json"
+    out = run.file(name)
+    atomic_write_json(out, {**record, **result.to_dict()})
     files["evaluation"] = out
     if gif is not None or heatmap is not None:
         from noisybolt.agents.visualize import save_episode_gif, trajectory_heatmap

@@ -125,6 +125,12 @@ def register(subparsers: Any) -> None:
     evaluate.add_argument("--stochastic", action="store_true", help="sample actions")
     evaluate.add_argument("--gif", type=Path, default=None, help="save one episode as a GIF")
     evaluate.add_argument("--heatmap", type=Path, default=None, help="save a trajectory heat-map")
+    evaluate.add_argument(
+        "--noise",
+        default=None,
+        help="evaluate under another bolt camera noise (its classifier: cached or trained "
+        "on the fly); written to evaluation-<hash>.json beside the run's own",
+    )
     evaluate.set_defaults(func=_evaluate)
 
 
@@ -214,7 +220,12 @@ def format_eval_table(
 
 def _evaluate(args: argparse.Namespace) -> int:
     from noisybolt.agents.run_evaluation import evaluate_run
+    from noisybolt.rundir import RunDirectory
 
+    overrides = None
+    if args.noise is not None:
+        world_kwargs = dict(RunDirectory(args.run_dir).read_config().get("world_kwargs") or {})
+        overrides = {"world_kwargs": world_kwargs | {"noise": args.noise}}
     report = evaluate_run(
         args.run_dir,
         episodes=args.episodes,
@@ -222,6 +233,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         deterministic=not args.stochastic,
         gif=args.gif,
         heatmap=args.heatmap,
+        overrides=overrides,
     )
     print(format_eval_table(report.result.to_dict()))
     for label, path in report.files.items():

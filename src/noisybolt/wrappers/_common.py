@@ -117,6 +117,7 @@ def bolt_info(
     out: BoltStep,
     probs: np.ndarray,
     bands: np.ndarray,
+    truth: np.ndarray,
     true_states: np.ndarray,
     true_accepting: np.ndarray,
 ) -> dict[str, object]:
@@ -131,6 +132,7 @@ def bolt_info(
         "bolt_low_confidence": out.low_confidence[index],
         "bolt_carried": float(out.carried[index]),
         "fluent_probs": probs[index],
+        "true_fluents": truth[index],
         "confidence_bands": bands[index],
         "dfa_states": out.next_states[index],
         "dfa_accepting": out.accepting[index],

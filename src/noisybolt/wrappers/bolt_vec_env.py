@@ -169,6 +169,7 @@ class BoltVecEnv(VecEnvWrapper):
                     out=out,
                     probs=probs,
                     bands=bands,
+                    truth=truth,
                     true_states=true_states,
                     true_accepting=true_accepting,
                 )

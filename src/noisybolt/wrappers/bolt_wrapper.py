@@ -46,9 +46,9 @@ class RestrainingBoltWrapper(gym.Wrapper):
     Observation: ``Dict{"image": the env's observation, "dfa": MultiDiscrete}``.
     Reward: ``env reward + bolt reward``. ``info`` holds ``env_reward``, ``bolt_reward``,
     per spec ``bolt_terminal`` and ``bolt_low_confidence`` terms, ``fluent_probs``,
-    ``confidence_bands``, ``dfa_states``, ``dfa_violated``, and, from the world's ground
-    truth (metrics only, never in the observation or reward), ``true_dfa_states`` and
-    ``true_accepting``.
+    ``confidence_bands``, ``dfa_states``, ``dfa_accepting``, ``dfa_violated``, and, from
+    the world's ground truth (metrics only, never in the observation or reward),
+    ``true_fluents``, ``true_dfa_states`` and ``true_accepting``.
 
     Args:
         env: an environment whose ``unwrapped`` meets :class:`BoltObservableEnv`.
@@ -139,6 +139,7 @@ class RestrainingBoltWrapper(gym.Wrapper):
                 out=out,
                 probs=probs,
                 bands=confidence_bands(probs, self._thresholds),
+                truth=truth,
                 true_states=self._truth.states.copy(),
                 true_accepting=self._truth.accepting,
             )
