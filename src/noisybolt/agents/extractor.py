@@ -37,7 +37,7 @@ def conv_stack(in_channels: int, height: int, width: int, kind: str = "auto") ->
     - ``nature``: the Nature DQN's three convolutions (32 8×8/4, 64 4×4/2, 64 3×3/1), what
       SB3's ``NatureCNN`` and the RL Zoo's Atari agents use; needs 36×36 or more.
     - ``atari2013``: the 2013 DQN's two (16 8×8/4, 32 4×4/2; Mnih et al., "Playing Atari
-      with Deep Reinforcement Learning"): on an 84×84 frame about a quarter of the Nature
+      with Deep Reinforcement Learning"): on an 84×84 frame under a third of the Nature
       stack's multiply-adds and a 2,592-long output against 3,136, for more frames per
       hour on a CPU (``benchmarks/breakout_network.py`` measures it); needs 20×20 or more.
     - ``grid``: the paper's own code base for MiniGrid (rl-starter-files: three 2×2
