@@ -387,6 +387,34 @@ def test_breakout_agents_get_the_2013_dqn_network() -> None:
         env.close()
 
 
+def test_an_interrupted_run_keeps_its_frames_and_resumes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Interrupted at 1,280 frames (periodic checkpoints every 1,024): the checkpoint must
+    # be the interrupt's own, and a resume must finish the 2,048 from there.
+    from noisybolt.agents import training
+
+    original = training._BoltCallback._on_step
+
+    def interrupt_at_1280(self: training._BoltCallback) -> bool:
+        if self.model.num_timesteps == 1280:
+            raise KeyboardInterrupt
+        return original(self)
+
+    monkeypatch.setattr(training._BoltCallback, "_on_step", interrupt_at_1280)
+    said: list[str] = []
+    with pytest.raises(KeyboardInterrupt):
+        train(_config(), tmp_path / "run", log=said.append)
+    latest = json.loads((tmp_path / "run" / "checkpoints" / "latest.json").read_text())
+    assert latest["frames"] == 1280
+    assert any("interrupted at 1,280 frames" in line and "--resume" in line for line in said)
+    assert not (tmp_path / "run" / "model.zip").exists()  # the run did not finish
+    monkeypatch.setattr(training._BoltCallback, "_on_step", original)
+    result = train(_config(), tmp_path / "run", resume=True, log=_quiet)
+    assert result.frames >= 2048
+    assert result.history[0]["frames"] == 1024  # kept across the interrupt
+
+
 def test_entropy_schedule_for_dqn_is_refused(tmp_path: Path) -> None:
     config = _config(algo="dqn", overrides={"ent_coef_final": 0.0})
     with pytest.raises(ConfigError, match="DQN has no entropy bonus"):

@@ -806,13 +806,26 @@ def train(
         )
     remaining = config.frames - model.num_timesteps
     if remaining > 0:
-        model.learn(
-            total_timesteps=remaining,
-            callback=CallbackList(callbacks),
-            reset_num_timesteps=checkpoint is None,
-            progress_bar=config.progress_bar,
-            tb_log_name="run",
-        )
+        try:
+            model.learn(
+                total_timesteps=remaining,
+                callback=CallbackList(callbacks),
+                reset_num_timesteps=checkpoint is None,
+                progress_bar=config.progress_bar,
+                tb_log_name="run",
+            )
+        except KeyboardInterrupt:
+            # Ctrl-C (or the CLI's SIGTERM): keep every frame trained so far, not only
+            # those up to the last periodic checkpoint. Mid-rollout is fine: the model,
+            # normaliser and replay buffer are consistent between steps, and a resume
+            # starts a fresh rollout, as it does from any checkpoint.
+            callback.init_callback(model)  # in case learn() had not got that far
+            callback.checkpoint()
+            log(
+                f"interrupted at {model.num_timesteps:,} frames: checkpoint saved; continue "
+                f"with --resume --out {run.path}"
+            )
+            raise
     callback.init_callback(model)
     final = (
         callback.evaluate() if not history or history[-1]["frames"] != model.num_timesteps else None

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
+import signal
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -143,6 +147,24 @@ def _world_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return kwargs
 
 
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``, a batch scheduler's notice) raises KeyboardInterrupt meanwhile, so
+    that a stopped training saves a checkpoint as Ctrl-C does."""
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal handlers can only be set from the main thread
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _train(args: argparse.Namespace) -> int:
     from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.agents.training import DetectorConfig, TrainConfig, train
@@ -176,7 +198,11 @@ def _train(args: argparse.Namespace) -> int:
     out = args.out or Path("runs") / f"{args.world}-{args.algo}-seed{args.seed}"
     if args.resume and not (out / "config.json").exists():
         raise ConfigError(f"--resume: {out} holds no run to continue")
-    result = train(config, out, resume=args.resume)
+    with _sigterm_as_interrupt():
+        try:
+            result = train(config, out, resume=args.resume)
+        except KeyboardInterrupt:
+            return 130  # train() saved a checkpoint and said how to resume
     print(
         format_eval_table(
             result.final.to_dict(), frames=result.frames, frames_to_comply=result.frames_to_comply

@@ -1,8 +1,12 @@
-"""The evaluation table ``train`` and ``evaluate`` print."""
+"""``noisybolt train`` and ``evaluate``: the table they print, stopping a training."""
 
 from __future__ import annotations
 
+import os
 import re
+import signal
+
+import pytest
 
 from noisybolt.cli.train import format_eval_table
 
@@ -34,3 +38,12 @@ def test_false_acceptances_are_named_per_spec_where_recorded() -> None:
 
 def test_runs_recorded_before_the_bolts_view_was_kept_have_no_such_row() -> None:
     assert "falsely" not in format_eval_table(_FINAL)
+
+
+def test_sigterm_interrupts_a_training_like_ctrl_c_and_only_meanwhile() -> None:
+    from noisybolt.cli.train import _sigterm_as_interrupt
+
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt), _sigterm_as_interrupt():
+        os.kill(os.getpid(), signal.SIGTERM)  # the handler runs before the next line
+    assert signal.getsignal(signal.SIGTERM) == before
