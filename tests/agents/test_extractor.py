@@ -78,7 +78,7 @@ def test_cnn_kinds_override_the_choice_by_size() -> None:
 
 
 def test_bad_cnn_settings_are_named_errors() -> None:
-    with pytest.raises(ConfigError, match="unknown cnn 'resnet'"):
+    with pytest.raises(ConfigError, match="cnn: unknown convolutions 'resnet'"):
         BoltFeaturesExtractor(_space((3, 84, 84), None), cnn="resnet")
     with pytest.raises(ConfigError, match="'atari2013' convolutions need at least 20"):
         BoltFeaturesExtractor(_space((3, 19, 30), None), cnn="atari2013")

@@ -20,13 +20,20 @@ from torch import nn
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["CNN_KINDS", "BoltFeaturesExtractor", "conv_stack"]
+__all__ = ["CNN_KINDS", "BoltFeaturesExtractor", "check_cnn", "conv_stack"]
 
 #: Images with both sides at least this large get the Nature-DQN convolutions.
 LARGE_IMAGE_MIN_SIDE = 36
 
 #: The convolution stacks :func:`conv_stack` builds, by name (``auto``: by image size).
 CNN_KINDS = ("auto", "nature", "atari2013", "grid")
+
+
+def check_cnn(kind: object) -> str:
+    """``kind`` if it names one of :data:`CNN_KINDS`, else a :class:`ConfigError`."""
+    if kind not in CNN_KINDS:
+        raise ConfigError(f"cnn: unknown convolutions {kind!r}; known: {list(CNN_KINDS)}")
+    return str(kind)
 
 
 def conv_stack(in_channels: int, height: int, width: int, kind: str = "auto") -> nn.Sequential:
@@ -48,8 +55,7 @@ def conv_stack(in_channels: int, height: int, width: int, kind: str = "auto") ->
     Raises:
         ConfigError: an unknown ``kind``, or an image too small for it.
     """
-    if kind not in CNN_KINDS:
-        raise ConfigError(f"unknown cnn {kind!r}; known: {list(CNN_KINDS)}")
+    kind = check_cnn(kind)
     if kind == "auto":
         kind = "nature" if min(height, width) >= LARGE_IMAGE_MIN_SIDE else "grid"
     smallest = {"nature": LARGE_IMAGE_MIN_SIDE, "atari2013": 20, "grid": 4}[kind]

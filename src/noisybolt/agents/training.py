@@ -37,7 +37,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
-from noisybolt.agents.extractor import CNN_KINDS, BoltFeaturesExtractor
+from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, Spec, Thresholds
@@ -733,9 +733,8 @@ def train(
             f"ent_coef_final: {config.algo.upper()} has no entropy bonus (only PPO and A2C); "
             "remove the hyperparameter"
         )
-    cnn = config.hyperparams.get("cnn")
-    if cnn is not None and cnn not in CNN_KINDS:
-        raise ConfigError(f"cnn: unknown convolutions {cnn!r}; known: {list(CNN_KINDS)}")
+    if config.hyperparams.get("cnn") is not None:
+        check_cnn(config.hyperparams["cnn"])  # before anything is written
     if config.hyperparams.get("life_loss_terminal"):
         probe = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
         if not callable(getattr(probe, "lives", None)):
