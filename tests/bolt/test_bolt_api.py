@@ -16,6 +16,8 @@ MODULES = [
     "noisybolt.bolt.bands",
     "noisybolt.bolt.engine",
     "noisybolt.bolt.restraining_bolt",
+    "noisybolt.bolt.schemes",
+    "noisybolt.bolt.shaping",
     "noisybolt.bolt.spec",
 ]
 
@@ -24,6 +26,7 @@ def test_public_names() -> None:
     assert set(bolt.__all__) == {
         "COST_MODES",
         "DEFAULT_THRESHOLDS",
+        "REWARD_SCHEMES",
         "REWARD_TIMINGS",
         "AugmentedDFA",
         "AugmentedEdge",
@@ -32,14 +35,20 @@ def test_public_names() -> None:
         "BoltEngine",
         "BoltStep",
         "CostMode",
+        "ProgressShaping",
         "RestrainingBolt",
+        "ReturnBounds",
+        "RewardScheme",
+        "RewardSchemeName",
         "RewardTiming",
         "Spec",
         "Thresholds",
         "check_probs",
+        "compliance_scale",
         "confidence_bands",
         "high_confidence_mask",
         "low_confidence_mask",
+        "progress_potential",
         "proportional_weights",
         "truth_mask",
     }

@@ -12,6 +12,7 @@ import noisybolt.logic
 
 MODULES = [
     "noisybolt.logic",
+    "noisybolt.logic.analysis",
     "noisybolt.logic.cache",
     "noisybolt.logic.compiler",
     "noisybolt.logic.dfa",
@@ -31,7 +32,10 @@ def test_public_api() -> None:
         "GuardDiagram",
         "assignment_to_mask",
         "compile_ltlf",
+        "distance_to_acceptance",
         "holds",
+        "is_satisfiable",
+        "is_valid",
         "masks_from_bool_matrix",
     ]
 

@@ -8,6 +8,8 @@ Pure numpy; knows nothing of Gymnasium or torch.
 * :class:`BoltEngine`: Algorithm 1, stateless, batched over environments and specs.
 * :class:`RestrainingBolt`: the engine plus DFA states and episode timing (reset, the
   carried first reward, auto-reset of vectorised environments).
+* :class:`RewardScheme`: how specs are paid on top of Algorithm 1 (``paper``, or
+  ``compliance``: compliance first, with :class:`ProgressShaping`).
 * :class:`AugmentedDFA`: the explicit augmented DFA of Fig. 2a, a reference to test and
   benchmark Algorithm 1 against.
 
@@ -40,11 +42,20 @@ from noisybolt.bolt.bands import (
 )
 from noisybolt.bolt.engine import COST_MODES, BoltEngine, BoltStep, CostMode
 from noisybolt.bolt.restraining_bolt import RestrainingBolt
+from noisybolt.bolt.schemes import (
+    REWARD_SCHEMES,
+    ReturnBounds,
+    RewardScheme,
+    RewardSchemeName,
+    compliance_scale,
+)
+from noisybolt.bolt.shaping import ProgressShaping, progress_potential
 from noisybolt.bolt.spec import REWARD_TIMINGS, RewardTiming, Spec
 
 __all__ = [
     "COST_MODES",
     "DEFAULT_THRESHOLDS",
+    "REWARD_SCHEMES",
     "REWARD_TIMINGS",
     "AugmentedDFA",
     "AugmentedEdge",
@@ -53,14 +64,20 @@ __all__ = [
     "BoltEngine",
     "BoltStep",
     "CostMode",
+    "ProgressShaping",
     "RestrainingBolt",
+    "ReturnBounds",
+    "RewardScheme",
+    "RewardSchemeName",
     "RewardTiming",
     "Spec",
     "Thresholds",
     "check_probs",
+    "compliance_scale",
     "confidence_bands",
     "high_confidence_mask",
     "low_confidence_mask",
+    "progress_potential",
     "proportional_weights",
     "truth_mask",
 ]

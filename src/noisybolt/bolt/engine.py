@@ -59,7 +59,9 @@ class BoltStep(NamedTuple):
         accepting: bool ``[n_envs, n_specs]``, whether ``next_states`` is accepting.
         violated: bool ``[n_envs, n_specs]``, whether ``next_states`` is a rejecting sink
             (the spec can no longer be satisfied in this episode).
-        reward: float64 ``[n_envs, n_specs]``, ``terminal + low_confidence``.
+        progress: float64 ``[n_envs, n_specs]``, the progress-shaping term (only
+            :class:`RestrainingBolt` with ``shaping`` sets it; 0 otherwise).
+        reward: float64 ``[n_envs, n_specs]``, ``terminal + low_confidence + progress``.
         carried: float64 ``[n_envs]``, reward carried over from the reset transition and
             added to ``total`` (only :meth:`RestrainingBolt.step` sets it; 0 otherwise).
         total: float64 ``[n_envs]``, ``reward.sum(axis=1) + carried``: the bolt's reward.
@@ -73,6 +75,7 @@ class BoltStep(NamedTuple):
     n_low: np.ndarray
     accepting: np.ndarray
     violated: np.ndarray
+    progress: np.ndarray
     reward: np.ndarray
     carried: np.ndarray
     total: np.ndarray
@@ -394,6 +397,7 @@ class BoltEngine:
             n_low=n_low,
             accepting=accepting,
             violated=violated,
+            progress=np.zeros(terminal.shape),
             reward=reward,
             carried=np.zeros(n_envs),
             total=reward.sum(axis=1),

@@ -45,6 +45,7 @@ import numpy as np
 
 from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs
 from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, _check_fluents, _env_flags
+from noisybolt.bolt.shaping import ProgressShaping
 from noisybolt.bolt.spec import Spec
 from noisybolt.errors import ConfigError
 from noisybolt.logic import DFA, compile_ltlf
@@ -73,6 +74,8 @@ class RestrainingBolt:
             there. Off by default, as in the paper; ``violated`` is reported either way. A
             violation on the first observation is reported by :meth:`reset` and sets
             ``terminate`` at the first step.
+        shaping: progress shaping added to every transition's reward (its DFAs must be
+            this bolt's, in order); None for none (Algorithm 1 as the paper states it).
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
@@ -107,6 +110,7 @@ class RestrainingBolt:
         cost_mode: CostMode = "count",
         n_envs: int = 1,
         end_on_violation: bool = False,
+        shaping: ProgressShaping | None = None,
     ) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
@@ -120,6 +124,13 @@ class RestrainingBolt:
         self._engine = BoltEngine(
             specs, dfas, vocabulary, thresholds=thresholds, cost_mode=cost_mode
         )
+        if shaping is not None and (
+            not isinstance(shaping, ProgressShaping)
+            or len(shaping.dfas) != len(self._engine.dfas)
+            or any(a is not b for a, b in zip(shaping.dfas, self._engine.dfas, strict=True))
+        ):
+            raise ConfigError("shaping must be a ProgressShaping over this bolt's own DFAs")
+        self._shaping = shaping
         self._n_envs = int(n_envs)
         self._end_on_violation = bool(end_on_violation)
         self._states = self._engine.initial_states(self._n_envs)
@@ -188,6 +199,11 @@ class RestrainingBolt:
         return self._engine.cost_mode
 
     @property
+    def shaping(self) -> ProgressShaping | None:
+        """The progress shaping added to every transition, if any."""
+        return self._shaping
+
+    @property
     def end_on_violation(self) -> bool:
         """Whether a violated spec sets ``terminate``."""
         return self._end_on_violation
@@ -218,13 +234,12 @@ class RestrainingBolt:
         )
         rows = self._rows(env_mask)
         n_rows = self._n_envs if isinstance(rows, slice) else len(rows)
+        initial = self._engine.initial_states(n_rows)
+        no_end = np.zeros(n_rows, dtype=bool)
         out = self._engine._step(
-            self._engine.initial_states(n_rows),
-            probs[rows],
-            done=np.zeros(n_rows, dtype=bool),
-            first=np.ones(n_rows, dtype=bool),
-            end_on_violation=False,
+            initial, probs[rows], done=no_end, first=np.ones(n_rows, dtype=bool), end_on_violation=False
         )
+        out = self._shaped(out, initial, no_end)
         self._states[rows] = out.next_states
         self._pending[rows] = out.total
         self._needs_reset[rows] = False
@@ -286,6 +301,7 @@ class RestrainingBolt:
             first=np.zeros(len(states), dtype=bool),
             end_on_violation=self._end_on_violation,
         )
+        out = self._shaped(out, states, done[rows] | out.terminate)
         carried = self._pending[rows].copy()  # a view when rows is a slice
         out = out._replace(carried=carried, total=out.total + carried)
         self._pending[rows] = 0.0
@@ -294,6 +310,14 @@ class RestrainingBolt:
         return self._expand(out, rows)
 
     # ------------------------------------------------------------------ helpers
+    def _shaped(self, out: BoltStep, states: np.ndarray, ended: np.ndarray) -> BoltStep:
+        """``out`` with the progress shaping of ``states -> out.next_states`` added."""
+        if self._shaping is None:
+            return out
+        progress = self._shaping(states, out.next_states, done=ended)
+        reward = out.reward + progress
+        return out._replace(progress=progress, reward=reward, total=reward.sum(axis=1))
+
     def _rows(self, env_mask: np.ndarray | None) -> slice | np.ndarray:
         """The selected rows: a full slice, or the indices where ``env_mask`` is set."""
         if env_mask is None:
@@ -313,6 +337,7 @@ class RestrainingBolt:
             n_low=np.zeros(self._states.shape, dtype=np.int64),
             accepting=accepting,
             violated=violated,
+            progress=np.zeros(self._states.shape),
             reward=np.zeros(self._states.shape),
             carried=np.zeros(self._n_envs),
             total=np.zeros(self._n_envs),

@@ -7,6 +7,7 @@ independent evaluator of the same logic on finite traces, used to test the compi
 
 from __future__ import annotations
 
+from noisybolt.logic.analysis import distance_to_acceptance, is_satisfiable, is_valid
 from noisybolt.logic.compiler import BACKENDS, compile_ltlf
 from noisybolt.logic.dfa import (
     DENSE_TABLE_LIMIT,
@@ -26,6 +27,9 @@ __all__ = [
     "GuardDiagram",
     "assignment_to_mask",
     "compile_ltlf",
+    "distance_to_acceptance",
     "holds",
+    "is_satisfiable",
+    "is_valid",
     "masks_from_bool_matrix",
 ]

@@ -1,0 +1,155 @@
+"""Reward schemes: how the bolt's rewards are set, on top of Algorithm 1.
+
+A scheme never changes Algorithm 1's DFA moves or its low-confidence charges; it sets
+what a spec pays and when, and whether progress is shaped.
+
+* ``paper``: the paper's reading, today's behaviour and what ``reproduce`` uses: each
+  spec's own ``terminal_reward`` (+1 by default) on ``every_step`` whose successor is
+  accepting, no shaping. Fine where the shortest route already complies (Table 1), but
+  for a user's spec it can make breaking the spec optimal (a detour costs more steps
+  than +1 per accepting step pays) or make not finishing attractive (an agent paid
+  every step it sits in an accepting state loiters).
+* ``compliance`` (the default for ``noisybolt train``): compliance first, then the
+  world's return. Each spec pays ``scale`` once, at the end of the episode, if its DFA
+  accepts the episode (plain LTLf semantics: ``episode_end`` timing), and nothing for
+  merely staying in an accepting state; ``scale`` exceeds the width of the world's
+  episode returns (:func:`compliance_scale`), so with the return undiscounted an episode
+  that complies is worth more than any that does not, whatever either earns from the
+  world. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`) pays
+  progress towards acceptance as it happens, so a detour is rewarded before the spec is
+  satisfied, without changing which policy is optimal.
+
+Example:
+    >>> scheme = RewardScheme("compliance", scale=compliance_scale(ReturnBounds(-216.0, 98.5)))
+    >>> round(scheme.scale, 2)
+    345.95
+    >>> spec = scheme.apply(Spec("F(a)", terminal_reward=1.0, low_confidence_cost=0.5))
+    >>> spec.terminal_reward == scheme.scale, spec.reward_timing, spec.low_confidence_cost
+    (True, 'episode_end', 0.5)
+    >>> RewardScheme("paper").apply(spec) is spec
+    True
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Literal, get_args
+
+from noisybolt.bolt.spec import Spec
+from noisybolt.errors import ConfigError, UnknownNameError
+
+__all__ = [
+    "COMPLIANCE_MARGIN",
+    "REWARD_SCHEMES",
+    "ReturnBounds",
+    "RewardScheme",
+    "RewardSchemeName",
+    "compliance_scale",
+]
+
+#: The reward schemes (see the module docstring).
+RewardSchemeName = Literal["compliance", "paper"]
+#: The accepted values of :data:`RewardSchemeName`.
+REWARD_SCHEMES: tuple[str, ...] = get_args(RewardSchemeName)
+#: How far the compliance scale exceeds the width of the world's returns (a strict
+#: inequality needs some margin; 10 % keeps it strict under rounding and VecNormalize).
+COMPLIANCE_MARGIN = 1.1
+
+
+@dataclass(frozen=True)
+class ReturnBounds:
+    """Bounds on a world's (undiscounted) return over one episode.
+
+    Attributes:
+        low: no episode returns less.
+        high: no episode returns more.
+
+    Raises:
+        ConfigError: a non-finite bound, or ``low > high``.
+    """
+
+    low: float
+    high: float
+
+    def __post_init__(self) -> None:
+        for name in ("low", "high"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ConfigError(f"ReturnBounds.{name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ConfigError(f"ReturnBounds.{name} must be finite, got {value!r}")
+            object.__setattr__(self, name, float(value))
+        if self.low > self.high:
+            raise ConfigError(f"ReturnBounds: low {self.low} is above high {self.high}")
+
+    @property
+    def width(self) -> float:
+        """``high - low``: the most one episode's return can differ from another's."""
+        return self.high - self.low
+
+
+def compliance_scale(bounds: ReturnBounds) -> float:
+    """The acceptance reward that puts compliance first: :data:`COMPLIANCE_MARGIN` times
+    the width of the world's returns (1 where every episode returns the same)."""
+    return COMPLIANCE_MARGIN * bounds.width if bounds.width > 0 else 1.0
+
+
+@dataclass(frozen=True)
+class RewardScheme:
+    """A reward scheme and its settings.
+
+    Attributes:
+        name: ``"compliance"`` or ``"paper"`` (see the module docstring).
+        scale: ``compliance`` only: what each spec's acceptance is worth (per-spec values
+            may replace it, see :meth:`apply`); must be finite and > 0.
+        shaping: ``compliance`` only: add potential-based progress shaping.
+
+    Raises:
+        UnknownNameError: an unknown scheme.
+        ConfigError: a missing, negative, zero or non-finite scale for ``compliance``, or
+            a scale or shaping given to ``paper``.
+    """
+
+    name: str = "compliance"
+    scale: float | None = None
+    shaping: bool = True
+
+    def __post_init__(self) -> None:
+        if self.name not in REWARD_SCHEMES:
+            raise UnknownNameError(
+                f"unknown reward scheme {self.name!r}; known schemes: {list(REWARD_SCHEMES)}",
+                name=str(self.name),
+                known=REWARD_SCHEMES,
+            )
+        if self.name == "paper":
+            if self.scale is not None:
+                raise ConfigError(
+                    "the paper scheme pays each spec's own terminal_reward: set that instead "
+                    "of a reward scale, or use --reward compliance"
+                )
+            object.__setattr__(self, "shaping", False)
+            return
+        _check_scale(self.scale, "the compliance scheme's scale")
+        object.__setattr__(self, "scale", float(self.scale))  # type: ignore[arg-type]
+
+    def apply(self, spec: Spec, *, scale: float | None = None) -> Spec:
+        """``spec`` as this scheme pays it; ``scale`` replaces the scheme's for this spec.
+
+        ``paper`` returns ``spec`` unchanged; ``compliance`` sets its terminal reward to
+        the scale and its timing to ``episode_end`` (its low-confidence cost is kept).
+        """
+        if self.name == "paper":
+            if scale is not None:
+                raise ConfigError(f"spec {spec.name!r}: a reward scale needs --reward compliance")
+            return spec
+        value = self.scale if scale is None else _check_scale(scale, f"spec {spec.name!r}'s scale")
+        return replace(spec, terminal_reward=float(value), reward_timing="episode_end")  # type: ignore[arg-type]
+
+
+def _check_scale(value: object, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{what} must be a number, got {value!r}")
+    if not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"{what} must be finite and > 0, got {value!r}")
+    return float(value)
