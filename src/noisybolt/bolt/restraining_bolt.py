@@ -237,7 +237,11 @@ class RestrainingBolt:
         initial = self._engine.initial_states(n_rows)
         no_end = np.zeros(n_rows, dtype=bool)
         out = self._engine._step(
-            initial, probs[rows], done=no_end, first=np.ones(n_rows, dtype=bool), end_on_violation=False
+            initial,
+            probs[rows],
+            done=no_end,
+            first=np.ones(n_rows, dtype=bool),
+            end_on_violation=False,
         )
         out = self._shaped(out, initial, no_end)
         self._states[rows] = out.next_states

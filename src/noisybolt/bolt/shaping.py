@@ -79,7 +79,9 @@ class ProgressShaping:
             raise ConfigError(f"progress shaping: gamma must be in (0, 1], got {gamma!r}")
         self._dfas = dfas
         self._gamma = float(gamma)
-        self._potentials = tuple(progress_potential(d, s) for d, s in zip(dfas, scales, strict=True))
+        self._potentials = tuple(
+            progress_potential(d, s) for d, s in zip(dfas, scales, strict=True)
+        )
         offsets = np.cumsum((0, *(d.n_states for d in dfas[:-1])), dtype=np.int64)
         self._offsets = offsets
         self._flat = np.concatenate(self._potentials) if dfas else np.zeros(0)
@@ -103,7 +105,9 @@ class ProgressShaping:
         """float64 ``[n_envs, n_specs]``: ``Phi`` of int DFA states ``[n_envs, n_specs]``."""
         return self._flat[states + self._offsets]
 
-    def __call__(self, states: np.ndarray, next_states: np.ndarray, *, done: np.ndarray) -> np.ndarray:
+    def __call__(
+        self, states: np.ndarray, next_states: np.ndarray, *, done: np.ndarray
+    ) -> np.ndarray:
         """float64 ``[n_envs, n_specs]``: ``F`` of the transitions ``states -> next_states``.
 
         ``done`` (bool ``[n_envs]``) marks transitions that end the episode: the state
