@@ -173,7 +173,9 @@ def sb3_rows(seconds: float, repeats: int) -> list[tuple[str, float]]:
         venv.reset()
         ours = rate(vec_stepper(venv, n, 32), seconds=seconds, repeats=repeats)
         rows.append((f"SB3VecEnv(VectorGridworld), {n} envs", ours))
-    dummy = DummyVecEnv([lambda: GridworldEnv(obs_mode="grid") for _ in range(8)])
+    # The plain MiniGrid step, as before the env labelled its info (no bolt camera render).
+    plain = [lambda: GridworldEnv(obs_mode="grid", bolt_labels=False) for _ in range(8)]
+    dummy = DummyVecEnv(plain)
     dummy.reset()
     theirs = rate(vec_stepper(dummy, 8, 8), seconds=seconds, repeats=repeats)
     rows.append(("DummyVecEnv(8 x GridworldEnv, MiniGrid)", theirs))

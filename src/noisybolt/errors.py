@@ -9,15 +9,19 @@ from __future__ import annotations
 
 __all__ = [
     "BackendUnavailableError",
+    "CameraError",
     "CompilationError",
     "ConfigError",
     "CorruptFileError",
     "DenseTableError",
+    "FluentFunctionError",
     "IncompatibleError",
     "NoisyboltError",
     "SpecSyntaxError",
     "UnknownFluentError",
     "UnknownNameError",
+    "UnlabelledEnvError",
+    "WorldFactoryError",
 ]
 
 
@@ -83,3 +87,37 @@ class IncompatibleError(NoisyboltError, ValueError):
 
 class CorruptFileError(NoisyboltError, ValueError):
     """A saved file (dataset, classifier, checkpoint, cache entry) is truncated or corrupt."""
+
+
+class FluentFunctionError(ConfigError):
+    """A user's fluent function raised, or returned something other than a bool.
+
+    Attributes:
+        fluent: the fluent's name.
+    """
+
+    def __init__(self, message: str, *, fluent: str) -> None:
+        super().__init__(message)
+        self.fluent = fluent
+
+
+class CameraError(ConfigError):
+    """A bolt camera raised, or returned an image that is not uint8 ``[H, W, 3]`` of one shape."""
+
+
+class UnlabelledEnvError(ConfigError):
+    """An env offered to the bolt carries no labels (no ``fluent_names``, or no
+    ``bolt_image``/``true_fluents`` in its ``info``): wrap it in ``noisybolt.FluentLabels``."""
+
+
+class WorldFactoryError(ConfigError):
+    """A world factory path (``package.module:factory``) does not import, is not callable,
+    or its factory does not return a labelled env.
+
+    Attributes:
+        path: the factory path as given.
+    """
+
+    def __init__(self, message: str, *, path: str) -> None:
+        super().__init__(message)
+        self.path = path

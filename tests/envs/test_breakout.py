@@ -335,24 +335,27 @@ def test_single_game_env_is_the_world_of_one_and_shows_the_end() -> None:
     settings = {"seed": 5, "noise": "gaussian:sigma=8", "max_episode_frames": 120}
     env = breakout.BreakoutEnv(**settings)
     world = make_breakout_world(num_envs=1, **settings)
-    obs, _ = env.reset(seed=5)
+    obs, first = env.reset(seed=5)
     want, _ = world.reset(seed=5)
     np.testing.assert_array_equal(obs, want[0])
+    # The bolt's labels come in info (the camera draws its noise once per step).
+    np.testing.assert_array_equal(first["bolt_image"], world.bolt_images()[0])
+    np.testing.assert_array_equal(first["true_fluents"], world.true_fluents()[0])
     rng = np.random.default_rng(0)
     for _ in range(200):
         action = int(rng.integers(0, 4))
-        obs, reward, terminated, truncated, _ = env.step(action)
+        obs, reward, terminated, truncated, labels = env.step(action)
         w_obs, w_reward, w_term, w_trunc, info = world.step(np.array([action]))
         assert (reward, terminated, truncated) == (w_reward[0], w_term[0], w_trunc[0])
         if terminated or truncated:  # the game's last state, not the next game's first
             np.testing.assert_array_equal(obs, info["final_obs"][0])
-            np.testing.assert_array_equal(env.bolt_image(), world.final_bolt_images()[0])
-            np.testing.assert_array_equal(env.true_fluents(), world.final_true_fluents()[0])
+            np.testing.assert_array_equal(labels["bolt_image"], world.final_bolt_images()[0])
+            np.testing.assert_array_equal(labels["true_fluents"], world.final_true_fluents()[0])
             assert not np.array_equal(env.render(), world.frames()[0])
             break
         np.testing.assert_array_equal(obs, w_obs[0])
-        np.testing.assert_array_equal(env.bolt_image(), world.bolt_images()[0])
-        np.testing.assert_array_equal(env.true_fluents(), world.true_fluents()[0])
+        np.testing.assert_array_equal(labels["bolt_image"], world.bolt_images()[0])
+        np.testing.assert_array_equal(labels["true_fluents"], world.true_fluents()[0])
         np.testing.assert_array_equal(env.render(), world.frames()[0])
     else:
         pytest.fail("120 emulator frames should truncate the game within 200 steps")

@@ -5,7 +5,8 @@
 - :mod:`noisybolt.envs.gridworld_vec`: the same world natively vectorised (the training
   default), a Gymnasium vector env with same-step autoreset;
 - :mod:`noisybolt.envs.sb3`: the SB3 ``VecEnv`` adapter;
-- :mod:`noisybolt.envs.registry`: worlds by name.
+- :mod:`noisybolt.envs.registry`: worlds by name;
+- :mod:`noisybolt.envs.labels`: :class:`FluentLabels`, any Gymnasium env made bolt-ready.
 
 Importing this package registers the Gymnasium ids ``noisybolt/Gridworld-6x6-v0`` and
 ``noisybolt/Gridworld-v0`` (any size through keyword arguments); both have a vector entry
@@ -18,12 +19,14 @@ import gymnasium as gym
 
 from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS, GridAction, GridworldEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
+from noisybolt.envs.labels import FluentLabels
 from noisybolt.envs.registry import known_worlds, make_world, register_world
 from noisybolt.envs.sb3 import SB3VecEnv
 
 __all__ = [
     "GRIDWORLD_FLUENTS",
     "GYM_IDS",
+    "FluentLabels",
     "GridAction",
     "GridworldEnv",
     "SB3VecEnv",

@@ -59,7 +59,7 @@ from gymnasium.vector import AutoresetMode
 from noisybolt.envs.fluents import select_fluents
 from noisybolt.errors import ConfigError
 from noisybolt.perception.noise import make_noise
-from noisybolt.perception.protocols import CameraSpec
+from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
 
 __all__ = [
     "BRICK_BITS",
@@ -605,8 +605,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
 
 
 class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
-    """One game of :class:`BreakoutWorld` as a plain Gymnasium env, with the bolt's
-    single-env API (``bolt_image``, ``true_fluents``), for
+    """One game of :class:`BreakoutWorld` as a plain Gymnasium env, labelled for the bolt
+    (``info["bolt_image"]`` and ``info["true_fluents"]`` at reset and step), for
     :class:`~noisybolt.wrappers.RestrainingBoltWrapper` and recorded episodes (GIFs).
 
     After a step that ends the game it shows that game's last state (observation, bolt
@@ -651,7 +651,7 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
         super().reset(seed=seed)
         obs, info = self._world.reset(seed=seed, options=options)
         self._ended = False
-        return obs[0], {"lives": int(info["lives"][0])}
+        return obs[0], self._labelled({"lives": int(info["lives"][0])})
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """One agent step (``frame_skip`` frames)."""
@@ -661,7 +661,14 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
         self._ended = bool(terminated[0] or truncated[0])
         if self._ended:
             obs = info["final_obs"][0][None]
-        return obs[0], float(rewards[0]), bool(terminated[0]), bool(truncated[0]), {}
+        info = self._labelled({})
+        return obs[0], float(rewards[0]), bool(terminated[0]), bool(truncated[0]), info
+
+    def _labelled(self, info: dict[str, Any]) -> dict[str, Any]:
+        # The world–bolt contract (noisybolt.perception.protocols), read by the bolt.
+        info[TRUE_FLUENTS_KEY] = self.true_fluents()
+        info[BOLT_IMAGE_KEY] = self.bolt_image()
+        return info
 
     @property
     def fluent_names(self) -> tuple[str, ...]:

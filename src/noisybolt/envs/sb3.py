@@ -88,10 +88,16 @@ class SB3VecEnv(VecEnv):
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{"TimeLimit.truncated": False} for _ in range(self.num_envs)]
         success = bool(getattr(self.venv, "termination_is_success", False))
+        # A world of labelled envs says itself, in the ended step's info.
+        final = vinfo.get("final_info", {})
+        said = final.get("is_success"), final.get("_is_success")
         for i in np.flatnonzero(dones):
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
             # SB3's convention (Monitor, EvalCallback): did the ended episode succeed?
-            infos[i]["is_success"] = success and bool(terminated[i])
+            if said[0] is not None and said[1] is not None and said[1][i]:
+                infos[i]["is_success"] = bool(said[0][i])
+            else:
+                infos[i]["is_success"] = success and bool(terminated[i])
             infos[i]["terminal_observation"] = vinfo["final_obs"][i]
         return obs, rewards.astype(np.float32), dones, infos
 

@@ -2,6 +2,19 @@
 
 The perception layer sits below ``envs``: it never imports a world. Worlds (and any user
 world) meet :class:`BoltObservable`; detectors meet :class:`FluentDetector`.
+
+The world–bolt contract for a single Gymnasium env is its ``info``: a *labelled* env
+(one wrapped in :class:`noisybolt.FluentLabels`, or a shipped world) names its fluents in
+an attribute ``fluent_names`` (read through ``env.get_wrapper_attr``) and puts, at reset
+and at every step, for the state just reached:
+
+- ``info["bolt_image"]`` (:data:`BOLT_IMAGE_KEY`): uint8 ``[H, W, 3]``, what the bolt's
+  camera sees, noise included;
+- ``info["true_fluents"]`` (:data:`TRUE_FLUENTS_KEY`): bool ``[n_fluents]``, the ground
+  truth in the order of ``fluent_names`` (labels and metrics only, never the agent's).
+
+A vector env with same-step autoreset reports the ended episodes' last views in
+``info["final_info"]`` under the same keys (Gymnasium's convention).
 """
 
 from __future__ import annotations
@@ -11,7 +24,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["BoltObservable", "CameraSpec", "FluentDetector"]
+__all__ = ["BOLT_IMAGE_KEY", "TRUE_FLUENTS_KEY", "BoltObservable", "CameraSpec", "FluentDetector"]
+
+#: ``info`` key of the bolt camera's image of the state just reached (see the module docs).
+BOLT_IMAGE_KEY = "bolt_image"
+#: ``info`` key of the true fluents of the state just reached (see the module docs).
+TRUE_FLUENTS_KEY = "true_fluents"
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from noisybolt.wrappers.atari import ClipGameReward, LifeLossTerminal
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
 from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
+from noisybolt.wrappers.make_vec import make_bolted_vec_env
 
 __all__ = [
     "BoltObservableEnv",
@@ -12,4 +13,5 @@ __all__ = [
     "ClipGameReward",
     "LifeLossTerminal",
     "RestrainingBoltWrapper",
+    "make_bolted_vec_env",
 ]

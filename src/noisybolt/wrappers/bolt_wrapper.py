@@ -9,39 +9,38 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds, confidence_bands
-from noisybolt.errors import ConfigError
+from noisybolt.envs.labels import collect_labelled_samples, fluent_names_of, labels_from_info
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers._common import bolt_info, build_bolt, dict_observation_space
+from noisybolt.wrappers._inputs import DetectorName, coerce_specs, resolve_detector
 
 __all__ = ["BoltObservableEnv", "RestrainingBoltWrapper"]
 
 
 @runtime_checkable
 class BoltObservableEnv(Protocol):
-    """What a single (unwrapped) environment must offer to be bolted."""
+    """What a single environment must declare to be bolted: its fluent vocabulary.
+
+    The rest of the contract is its ``info`` at reset and step (``bolt_image`` and
+    ``true_fluents``, see :mod:`noisybolt.perception.protocols`). Any Gymnasium env gets
+    both from :class:`noisybolt.FluentLabels`; the shipped worlds have them natively.
+    ``fluent_names`` is read with ``env.get_wrapper_attr``, so it may sit on any wrapper.
+    """
 
     @property
     def fluent_names(self) -> tuple[str, ...]:
-        """The world's fluent vocabulary."""
-        ...
-
-    def bolt_image(self) -> np.ndarray:
-        """uint8 ``[H, W, C]``: what the bolt's (noisy) camera sees now."""
-        ...
-
-    def true_fluents(self) -> np.ndarray:
-        """bool ``[n_fluents]``: the ground truth now (metrics only)."""
+        """The world's fluent vocabulary, in the column order of ``info["true_fluents"]``."""
         ...
 
 
-class RestrainingBoltWrapper(gym.Wrapper):
+class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Adds a restraining bolt to an environment: DFA states in the observation, reward shaped.
 
-    Each step the bolt looks through its own camera (``bolt_image``), the detector turns
-    the image into fluent probabilities, and Algorithm 1 moves every spec's DFA and pays
-    its reward. The trace starts at the first observation: ``reset`` already moves the
-    DFAs, and that transition's reward is added to the first step's.
+    Each step the bolt looks through its own camera (the env's ``info["bolt_image"]``),
+    the detector turns the image into fluent probabilities, and Algorithm 1 moves every
+    spec's DFA and pays its reward. The trace starts at the first observation: ``reset``
+    already moves the DFAs, and that transition's reward is added to the first step's.
 
     Observation: ``Dict{"image": the env's observation, "dfa": MultiDiscrete}``.
     Reward: ``env reward + bolt reward``. ``info`` holds ``env_reward``, ``bolt_reward``,
@@ -51,41 +50,85 @@ class RestrainingBoltWrapper(gym.Wrapper):
     ``true_fluents``, ``true_dfa_states`` and ``true_accepting``.
 
     Args:
-        env: an environment whose ``unwrapped`` meets :class:`BoltObservableEnv`.
-        specs: the bolt's specifications (their rewards add up).
-        detector: turns bolt images into probabilities over the world's fluents.
+        env: a labelled environment (see :class:`BoltObservableEnv`), e.g. one wrapped
+            in :class:`noisybolt.FluentLabels`.
+        specs: the bolt's specifications (their rewards add up): :class:`Spec` s or LTLf
+            formulas as text (text gets the paper's rewards: +1 per accepting step, a
+            cost of 0.5 per low-confidence fluent on the edge taken).
+        detector: turns bolt images into probabilities over the world's fluents: a
+            :class:`FluentDetector`, or ``"oracle"``, ``"synthetic"`` (seeded Beta noise
+            on the truth) or ``"classifier"`` (trained here on ``classifier_samples``
+            images of the env played at random, which resets and plays the env).
         dfas: pre-built DFAs (default: compile each spec's formula).
         thresholds: band thresholds (paper eq. 1).
         cost_mode: ``"count"`` or ``"proportional"``.
         end_on_violation: end the episode (``terminated``) when a spec's DFA enters a
             rejecting sink. Off by default, as in the paper.
+        seed: seeds a detector built by name.
+        classifier_samples: images to train a ``"classifier"`` detector on.
+
+    Raises:
+        UnlabelledEnvError: the env declares no ``fluent_names`` (or, at reset or step,
+            its ``info`` lacks the labels).
+        UnknownFluentError: a spec reads a fluent the env does not have.
+        UnknownNameError: an unknown detector name.
+
+    Example:
+        >>> import gymnasium as gym
+        >>> from noisybolt import FluentLabels
+        >>> lake = FluentLabels(
+        ...     gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False),
+        ...     fluents={"top_row": lambda lake: lake.s < 4},
+        ... )
+        >>> env = RestrainingBoltWrapper(lake, ["G(top_row)"], "oracle")
+        >>> obs, info = env.reset(seed=0)
+        >>> obs["dfa"].tolist(), info["true_accepting"].tolist()
+        ([0], [True])
+        >>> obs, reward, *_ = env.step(2)  # right: still on the top row
+        >>> reward  # env reward 0, +1 accepting now, +1 carried from the reset transition
+        2.0
     """
 
     def __init__(
         self,
         env: gym.Env,
-        specs: Sequence[Spec],
-        detector: FluentDetector,
+        specs: Spec | str | Sequence[Spec | str],
+        detector: FluentDetector | DetectorName,
         *,
         dfas: Sequence[DFA] | None = None,
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
         end_on_violation: bool = False,
+        seed: int = 0,
+        classifier_samples: int = 2000,
     ) -> None:
+        gym.utils.RecordConstructorArgs.__init__(
+            self,
+            specs=specs,
+            detector=detector,
+            dfas=dfas,
+            thresholds=thresholds,
+            cost_mode=cost_mode,
+            end_on_violation=end_on_violation,
+            seed=seed,
+            classifier_samples=classifier_samples,
+        )
         super().__init__(env)
-        world = env.unwrapped
-        if not isinstance(world, BoltObservableEnv):
-            raise ConfigError(
-                f"{type(world).__name__} cannot be bolted: it needs fluent_names, "
-                "bolt_image() and true_fluents() (see BoltObservableEnv)"
-            )
-        self._world: BoltObservableEnv = world
+        fluent_names = fluent_names_of(env)
+        detector = resolve_detector(
+            detector,
+            fluent_names,
+            seed=seed,
+            samples=lambda: collect_labelled_samples(
+                env, num_samples=classifier_samples, seed=seed
+            ),
+        )
         self._detector = detector
         self._thresholds = thresholds
         parts = build_bolt(
-            specs,
+            coerce_specs(specs),
             detector,
-            world.fluent_names,
+            fluent_names,
             n_envs=1,
             dfas=dfas,
             thresholds=thresholds,
@@ -96,11 +139,12 @@ class RestrainingBoltWrapper(gym.Wrapper):
         self._truth = parts.truth
         self.observation_space = dict_observation_space(env.observation_space, self.bolt.n_states)
 
-    def _look(self) -> tuple[np.ndarray, np.ndarray]:
-        truth = np.asarray(self._world.true_fluents(), dtype=bool)[None]
-        images = np.asarray(self._world.bolt_image())[None]
-        probs = self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
-        return probs, truth
+    def _look(self, info: dict[str, Any], where: str) -> tuple[np.ndarray, np.ndarray]:
+        image, truth = labels_from_info(info, where=where)
+        probs = self._detector.predict(
+            image[None], truth=truth[None] if self._detector.needs_truth else None
+        )
+        return probs, truth[None]
 
     def _observation(self, image: Any, states: np.ndarray) -> dict[str, Any]:
         return {"image": image, "dfa": states.astype(np.int64)}
@@ -110,7 +154,7 @@ class RestrainingBoltWrapper(gym.Wrapper):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Resets the env and lets every DFA read the first observation."""
         obs, info = self.env.reset(seed=seed, options=options)
-        probs, truth = self._look()
+        probs, truth = self._look(info, "reset")
         out = self.bolt.reset(probs)
         self._truth.reset(truth)
         info = dict(info)
@@ -125,7 +169,7 @@ class RestrainingBoltWrapper(gym.Wrapper):
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
         """Steps the env, moves the DFAs, and returns the shaped reward."""
         obs, env_reward, terminated, truncated, info = self.env.step(action)
-        probs, truth = self._look()
+        probs, truth = self._look(info, "step")
         done = np.array([terminated or truncated])
         out = self.bolt.step(probs, done=done)
         self._truth.step(truth)

@@ -1,0 +1,335 @@
+"""Labels as a wrapper: any Gymnasium env made bolt-ready with a few fluent functions.
+
+:class:`FluentLabels` computes the bolt's fluents and its camera image of the state just
+reached and puts them in ``info`` at reset and at every step, under the keys of the
+world–bolt contract (:mod:`noisybolt.perception.protocols`: ``info["bolt_image"]`` and
+``info["true_fluents"]``). The agent's observation, reward and episode ends are the
+wrapped env's, untouched.
+
+Example:
+    >>> import gymnasium as gym
+    >>> env = FluentLabels(
+    ...     gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False),
+    ...     fluents={"at_goal": lambda lake: lake.s == 15, "top_row": lambda lake: lake.s < 4},
+    ... )
+    >>> obs, info = env.reset(seed=0)
+    >>> env.fluent_names, info["true_fluents"].tolist(), info["bolt_image"].shape
+    (('at_goal', 'top_row'), [False, True], (256, 256, 3))
+    >>> obs, reward, terminated, truncated, info = env.step(1)  # down
+    >>> info["true_fluents"].tolist()
+    [False, False]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+
+from noisybolt.errors import CameraError, ConfigError, FluentFunctionError, UnlabelledEnvError
+from noisybolt.logic.syntax import check_fluent_names
+from noisybolt.perception.dataset import FluentDataset
+from noisybolt.perception.noise import NoiseSpec, make_noise
+from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
+
+__all__ = [
+    "Camera",
+    "FluentFn",
+    "FluentLabels",
+    "collect_labelled_samples",
+    "fluent_names_of",
+    "labels_from_info",
+    "render_camera",
+]
+
+#: A fluent: the world's state (``env.unwrapped``) to True or False.
+FluentFn = Callable[[Any], bool]
+#: A bolt camera: the env (the wrapped one, as the user gave it) to uint8 ``[H, W, 3]``.
+Camera = Callable[[gym.Env], np.ndarray]
+
+
+def render_camera(env: gym.Env) -> np.ndarray:
+    """The default bolt camera: the env's own ``render()`` (``render_mode="rgb_array"``)."""
+    return env.render()  # type: ignore[return-value]
+
+
+class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Puts the bolt's camera image and the true fluents into ``info`` (see the module docs).
+
+    Checked at construction: the fluent names (ltlf2dfa atoms, no repeats), that every
+    fluent and the camera are callable, and that an env without a camera renders RGB
+    arrays. Checked at every reset and step (the first reset catches a wrong definition
+    before any training): each fluent function returns a bool, the camera a uint8
+    ``[H, W, 3]`` image of the same shape each time.
+
+    Args:
+        env: any Gymnasium env.
+        fluents: ``{name: fn}``, in the bolt's column order; each ``fn`` is called with
+            ``env.unwrapped`` (where the state lives) and returns a bool.
+        camera: the bolt's camera, called with ``env``; default: ``env.render()``.
+        noise: the camera's noise (see :func:`noisybolt.perception.noise.make_noise`);
+            seeded by ``reset(seed=...)``, so a seeded run sees the same noise again.
+        success: optional goal test, the name of one of ``fluents`` or a function like
+            them; at the end of an episode its value goes to ``info["is_success"]``
+            (the Gymnasium/SB3 convention read by goal rates).
+        name: the world's name in the camera's :class:`CameraSpec` (default: the env's
+            Gymnasium id, else its class name).
+
+    Raises:
+        ConfigError: no fluents, a malformed or repeated name, a fluent that is not
+            callable, or an unknown ``success`` fluent.
+        CameraError: no camera given and the env does not render ``"rgb_array"``.
+        FluentFunctionError: (at reset or step) a fluent function raised or returned a
+            non-bool; the message names the fluent.
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        *,
+        fluents: Mapping[str, FluentFn],
+        camera: Camera | None = None,
+        noise: NoiseSpec = None,
+        success: str | FluentFn | None = None,
+        name: str | None = None,
+    ) -> None:
+        gym.utils.RecordConstructorArgs.__init__(
+            self, fluents=fluents, camera=camera, noise=noise, success=success, name=name
+        )
+        super().__init__(env)
+        if not isinstance(fluents, Mapping) or not fluents:
+            raise ConfigError(
+                "FluentLabels needs fluents={name: fn(env) -> bool, ...} with at least one "
+                f"fluent, got {fluents!r}"
+            )
+        try:
+            names = check_fluent_names(list(fluents))
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"FluentLabels: bad fluent name: {exc}") from exc
+        for fluent, fn in fluents.items():
+            if not callable(fn):
+                raise FluentFunctionError(
+                    f"fluent {fluent!r} must be a function of the env returning a bool, got {fn!r}",
+                    fluent=fluent,
+                )
+        if camera is None:
+            if env.render_mode != "rgb_array":
+                raise CameraError(
+                    f"FluentLabels: no camera given, so the bolt looks through the env's "
+                    f"render(), but the env's render_mode is {env.render_mode!r}; make the "
+                    "env with render_mode='rgb_array', or pass camera=fn(env) -> uint8 [H, W, 3]"
+                )
+            camera = render_camera
+        elif not callable(camera):
+            raise CameraError(f"camera must be a function env -> uint8 [H, W, 3], got {camera!r}")
+        if isinstance(success, str) and success not in fluents:
+            raise ConfigError(
+                f"success={success!r} is not one of the fluents {list(names)}; name one, or "
+                "pass a function env -> bool"
+            )
+        if success is not None and not isinstance(success, str) and not callable(success):
+            raise ConfigError(f"success must be a fluent name or a function, got {success!r}")
+        self._names = names
+        self._fns = tuple(fluents.values())
+        self._camera = camera
+        self._noise = make_noise(noise)
+        self._success = success
+        self._world_name = name or (
+            env.spec.id if env.spec is not None else type(env.unwrapped).__name__
+        )
+        self._shape: tuple[int, int, int] | None = None
+        self._rng = np.random.default_rng()
+
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """The bolt's fluents, in the column order of ``info["true_fluents"]``."""
+        return self._names
+
+    @property
+    def camera_spec(self) -> CameraSpec:
+        """The bolt camera's image format and noise (known from the first reset on).
+
+        Raises:
+            CameraError: before the first reset.
+        """
+        if self._shape is None:
+            raise CameraError("the camera's image size is known after the first reset()")
+        height, width, channels = self._shape
+        return CameraSpec(
+            world=self._world_name,
+            height=height,
+            width=width,
+            channels=channels,
+            noise=self._noise.describe(),
+        )
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Resets the env (a seed also re-seeds the camera's noise) and labels the first state."""
+        obs, info = self.env.reset(seed=seed, options=options)
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        return obs, self._label(info)
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        """Steps the env and labels the state it reached."""
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        info = self._label(info)
+        if self._success is not None and (terminated or truncated):
+            info["is_success"] = self._is_success()
+        return obs, reward, terminated, truncated, info
+
+    def _label(self, info: dict[str, Any]) -> dict[str, Any]:
+        info = dict(info)
+        info[TRUE_FLUENTS_KEY] = self._true_fluents()
+        info[BOLT_IMAGE_KEY] = self._bolt_image()
+        return info
+
+    def _true_fluents(self) -> np.ndarray:
+        world = self.env.unwrapped
+        truth = np.empty(len(self._names), dtype=bool)
+        for i, (fluent, fn) in enumerate(zip(self._names, self._fns, strict=True)):
+            truth[i] = _call_fluent(fluent, fn, world)
+        return truth
+
+    def _is_success(self) -> bool:
+        if isinstance(self._success, str):
+            return bool(self._true_fluents()[self._names.index(self._success)])
+        assert self._success is not None
+        return _call_fluent("success", self._success, self.env.unwrapped)
+
+    def _bolt_image(self) -> np.ndarray:
+        try:
+            image = self._camera(self.env)
+        except Exception as exc:
+            raise CameraError(
+                f"the bolt's camera raised {type(exc).__name__}: {exc}; it must return "
+                "uint8 [H, W, 3] for any state the env reaches"
+            ) from exc
+        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim != 3:
+            got = (
+                f"{image.dtype} {list(image.shape)}"
+                if isinstance(image, np.ndarray)
+                else type(image).__name__
+            )
+            raise CameraError(
+                f"the bolt's camera must return a numpy uint8 [H, W, 3] image, got {got}"
+            )
+        if image.shape[2] != 3 or min(image.shape) < 1:
+            raise CameraError(
+                f"the bolt's camera must return RGB images [H, W, 3], got shape {list(image.shape)}"
+            )
+        if self._shape is None:
+            self._shape = image.shape
+        elif image.shape != self._shape:
+            raise CameraError(
+                f"the bolt's camera returned shape {list(image.shape)} after "
+                f"{list(self._shape)}: every image must have one size"
+            )
+        seen = self._noise.apply(image[None], self._rng)[0]
+        # A camera may hand out a buffer it draws the next frame into.
+        return seen.copy() if np.shares_memory(seen, image) else seen
+
+
+def _call_fluent(fluent: str, fn: FluentFn, world: Any) -> bool:
+    try:
+        value = fn(world)
+    except Exception as exc:
+        raise FluentFunctionError(
+            f"fluent {fluent!r}: its function raised {type(exc).__name__}: {exc}",
+            fluent=fluent,
+        ) from exc
+    if not isinstance(value, (bool, np.bool_)):
+        raise FluentFunctionError(
+            f"fluent {fluent!r} must return a bool, got {value!r} "
+            f"({type(value).__name__}); e.g. return bool(...)",
+            fluent=fluent,
+        )
+    return bool(value)
+
+
+def fluent_names_of(env: gym.Env) -> tuple[str, ...]:
+    """The fluents a labelled env declares (``fluent_names`` anywhere in its wrapper stack).
+
+    Raises:
+        UnlabelledEnvError: the env declares none.
+    """
+    try:
+        names = env.get_wrapper_attr("fluent_names")
+    except AttributeError:
+        raise UnlabelledEnvError(
+            f"{env} is not labelled for the bolt: it has no fluent_names; wrap it in "
+            "noisybolt.FluentLabels(env, fluents={name: fn(env) -> bool})"
+        ) from None
+    return tuple(names)
+
+
+def labels_from_info(info: dict[str, Any], *, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(bolt image, true fluents)`` of one env's ``info`` (the world–bolt contract).
+
+    Raises:
+        UnlabelledEnvError: a key is missing.
+    """
+    try:
+        return np.asarray(info[BOLT_IMAGE_KEY]), np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
+    except KeyError as exc:
+        raise UnlabelledEnvError(
+            f"the env's info at {where} has no {exc.args[0]!r}: a bolted env must put "
+            f"info[{BOLT_IMAGE_KEY!r}] and info[{TRUE_FLUENTS_KEY!r}] at reset and step; "
+            "wrap it in noisybolt.FluentLabels"
+        ) from None
+
+
+def collect_labelled_samples(
+    env: gym.Env, *, num_samples: int, seed: int = 0, name: str | None = None
+) -> FluentDataset:
+    """Labelled bolt images from a labelled env played at random (to train a classifier).
+
+    Args:
+        env: a labelled env (``info["bolt_image"]``, ``info["true_fluents"]``); it is
+            reset with ``seed`` and left wherever the play ended.
+        num_samples: images to collect (one per reset and step).
+        seed: seeds the resets and the random actions.
+        name: the camera's world name (default: the env's ``camera_spec`` if it has one).
+
+    Raises:
+        ConfigError: ``num_samples`` < 1.
+        UnlabelledEnvError: the env is not labelled.
+    """
+    if isinstance(num_samples, bool) or not isinstance(num_samples, int) or num_samples < 1:
+        raise ConfigError(f"num_samples must be an integer >= 1, got {num_samples!r}")
+    fluent_names = fluent_names_of(env)
+    action_space = env.action_space
+    action_space.seed(seed)
+    images: list[np.ndarray] = []
+    labels: list[np.ndarray] = []
+    _, info = env.reset(seed=seed)
+    while True:
+        image, truth = labels_from_info(info, where="reset" if not images else "step")
+        images.append(image.astype(np.uint8, copy=False))
+        labels.append(truth)
+        if len(images) == num_samples:
+            break
+        _, _, terminated, truncated, info = env.step(action_space.sample())
+        if terminated or truncated:
+            image, truth = labels_from_info(info, where="step")
+            images.append(image.astype(np.uint8, copy=False))
+            labels.append(truth)
+            if len(images) == num_samples:
+                break
+            _, info = env.reset()
+    height, width = images[0].shape[:2]
+    try:
+        camera = env.get_wrapper_attr("camera_spec")
+    except AttributeError:
+        camera = CameraSpec(world=name or type(env.unwrapped).__name__, height=height, width=width)
+    return FluentDataset(
+        images=np.stack(images),
+        labels=np.stack(labels),
+        fluent_names=fluent_names,
+        camera_spec=camera,
+        seed=seed,
+    )

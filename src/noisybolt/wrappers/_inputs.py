@@ -1,0 +1,98 @@
+"""What a user may hand the bolt wrappers: specs as text, detectors by name."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+from noisybolt.bolt import Spec
+from noisybolt.errors import ConfigError, UnknownNameError
+from noisybolt.perception.protocols import FluentDetector
+
+__all__ = [
+    "DETECTOR_NAMES",
+    "DetectorName",
+    "coerce_specs",
+    "resolve_detector",
+]
+
+#: Detectors by name: ``oracle`` reads the truth, ``synthetic`` the truth through seeded
+#: Beta noise, ``classifier`` is trained on labelled samples of the env's bolt camera.
+DetectorName = Literal["oracle", "synthetic", "classifier"]
+DETECTOR_NAMES: tuple[str, ...] = ("oracle", "synthetic", "classifier")
+
+#: A formula given as text gets the paper's rewards: +1 on every accepting step, a cost
+#: of 0.5 for each low-confidence fluent on the edge taken.
+TEXT_SPEC_REWARD = 1.0
+TEXT_SPEC_COST = 0.5
+
+
+def coerce_specs(specs: Spec | str | Sequence[Spec | str]) -> list[Spec]:
+    """Specs from :class:`Spec` s or LTLf text (text gets the paper's rewards).
+
+    Example:
+        >>> [s.name for s in coerce_specs(["G(safe)", Spec("F(goal)", terminal_reward=5.0,
+        ...     low_confidence_cost=0.0, name="reach")])]
+        ['G(safe)', 'reach']
+    """
+    items = [specs] if isinstance(specs, (str, Spec)) else list(specs)
+    if not items:
+        raise ConfigError("the bolt needs at least one spec (an LTLf formula or a Spec)")
+    out = []
+    for item in items:
+        if isinstance(item, Spec):
+            out.append(item)
+        elif isinstance(item, str):
+            out.append(
+                Spec(item, terminal_reward=TEXT_SPEC_REWARD, low_confidence_cost=TEXT_SPEC_COST)
+            )
+        else:
+            raise ConfigError(f"a spec is an LTLf formula (str) or a Spec, got {item!r}")
+    return out
+
+
+def resolve_detector(
+    detector: FluentDetector | str,
+    fluent_names: Sequence[str],
+    *,
+    seed: int = 0,
+    samples: Callable[[], Any] | None = None,
+) -> FluentDetector:
+    """A detector object, or one built by name (see :data:`DetectorName`).
+
+    Args:
+        detector: a :class:`FluentDetector`, or ``"oracle"``, ``"synthetic"``,
+            ``"classifier"``.
+        fluent_names: the world's fluents.
+        seed: seeds the synthetic detector's noise or the classifier's training.
+        samples: for ``"classifier"``: returns a labelled
+            :class:`~noisybolt.perception.dataset.FluentDataset` to train on.
+
+    Raises:
+        UnknownNameError: an unknown name (listing the known ones).
+        ConfigError: an object that is not a detector.
+    """
+    from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+
+    if isinstance(detector, str):
+        if detector == "oracle":
+            return OracleDetector(fluent_names)
+        if detector == "synthetic":
+            return SyntheticDetector(fluent_names, seed=seed)
+        if detector == "classifier" and samples is not None:
+            from noisybolt.perception.training import TrainingConfig, train_classifier
+
+            result = train_classifier(samples(), training=TrainingConfig(seed=seed), progress=False)
+            return result.detector
+        raise UnknownNameError(
+            f"unknown detector {detector!r}; known: {', '.join(DETECTOR_NAMES)}, or pass a "
+            "FluentDetector object",
+            name=detector,
+            known=DETECTOR_NAMES,
+        )
+    if not isinstance(detector, FluentDetector):
+        raise ConfigError(
+            f"detector must be one of {list(DETECTOR_NAMES)} or a FluentDetector (fluent_names, "
+            f"needs_truth, predict(images, truth=...)), got {detector!r}"
+        )
+    return detector

@@ -1,0 +1,186 @@
+"""The bolt over a user's env labelled with FluentLabels (FrozenLake; see tests/envs/test_labels.py
+for its map): the single wrapper reads ``info`` only, and the batched one equals it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from noisybolt.bolt import Spec
+from noisybolt.envs.labels import FluentLabels
+from noisybolt.errors import (
+    ConfigError,
+    UnknownFluentError,
+    UnknownNameError,
+    UnlabelledEnvError,
+)
+from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+from noisybolt.wrappers import BoltVecEnv, RestrainingBoltWrapper, make_bolted_vec_env
+
+HOLES = (5, 7, 11, 12)
+FLUENTS = {
+    "at_goal": lambda lake: lake.s == 15,
+    "in_hole": lambda lake: int(lake.s) in HOLES,
+    "top_row": lambda lake: lake.s < 4,
+}
+SPECS = [
+    "G(!in_hole)",
+    Spec(
+        "F(top_row & X(!top_row))", terminal_reward=2.0, low_confidence_cost=0.5, name="leave_top"
+    ),
+]
+
+
+def lake(slippery: bool = False, **kwargs: Any) -> FluentLabels:
+    env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=slippery)
+    return FluentLabels(env, fluents=FLUENTS, success="at_goal", **kwargs)
+
+
+def test_labelled_env_passes_gymnasium_checks() -> None:
+    check_env(RestrainingBoltWrapper(lake(), SPECS, "oracle"), skip_render_check=True)
+
+
+def test_hand_computed_rewards_of_a_text_spec() -> None:
+    # "G(top_row)" as text: +1 per accepting step, oracle (no low-confidence cost).
+    env = RestrainingBoltWrapper(lake(), "G(top_row)", "oracle")
+    obs, info = env.reset(seed=0)
+    assert env.bolt.specs[0].terminal_reward == 1.0
+    assert env.bolt.specs[0].low_confidence_cost == 0.5
+    assert obs["image"] == 0 and info["true_accepting"].tolist() == [True]
+    _, r1, *_ = env.step(2)  # 0 -> 1: still on the top row, +1 and +1 carried from reset
+    _, r2, terminated, _, info = env.step(1)  # 1 -> 5: a hole, off the top row for good
+    assert (r1, r2) == (2.0, 0.0)
+    assert terminated and info["dfa_violated"].tolist() == [True]
+
+
+def test_wrapped_reward_is_env_reward_plus_bolt_terms_from_the_same_seed() -> None:
+    plain = gym.make("FrozenLake-v1", is_slippery=True)
+    wrapped = RestrainingBoltWrapper(lake(slippery=True), SPECS, "synthetic", seed=3)
+    assert isinstance(wrapped._detector, SyntheticDetector)
+    plain.reset(seed=1)
+    wrapped.reset(seed=1)
+    rng = np.random.default_rng(0)
+    for _ in range(150):
+        action = int(rng.integers(4))
+        obs, reward, term, trunc, _ = plain.step(action)
+        wobs, wreward, wterm, wtrunc, info = wrapped.step(action)
+        assert obs == wobs["image"] and (term, trunc) == (wterm, wtrunc)
+        assert info["env_reward"] == reward
+        assert wreward == pytest.approx(reward + info["bolt_reward"])
+        assert info["true_fluents"].tolist() == [obs == 15, obs in HOLES, obs < 4]
+        if term or trunc:
+            plain.reset()
+            wrapped.reset()
+
+
+def test_the_bolt_reads_info_not_the_env() -> None:
+    # An env that declares fluents but labels nothing is refused at reset, naming the key.
+    class Declares(gym.Wrapper):
+        fluent_names = ("top_row",)
+
+    env = RestrainingBoltWrapper(Declares(gym.make("FrozenLake-v1")), ["G(top_row)"], "oracle")
+    with pytest.raises(UnlabelledEnvError, match="'bolt_image'"):
+        env.reset(seed=0)
+
+
+def test_unlabelled_env_is_refused_at_construction() -> None:
+    with pytest.raises(UnlabelledEnvError, match="FluentLabels"):
+        RestrainingBoltWrapper(gym.make("FrozenLake-v1"), ["G(a)"], "oracle")
+
+
+def test_labels_under_another_wrapper_are_found() -> None:
+    env = gym.wrappers.TimeLimit(lake(), max_episode_steps=3)
+    bolted = RestrainingBoltWrapper(env, ["G(top_row)"], "oracle")
+    bolted.reset(seed=0)
+    *_, truncated, _ = bolted.step(0)
+    *_, truncated, _ = bolted.step(0)
+    *_, truncated, info = bolted.step(0)
+    assert truncated and info["true_accepting"].tolist() == [True]
+
+
+def test_bad_specs_and_detectors_are_named() -> None:
+    with pytest.raises(UnknownFluentError, match="top_row"):
+        RestrainingBoltWrapper(lake(), ["G(lava)"], "oracle")
+    with pytest.raises(UnknownNameError, match="oracle, synthetic, classifier"):
+        RestrainingBoltWrapper(lake(), ["G(top_row)"], "psychic")  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="FluentDetector"):
+        RestrainingBoltWrapper(lake(), ["G(top_row)"], object())  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="at least one spec"):
+        RestrainingBoltWrapper(lake(), [], "oracle")
+
+
+def test_classifier_by_name_is_trained_on_the_envs_own_camera() -> None:
+    def lamp(env: gym.Env) -> np.ndarray:  # bright on the top row, dark elsewhere
+        return np.full((8, 8, 3), 230 if env.unwrapped.s < 4 else 20, dtype=np.uint8)
+
+    env = FluentLabels(
+        gym.make("FrozenLake-v1", is_slippery=True),
+        fluents={"top_row": FLUENTS["top_row"]},
+        camera=lamp,
+    )
+    bolted = RestrainingBoltWrapper(env, ["G(top_row)"], "classifier", classifier_samples=300)
+    assert not bolted._detector.needs_truth
+    _, info = bolted.reset(seed=0)
+    assert info["fluent_probs"][0] > 0.9  # the start is on the top row
+    _, _, _, _, info = bolted.step(1)  # 0 -> 4 (or slips along the row)
+    state_top = info["true_fluents"][0]
+    assert (info["fluent_probs"][0] > 0.5) == state_top
+
+
+# ------------------------------------------------------------------ batched
+
+
+def test_batched_bolt_equals_single_wrappers_across_episodes() -> None:
+    n, seed = 4, 7
+    batched = make_bolted_vec_env(lambda: lake(slippery=True), n, SPECS, "oracle", seed=seed)
+    assert isinstance(batched, BoltVecEnv)
+    singles = [RestrainingBoltWrapper(lake(slippery=True), SPECS, "oracle") for _ in range(n)]
+    obs = batched.reset()
+    single_obs = [s.reset(seed=seed + i)[0] for i, s in enumerate(singles)]
+    rng = np.random.default_rng(0)
+    n_done = n_success = 0
+    for _ in range(120):
+        for i in range(n):
+            assert obs["image"][i] == single_obs[i]["image"]
+            np.testing.assert_array_equal(obs["dfa"][i], single_obs[i]["dfa"])
+        actions = rng.integers(4, size=n)
+        obs, rewards, dones, infos = batched.step(actions)
+        for i, single in enumerate(singles):
+            sobs, sreward, sterm, strunc, sinfo = single.step(int(actions[i]))
+            assert rewards[i] == pytest.approx(sreward, abs=1e-6)
+            assert dones[i] == (sterm or strunc)
+            for key in ("true_dfa_states", "true_fluents", "dfa_accepting", "fluent_probs"):
+                np.testing.assert_array_equal(infos[i][key], sinfo[key])
+            if dones[i]:
+                n_done += 1
+                assert infos[i]["is_success"] == sinfo["is_success"]
+                n_success += bool(sinfo["is_success"])
+                terminal = infos[i]["terminal_observation"]
+                assert terminal["image"] == sobs["image"]
+                np.testing.assert_array_equal(terminal["dfa"], sobs["dfa"])
+                sobs, _ = single.reset()
+            single_obs[i] = sobs
+    assert n_done >= n  # the comparison crossed episode boundaries
+
+
+def test_batched_bolt_reports_goals_to_the_monitor() -> None:
+    venv = make_bolted_vec_env(lake, 1, ["G(!in_hole)"], seed=0)
+    venv.reset()
+    for action in (2, 2, 1, 1, 1):
+        venv.step(np.array([action]))
+    _, _, dones, infos = venv.step(np.array([2]))
+    assert dones[0] and infos[0]["is_success"] is True
+    assert infos[0]["episode"]["r"] == 1.0  # the env's return, logged below the bolt
+
+
+def test_make_bolted_vec_env_refuses_bad_input() -> None:
+    with pytest.raises(ConfigError, match="n_envs"):
+        make_bolted_vec_env(lake, 0, ["G(top_row)"])
+    with pytest.raises(UnlabelledEnvError):
+        make_bolted_vec_env(lambda: gym.make("FrozenLake-v1"), 2, ["G(top_row)"])
+    with pytest.raises(UnknownFluentError):
+        make_bolted_vec_env(lake, 2, ["G(lava)"], OracleDetector(list(FLUENTS)))
