@@ -21,6 +21,7 @@ __all__ = [
     "UnknownFluentError",
     "UnknownNameError",
     "UnlabelledEnvError",
+    "UnsatisfiableSpecError",
     "WorldFactoryError",
 ]
 
@@ -121,3 +122,16 @@ class WorldFactoryError(ConfigError):
     def __init__(self, message: str, *, path: str) -> None:
         super().__init__(message)
         self.path = path
+
+
+class UnsatisfiableSpecError(ConfigError):
+    """No trace satisfies a spec (its DFA can never accept a non-empty trace): no agent
+    can comply, so training under it would only teach the agent to ignore the bolt.
+
+    Attributes:
+        formula: the spec's formula.
+    """
+
+    def __init__(self, message: str, *, formula: str) -> None:
+        super().__init__(message)
+        self.formula = formula

@@ -105,9 +105,20 @@ class RunDirectory:
             raise CorruptFileError(f"{self.config_path} does not hold a JSON object")
         return data
 
-    def check_same_config(self, config: Mapping[str, Any], *, ignore: Sequence[str] = ()) -> None:
-        """Raises ``ConfigError`` naming every key where ``config`` differs from the saved one."""
-        diffs = config_differences(self.read_config(), config, ignore=ignore)
+    def check_same_config(
+        self,
+        config: Mapping[str, Any],
+        *,
+        ignore: Sequence[str] = (),
+        defaults: Mapping[str, Any] | None = None,
+    ) -> None:
+        """Raises ``ConfigError`` naming every key where ``config`` differs from the saved one.
+
+        ``defaults``: values of top-level keys that a config saved before they existed
+        lacks (what those runs did), filled in before comparing.
+        """
+        saved = {**(defaults or {}), **self.read_config()}
+        diffs = config_differences(saved, config, ignore=ignore)
         if diffs:
             lines = "; ".join(
                 f"{k}: saved {a!r}, now {b!r}" for k, a, b in ((k, *v) for k, v in diffs.items())

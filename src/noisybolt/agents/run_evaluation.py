@@ -22,6 +22,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.hyperparams import algorithm_class
 from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
+from noisybolt.envs.registry import make_single_world, world_display
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
 from noisybolt.perception.protocols import FluentDetector
@@ -50,30 +51,8 @@ def load_run_model(run: RunDirectory, config: TrainConfig) -> BaseAlgorithm:
 
 
 def _single_env(config: TrainConfig) -> Any:
-    """One (non-vectorised) environment of the run's world, for recordings."""
-    kwargs = config.world_settings
-    if config.world == "gridworld":
-        from noisybolt.envs.gridworld import GridworldEnv
-
-        return GridworldEnv(**kwargs)
-    if config.world == "breakout":
-        from noisybolt.envs.breakout import BreakoutEnv
-
-        return BreakoutEnv(**kwargs)
-    raise ConfigError(f"GIFs are drawn for the gridworld and Breakout, not {config.world!r}")
-
-
-#: Steps recorded per episode, per world (None: the whole episode); a Breakout game can
-#: last thousands of steps.
-GIF_STEPS: dict[str, int | None] = {"gridworld": None, "breakout": 600}
-#: GIF frame rate per world.
-GIF_FPS: dict[str, float] = {"gridworld": 4.0, "breakout": 15.0}
-
-#: Action names drawn in GIFs, per world (in the worlds' action order).
-ACTION_NAMES: dict[str, tuple[str, ...]] = {
-    "gridworld": ("left", "right", "forward", "no-op"),
-    "breakout": ("no-op", "fire", "right", "left"),
-}
+    """One (non-vectorised) labelled environment of the run's world, for recordings."""
+    return make_single_world(config.world, **config.world_settings)
 
 
 def _recordings(
@@ -90,7 +69,7 @@ def _recordings(
 
     env = RestrainingBoltWrapper(_single_env(config), config.spec_objects(), detector)
     policy = policy_from_model(model, deterministic=deterministic)
-    limit = GIF_STEPS.get(config.world)
+    limit = world_display(config.world).gif_steps
     return [record_episode(env, policy, seed=seed + i, max_steps=limit) for i in range(episodes)]
 
 
@@ -112,8 +91,9 @@ def evaluate_run(
         episodes: evaluation episodes K.
         seed: seeds the evaluation world.
         deterministic: greedy actions; None uses the run's ``eval_deterministic``.
-        gif: where to save one recorded episode (gridworld or Breakout), or None.
-        heatmap: where to save the trajectory heat-map (gridworld), or None.
+        gif: where to save one recorded episode (any world that renders), or None.
+        heatmap: where to save the trajectory heat-map (worlds with grid positions: the
+            gridworld), or None.
         heatmap_episodes: episodes drawn in the heat-map.
         overrides: config fields to change for this evaluation only (e.g. another
             ``world_kwargs`` to test the policy under other noise).
@@ -125,12 +105,18 @@ def evaluate_run(
     config = TrainConfig.from_dict(data)
     if deterministic is None:
         deterministic = config.eval_deterministic
-    if heatmap is not None and config.world != "gridworld":
-        raise ConfigError(f"heat-maps are drawn for the gridworld, not {config.world!r}")
+    display = world_display(config.world)
+    if heatmap is not None and not display.grid_positions:
+        raise ConfigError(
+            f"heat-maps are drawn for worlds with grid positions (the gridworld), not "
+            f"{config.world!r}"
+        )
     setup = prepare_bolt(config, seed=seed)
     dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
-    env = build_bolted_env(config, detector, n_envs=min(8, episodes), seed=seed, dfas=dfas)
+    env = build_bolted_env(
+        config, detector, n_envs=min(8, episodes), seed=seed, dfas=dfas, letters=setup.letters
+    )
     result = evaluate_bolted_policy(
         lambda obs: model.predict(obs, deterministic=deterministic)[0],
         env,
@@ -160,8 +146,8 @@ def evaluate_run(
             files["gif"] = save_episode_gif(
                 recordings[0],
                 gif,
-                fps=GIF_FPS.get(config.world, 4.0),
-                action_names=ACTION_NAMES.get(config.world),
+                fps=display.gif_fps,
+                action_names=display.action_names,
             )
         if heatmap is not None:
             size = int(config.world_kwargs.get("size", 6))

@@ -41,8 +41,12 @@ PPO agent lagged the unbolted one in score and even in left bricks taken
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
+
+import yaml
 
 from noisybolt.bolt import Spec
 from noisybolt.errors import ConfigError
@@ -53,9 +57,11 @@ __all__ = [
     "DEFAULT_REWARD",
     "MILESTONE_REWARD",
     "PAPER_SPECS",
+    "SPEC_FILE_KEYS",
     "SPEC_GROUPS",
     "SPEC_SETTINGS",
     "expand_specs",
+    "load_specs_file",
     "resolve_spec",
 ]
 
@@ -143,6 +149,67 @@ def resolve_spec(item: str | Mapping[str, Any]) -> Spec:
         formula = fields.pop("formula")
         return Spec(formula, **fields)
     raise ConfigError(f"cannot read a spec from {item!r}")
+
+
+#: The keys a spec may set in a specs file (or with ``--spec-set``): the
+#: :class:`~noisybolt.bolt.Spec` fields, and ``reward_scale`` for the compliance scheme.
+SPEC_FILE_KEYS: tuple[str, ...] = (
+    "formula",
+    "name",
+    "low_confidence_cost",
+    "reward_scale",
+    "terminal_reward",
+    "reward_timing",
+)
+
+
+def load_specs_file(path: str | os.PathLike[str]) -> list[str | dict[str, Any]]:
+    """The specs of a YAML specs file: a list whose items are built-in names, formulas,
+    or mappings of :data:`SPEC_FILE_KEYS` (a top-level mapping with a ``specs`` list too).
+
+    Example file::
+
+        specs:
+          - edge                                  # a built-in spec
+          - formula: F(top_right_corner) & F(bottom_left_corner)
+            name: both_corners
+            reward_scale: 500                     # compliance scheme: this spec's worth
+          - formula: "!F(bottom_left_corner)"
+            low_confidence_cost: 2.0
+
+    Raises:
+        ConfigError: the file is missing or not YAML, holds no list of specs, or an entry
+            has an unknown key or no formula (the message names the entry).
+    """
+    file = Path(path)
+    try:
+        data = yaml.safe_load(file.read_text())
+    except OSError as error:
+        raise ConfigError(f"cannot read the specs file {file}: {error.strerror}") from None
+    except yaml.YAMLError as error:
+        raise ConfigError(f"the specs file {file} is not valid YAML: {error}") from None
+    if isinstance(data, Mapping):
+        unknown = sorted(set(data) - {"specs"})
+        if unknown:
+            raise ConfigError(f"{file}: unknown top-level key(s) {unknown}; expected 'specs'")
+        data = data.get("specs")
+    if not isinstance(data, list) or not data:
+        raise ConfigError(f"{file} must hold a non-empty list of specs (or 'specs: [...]')")
+    out: list[str | dict[str, Any]] = []
+    for i, item in enumerate(data):
+        where = f"{file}, spec {i + 1}"
+        if isinstance(item, str):
+            out.append(item)
+            continue
+        if not isinstance(item, Mapping):
+            raise ConfigError(f"{where}: a spec is a name, a formula or a mapping, got {item!r}")
+        unknown = sorted(set(item) - set(SPEC_FILE_KEYS))
+        if unknown:
+            raise ConfigError(f"{where}: unknown key(s) {unknown}; known: {list(SPEC_FILE_KEYS)}")
+        if "formula" not in item and item.get("name") not in BUILTIN_SPECS:
+            raise ConfigError(f"{where}: give a formula (or the name of a built-in spec)")
+        out.append(dict(item))
+    return out
 
 
 def expand_specs(items: Sequence[str | Mapping[str, Any]]) -> list[str | Mapping[str, Any]]:

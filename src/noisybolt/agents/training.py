@@ -40,11 +40,17 @@ from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
 from noisybolt.agents.specs import expand_specs, resolve_spec
-from noisybolt.bolt import COST_MODES, Spec, Thresholds
-from noisybolt.envs import SB3VecEnv, known_worlds, make_world
-from noisybolt.errors import ConfigError, UnknownFluentError, UnknownNameError
+from noisybolt.bolt import COST_MODES, RewardScheme, Spec, Thresholds, compliance_scale
+from noisybolt.envs import SB3VecEnv, check_world, make_world
+from noisybolt.envs.bounds import world_return_bounds
+from noisybolt.errors import (
+    ConfigError,
+    UnknownFluentError,
+    UnknownNameError,
+    UnsatisfiableSpecError,
+)
 from noisybolt.io import atomic_open, atomic_write_json
-from noisybolt.logic import compile_ltlf
+from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.rundir import RunDirectory
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
@@ -65,6 +71,8 @@ __all__ = [
 DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
 #: Settings that may change when a run is resumed.
 RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar")
+#: What a config saved before a setting existed meant by it (read on resume).
+LEGACY_DEFAULTS: dict[str, Any] = {"reward": "paper", "reward_scale": None, "shaping": False}
 BEST_DIR = "best"
 
 
@@ -105,9 +113,11 @@ class TrainConfig:
     """Everything that defines a training run (saved as ``config.json``).
 
     Attributes:
-        world: registry name of the world.
+        world: registry name of the world, or a factory path ``package.module:factory``
+            returning a labelled env (see :mod:`noisybolt.envs.registry`).
         world_kwargs: passed to :func:`noisybolt.envs.make_world` (e.g. ``noise``).
-        specs: the bolt's specs as dicts of :class:`~noisybolt.bolt.Spec` fields.
+        specs: the bolt's specs as dicts of :class:`~noisybolt.bolt.Spec` fields, plus an
+            optional ``reward_scale`` (this spec's scale under the ``compliance`` scheme).
         algo: ``ppo``, ``a2c`` or ``dqn``.
         hyperparams: resolved hyperparameters (see :mod:`noisybolt.agents.hyperparams`).
         detector: the fluent detector.
@@ -124,6 +134,14 @@ class TrainConfig:
         checkpoint_freq: frames between checkpoints (0: none).
         thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
         cost_mode: ``"count"`` or ``"proportional"``.
+        reward: the reward scheme (:mod:`noisybolt.bolt.schemes`): ``"compliance"``
+            (default: compliance first, then the world's return) or ``"paper"`` (each
+            spec's own terminal reward every accepting step: what ``reproduce`` uses).
+        reward_scale: ``compliance`` only: what a spec's acceptance is worth. None
+            computes it from the world's declared return bounds
+            (:func:`~noisybolt.bolt.compliance_scale`); the config holds the value used.
+        shaping: ``compliance`` only: potential-based progress shaping over each DFA
+            (:mod:`noisybolt.bolt.shaping`), for the learner's ``gamma``.
         bolted: False trains the same agent without a bolt (for comparison): specs are
             still tracked for compliance metrics, with zero rewards.
         keep_best: the run's final model is the one of the periodic evaluation with the
@@ -152,17 +170,15 @@ class TrainConfig:
     checkpoint_freq: int = 20_000
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
+    reward: str = "compliance"
+    reward_scale: float | None = None
+    shaping: bool = True
     bolted: bool = True
     keep_best: bool = False
     progress_bar: bool = True
 
     def __post_init__(self) -> None:
-        if self.world not in known_worlds():
-            raise UnknownNameError(
-                f"unknown world {self.world!r}; known worlds: {list(known_worlds())}",
-                name=self.world,
-                known=tuple(known_worlds()),
-            )
+        check_world(self.world)  # a registered name or an importable factory path
         algorithm_class(self.algo)
         if not self.specs:
             raise ConfigError("give at least one spec (--spec NAME or --spec FORMULA)")
@@ -180,6 +196,11 @@ class TrainConfig:
             )
         Thresholds(**self.thresholds)
         object.__setattr__(self, "specs", tuple(dict(s) for s in self.specs))
+        if self.reward == "compliance" and self.reward_scale is None:
+            object.__setattr__(self, "reward_scale", _scale_from_world(self))
+        scheme = self.scheme  # validates reward, reward_scale and shaping
+        object.__setattr__(self, "shaping", scheme.shaping)
+        self.spec_objects()  # validates every spec under the scheme
 
     @classmethod
     def create(
@@ -190,11 +211,37 @@ class TrainConfig:
         algo: str = "ppo",
         overrides: Mapping[str, Any] | None = None,
         n_envs: int | None = None,
+        hp_file: str | os.PathLike[str] | None = None,
         **kwargs: Any,
     ) -> TrainConfig:
-        """A config with specs resolved (names or formulas) and hyperparameters loaded."""
-        resolved = [asdict(resolve_spec(s)) for s in expand_specs(specs)]
-        params = load_hyperparams(world, algo, overrides)
+        """A config with specs resolved (names or formulas) and hyperparameters loaded.
+
+        A spec given as a mapping may carry ``reward_scale`` (its scale under the
+        ``compliance`` scheme) beside the :class:`~noisybolt.bolt.Spec` fields.
+        """
+        resolved = []
+        paper = kwargs.get("reward", "compliance") == "paper"
+        for item in expand_specs(specs):
+            scale = None
+            paper_keys = (
+                sorted({"terminal_reward", "reward_timing"} & set(item))
+                if isinstance(item, Mapping)
+                else []
+            )
+            if paper_keys and not paper:
+                raise ConfigError(
+                    f"spec {item.get('name') or item.get('formula')!r} sets {paper_keys}, which "
+                    "only the paper reward scheme pays; under the compliance scheme set "
+                    "reward_scale instead, or use --reward paper"
+                )
+            if isinstance(item, Mapping) and "reward_scale" in item:
+                item = dict(item)
+                scale = item.pop("reward_scale")
+            fields = asdict(resolve_spec(item))
+            if scale is not None:
+                fields["reward_scale"] = scale
+            resolved.append(fields)
+        params = load_hyperparams(world, algo, overrides, hp_file=hp_file)
         if n_envs is not None:
             params["n_envs"] = int(n_envs)
         return cls(world=world, specs=tuple(resolved), algo=algo, hyperparams=params, **kwargs)
@@ -209,13 +256,34 @@ class TrainConfig:
         return settings
 
     @property
+    def scheme(self) -> RewardScheme:
+        """The reward scheme of the run."""
+        if self.reward == "paper":
+            return RewardScheme("paper", scale=self.reward_scale)
+        return RewardScheme(self.reward, scale=self.reward_scale, shaping=self.shaping)
+
+    @property
+    def progress_gamma(self) -> float | None:
+        """The discount of the compliance scheme's progress terms (None under the paper
+        scheme or unbolted): 1, the scheme's objective being undiscounted (see
+        :mod:`noisybolt.bolt.shaping`)."""
+        if not self.bolted or self.reward == "paper":
+            return None
+        return 1.0
+
+    @property
     def n_envs(self) -> int:
         """Training environments."""
         return int(self.hyperparams.get("n_envs", 1))
 
     def spec_objects(self) -> list[Spec]:
         """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted)."""
-        specs = [resolve_spec(s) for s in self.specs]
+        scheme = self.scheme
+        specs = []
+        for fields in self.specs:
+            fields = dict(fields)
+            scale = fields.pop("reward_scale", None)
+            specs.append(scheme.apply(resolve_spec(fields), scale=scale))
         if not self.bolted:
             specs = [replace(s, terminal_reward=0.0, low_confidence_cost=0.0) for s in specs]
         return specs
@@ -230,7 +298,7 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TrainConfig:
         """Reads :meth:`to_dict`'s output back; unknown keys are an error."""
-        data = dict(data)
+        data = {**LEGACY_DEFAULTS, **data}
         known = set(cls.__dataclass_fields__)
         unknown = sorted(set(data) - known)
         if unknown:
@@ -238,6 +306,21 @@ class TrainConfig:
         detector = DetectorConfig(**data.pop("detector", {}))
         data["specs"] = tuple(data.get("specs", ()))
         return cls(detector=detector, **data)
+
+
+def _scale_from_world(config: TrainConfig) -> float:
+    """The ``compliance`` scale from the world's declared return bounds."""
+    bounds = world_return_bounds(
+        make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    )
+    if bounds is None:
+        raise ConfigError(
+            f"the {config.world!r} world declares no bounds on its episodes' returns, from "
+            "which the compliance reward scheme sets what complying is worth: pass "
+            "--reward-scale S (S above the widest gap between two episodes' returns), or "
+            "--reward paper"
+        )
+    return compliance_scale(bounds)
 
 
 @dataclass(frozen=True)
@@ -384,6 +467,7 @@ def build_bolted_env(
     seed: int,
     dfas: Sequence[Any] | None = None,
     training: bool = False,
+    letters: np.ndarray | None = None,
 ) -> BoltVecEnv:
     """The world as an SB3 ``VecEnv``, monitored, with the bolt on top.
 
@@ -391,6 +475,8 @@ def build_bolted_env(
     world (training and evaluation alike); ``clip_reward`` (the game's score clipped to
     its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
     above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
+    ``letters``: the world's true fluents seen in random play (:class:`BoltSetup`), for
+    the compliance scheme's progress terms.
     """
     world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
     venv: VecEnv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
@@ -404,6 +490,9 @@ def build_bolted_env(
         dfas=dfas,
         thresholds=Thresholds(**config.thresholds),
         cost_mode=config.cost_mode,  # type: ignore[arg-type]
+        progress_gamma=config.progress_gamma,
+        shaping=config.shaping,
+        world_letters=letters,
     )
 
 
@@ -415,11 +504,15 @@ class BoltSetup:
         fluents: the world's fluent vocabulary.
         dfas: every spec's DFA over it.
         detector: the fluent detector, checked against the world's fluents and camera.
+        letters: bool ``[n, n_fluents]``, the distinct true-fluent assignments seen in
+            random play (None under the paper scheme): progress shaping counts distances
+            to acceptance over the letters the world produces.
     """
 
     fluents: tuple[str, ...]
     dfas: list[Any]
     detector: FluentDetector
+    letters: np.ndarray | None = None
 
 
 def prepare_bolt(
@@ -437,7 +530,7 @@ def prepare_bolt(
     """
     probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
     fluents = tuple(probe.fluent_names)
-    dfas = _check_specs_against_world(config, fluents)
+    dfas = _check_specs_against_world(config, fluents, log=log)
     detector = make_detector(
         config.detector,
         world=config.world,
@@ -447,11 +540,36 @@ def prepare_bolt(
         progress=progress,
         log=log,
     )
-    return BoltSetup(fluents=fluents, dfas=dfas, detector=detector)
+    letters = None
+    if config.progress_gamma is not None:
+        letters = _random_play_letters(config)
+    return BoltSetup(fluents=fluents, dfas=dfas, detector=detector, letters=letters)
 
 
-def _check_specs_against_world(config: TrainConfig, fluent_names: Sequence[str]) -> list[Any]:
-    """Compiles every spec over the world's fluents (errors list the world's fluents)."""
+def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 128) -> np.ndarray:
+    """The distinct true-fluent assignments a world shows in ``n_envs * steps`` random
+    steps (seeded by the run's seed, so training and evaluation see the same)."""
+    world: Any = make_world(
+        config.world, num_envs=n_envs, seed=config.seed, **config.world_settings
+    )
+    world.reset(seed=config.seed)
+    world.action_space.seed(config.seed)
+    seen = [np.asarray(world.true_fluents(), dtype=bool)]
+    for _ in range(steps):
+        world.step(world.action_space.sample())
+        seen.append(np.asarray(world.true_fluents(), dtype=bool))
+    return np.unique(np.concatenate(seen), axis=0)
+
+
+def _check_specs_against_world(
+    config: TrainConfig, fluent_names: Sequence[str], *, log: Callable[[str], None] = print
+) -> list[Any]:
+    """Compiles every spec over the world's fluents (errors list the world's fluents).
+
+    Raises:
+        UnsatisfiableSpecError: no trace satisfies a spec. A spec that every trace
+            satisfies gets a warning through ``log`` (the bolt would ask for nothing).
+    """
     dfas = []
     for spec in config.spec_objects():
         try:
@@ -463,6 +581,17 @@ def _check_specs_against_world(config: TrainConfig, fluent_names: Sequence[str])
                 unknown=error.unknown,
                 known=tuple(fluent_names),
             ) from None
+        if not is_satisfiable(dfas[-1]):
+            raise UnsatisfiableSpecError(
+                f"spec {spec.name!r} is unsatisfiable: no trace of the {config.world}'s "
+                f"fluents satisfies {spec.formula!r}, so no agent can comply; fix the formula",
+                formula=spec.formula,
+            )
+        if is_valid(dfas[-1]):
+            log(
+                f"warning: spec {spec.name!r} holds on every trace ({spec.formula!r}): the "
+                "bolt asks for nothing"
+            )
     return dfas
 
 
@@ -721,7 +850,7 @@ def train(
     torch.set_num_threads(1)
     run = RunDirectory(run_dir)
     if resume:
-        run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS)
+        run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
     elif run.exists():
         raise ConfigError(
             f"{run.path} already holds a run; pass --resume to continue it or choose another "
@@ -749,7 +878,13 @@ def train(
     run.write_command(argv)
 
     bolted = build_bolted_env(
-        config, detector, n_envs=config.n_envs, seed=config.seed, dfas=dfas, training=True
+        config,
+        detector,
+        n_envs=config.n_envs,
+        seed=config.seed,
+        dfas=dfas,
+        training=True,
+        letters=setup.letters,
     )
     env: VecEnv = bolted
     if config.hyperparams.get("life_loss_terminal"):
@@ -763,7 +898,12 @@ def train(
             env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
         )
     eval_env = build_bolted_env(
-        config, detector, n_envs=config.eval_envs, seed=config.seed + 10_000, dfas=dfas
+        config,
+        detector,
+        n_envs=config.eval_envs,
+        seed=config.seed + 10_000,
+        dfas=dfas,
+        letters=setup.letters,
     )
 
     history: list[dict[str, Any]] = []

@@ -74,8 +74,9 @@ class RestrainingBolt:
             there. Off by default, as in the paper; ``violated`` is reported either way. A
             violation on the first observation is reported by :meth:`reset` and sets
             ``terminate`` at the first step.
-        shaping: progress shaping added to every transition's reward (its DFAs must be
-            this bolt's, in order); None for none (Algorithm 1 as the paper states it).
+        shaping: the compliance scheme's progress terms added to every transition's
+            reward (:class:`~noisybolt.bolt.ProgressShaping`; its DFAs must be this
+            bolt's, in order); None for none (Algorithm 1 as the paper states it).
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.

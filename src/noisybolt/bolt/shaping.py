@@ -1,36 +1,48 @@
-"""Progress shaping over each spec's DFA: potential-based, so it never changes what is optimal.
+"""The compliance scheme's progress terms over each spec's DFA: graded outcome and shaping.
 
 Algorithm 1 pays nothing before a spec is satisfied, so a detour that a spec asks for
-(visit a corner, then the goal) gets no signal until it is complete. Progress shaping
-adds, on every bolt transition ``q -> q'``, the potential-based term of Ng, Harada &
-Russell (ICML 1999)::
+(visit a corner, then the goal) gets no signal until it is complete. The ``compliance``
+reward scheme (:mod:`noisybolt.bolt.schemes`) pays each spec ``scale`` at the end of an
+accepted episode (the engine's ``episode_end`` timing) and, with this module:
 
-    F(q, q') = gamma * Phi(q') - Phi(q)        (Phi of the state after the episode's
-                                                last transition is 0: the absorbing end)
+* a *graded outcome*: an episode that ends short of acceptance is charged by how far it
+  is, ``Phi(q_T)``, with the potential of a DFA state from its distance to acceptance::
 
-with a potential from the DFA state's distance to acceptance (as in Camacho et al.,
-IJCAI 2019, "LTL and Beyond", and Toro Icarte et al.'s reward-machine shaping)::
+      Phi(q) = -scale * d(q) / (d_max + 1)   d(q): fewest letters to an accepting state
+      Phi(q) = 0                              where no accepting state is reachable
 
-    Phi(q) = -scale * d(q) / (d_max + 1)       d(q) = fewest letters to an accepting state
-    Phi(q) = -scale                             where no accepting state is reachable
+* a *violation charge*, ``-scale``, on the transition that makes acceptance impossible
+  (into a rejecting sink), paid when it happens: the outcome is settled then, and a
+  violated episode has nothing left to gain from delaying its end;
+* *progress shaping* (optional), the potential-based term of Ng, Harada & Russell
+  (ICML 1999) with that potential (as Camacho et al., IJCAI 2019, shape reward machines)::
 
-so moving one letter closer to acceptance pays about ``scale / (d_max + 1)`` at once and
-falling into a rejecting sink costs about what the spec is worth. Over an episode the
-terms telescope to ``-Phi(q_0)``, which no action changes: with ``gamma`` the learner's
-discount, every policy's value moves by the same amount, and the optimal policy is the
-same with and without shaping (tested by value iteration on the gridworld's product).
+      F(q, q') = gamma * Phi(q') - Phi(q)     (Phi after the episode's last transition: 0)
+
+  so each letter closer to acceptance pays about ``scale / (d_max + 1)`` at once.
+
+Over an episode the shaping terms sum (discounted) to ``gamma^T * 0 - Phi(q_0)``, which
+no action changes, so the optimal policy of the scheme is the same with and without
+shaping (tested by value iteration on the gridworld's product). Without shaping, the
+graded outcome and the violation charge alone already rank episodes: accepted (+scale)
+above unfinished (down to ``-scale * d_max / (d_max + 1)``) above violated (-scale).
 
 Example:
     >>> import numpy as np
     >>> from noisybolt.logic import compile_ltlf
-    >>> shaping = ProgressShaping([compile_ltlf("F(a & X(F(b)))", ["a", "b"])],
-    ...                           scales=[30.0], gamma=1.0)
-    >>> sorted(set(shaping.potentials[0].tolist()))
+    >>> dfa = compile_ltlf("F(a & X(F(b)))", ["a", "b"])
+    >>> terms = ProgressShaping([dfa], scales=[30.0], gamma=1.0)
+    >>> sorted(set(terms.potentials[0].tolist()))
     [-20.0, -10.0, 0.0]
-    >>> q0 = shaping.dfas[0].initial_state
-    >>> q1 = shaping.dfas[0].step(q0, {"a": True, "b": False})
-    >>> shaping(np.array([[q0]]), np.array([[q1]]), done=np.array([False])).tolist()
+    >>> q0 = dfa.initial_state
+    >>> q1 = dfa.step(q0, {"a": True, "b": False})
+    >>> terms(np.array([[q0]]), np.array([[q1]]), done=np.array([False])).tolist()  # progress
     [[10.0]]
+    >>> terms(np.array([[q0]]), np.array([[q1]]), done=np.array([True])).tolist()  # ends there
+    [[10.0]]
+    >>> ProgressShaping([dfa], scales=[30.0], gamma=1.0, shaping=False)(
+    ...     np.array([[q0]]), np.array([[q1]]), done=np.array([True])).tolist()  # end charge
+    [[-10.0]]
 """
 
 from __future__ import annotations
@@ -47,54 +59,82 @@ from noisybolt.logic.dfa import DFA
 __all__ = ["ProgressShaping", "progress_potential"]
 
 
-def progress_potential(dfa: DFA, scale: float) -> np.ndarray:
-    """float64 ``[n_states]``: ``Phi`` of each DFA state (see the module docstring)."""
-    distance = distance_to_acceptance(dfa)
+def progress_potential(dfa: DFA, scale: float, letters: np.ndarray | None = None) -> np.ndarray:
+    """float64 ``[n_states]``: ``Phi`` of each DFA state (see the module docstring).
+
+    ``letters``: the letters the world produces, as bitmasks over ``dfa.fluents`` (see
+    :func:`~noisybolt.logic.distance_to_acceptance`); None for every letter.
+    """
+    distance = distance_to_acceptance(dfa, letters)
     d_max = int(distance.max(initial=0))
-    potential = np.where(distance >= 0, -scale * distance / (d_max + 1), -scale)
+    potential = np.where(distance >= 0, -scale * distance / (d_max + 1), 0.0)
     return potential.astype(np.float64) + 0.0  # + 0.0: no -0.0 for accepting states
 
 
 class ProgressShaping:
-    """Potential-based progress shaping for several specs, batched over environments.
+    """The compliance scheme's progress terms for several specs, batched over environments.
 
     Args:
         dfas: the specs' DFAs, in the bolt's order.
-        scales: per spec, the reward its acceptance is worth (the potential's range).
+        scales: per spec, the reward its acceptance is worth.
         gamma: the learner's discount factor (shaping is policy-invariant only with it).
+        shaping: add the potential-based shaping term; False keeps only the graded
+            outcome and the violation charge.
+        letters: per spec, the letters the world produces (bitmasks over its DFA's
+            fluents), so distances count only steps the world can take; None (or a None
+            entry) for every letter.
 
     Raises:
         ConfigError: a negative or non-finite scale, a gamma outside (0, 1], or a
             different number of DFAs and scales.
     """
 
-    def __init__(self, dfas: Sequence[DFA], *, scales: Sequence[float], gamma: float) -> None:
+    def __init__(
+        self,
+        dfas: Sequence[DFA],
+        *,
+        scales: Sequence[float],
+        gamma: float,
+        shaping: bool = True,
+        letters: Sequence[np.ndarray | None] | None = None,
+    ) -> None:
         dfas, scales = tuple(dfas), tuple(float(s) for s in scales)
+        per_spec = tuple(letters) if letters is not None else (None,) * len(dfas)
+        if len(per_spec) != len(dfas):
+            raise ConfigError(f"progress shaping: {len(dfas)} DFAs but {len(per_spec)} letter sets")
         if len(dfas) != len(scales):
             raise ConfigError(f"progress shaping: {len(dfas)} DFAs but {len(scales)} scales")
         for scale in scales:
             if not math.isfinite(scale) or scale < 0:
                 raise ConfigError(f"progress shaping: a scale must be finite and >= 0, got {scale}")
-        if not (isinstance(gamma, (int, float)) and 0.0 < gamma <= 1.0):
+        if isinstance(gamma, bool) or not isinstance(gamma, (int, float)) or not 0 < gamma <= 1:
             raise ConfigError(f"progress shaping: gamma must be in (0, 1], got {gamma!r}")
         self._dfas = dfas
         self._gamma = float(gamma)
+        self._shaping = bool(shaping)
         self._potentials = tuple(
-            progress_potential(d, s) for d, s in zip(dfas, scales, strict=True)
+            progress_potential(d, s, m) for d, s, m in zip(dfas, scales, per_spec, strict=True)
         )
-        offsets = np.cumsum((0, *(d.n_states for d in dfas[:-1])), dtype=np.int64)
-        self._offsets = offsets
-        self._flat = np.concatenate(self._potentials) if dfas else np.zeros(0)
+        self._offsets = np.cumsum((0, *(d.n_states for d in dfas[:-1])), dtype=np.int64)
+        self._flat = np.concatenate(self._potentials)
+        # What violating costs, as a potential: -scale on the states that cannot accept.
+        dead = [distance_to_acceptance(d) < 0 for d in dfas]
+        self._dead_cost = np.concatenate([s * d for s, d in zip(scales, dead, strict=True)])
 
     @property
     def dfas(self) -> tuple[DFA, ...]:
-        """The DFAs shaped, in order."""
+        """The DFAs, in order."""
         return self._dfas
 
     @property
     def gamma(self) -> float:
         """The discount factor the shaping is invariant for."""
         return self._gamma
+
+    @property
+    def shaping(self) -> bool:
+        """Whether the potential-based shaping term is added."""
+        return self._shaping
 
     @property
     def potentials(self) -> tuple[np.ndarray, ...]:
@@ -108,10 +148,16 @@ class ProgressShaping:
     def __call__(
         self, states: np.ndarray, next_states: np.ndarray, *, done: np.ndarray
     ) -> np.ndarray:
-        """float64 ``[n_envs, n_specs]``: ``F`` of the transitions ``states -> next_states``.
+        """float64 ``[n_envs, n_specs]``: the terms of the transitions ``states -> next_states``.
 
-        ``done`` (bool ``[n_envs]``) marks transitions that end the episode: the state
-        after them is the absorbing end, whose potential is 0.
+        ``done`` (bool ``[n_envs]``) marks transitions that end the episode.
         """
-        after = np.where(done[:, None], 0.0, self.potential(next_states))
-        return self._gamma * after - self.potential(states)
+        before, after = self.potential(states), self.potential(next_states)
+        cells, next_cells = states + self._offsets, next_states + self._offsets
+        violation = self._dead_cost[cells] - self._dead_cost[next_cells]  # -scale on entry
+        ended = done[:, None]
+        end_charge = np.where(ended, after, 0.0)
+        if not self._shaping:
+            return violation + end_charge
+        shaping = np.where(ended, 0.0, self._gamma * after) - before
+        return violation + end_charge + shaping

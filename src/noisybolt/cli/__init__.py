@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "noisybolt.cli.demo",
     "noisybolt.cli.classifiers",
     "noisybolt.cli.train",
+    "noisybolt.cli.check",
     "noisybolt.cli.experiments",
 )
 

@@ -46,7 +46,12 @@ def register(subparsers: Any) -> None:
         help="train an agent under a restraining bolt",
         description="Train PPO, A2C or DQN on a world under the bolt's LTLf specs.",
     )
-    train.add_argument("--world", default="gridworld", help="world name (default gridworld)")
+    train.add_argument(
+        "--world",
+        default="gridworld",
+        help="a world name (default gridworld) or a factory path PACKAGE.MODULE:FACTORY whose "
+        "FACTORY() returns a labelled env (noisybolt.FluentLabels); recorded in config.json",
+    )
     train.add_argument(
         "--spec",
         action="append",
@@ -56,6 +61,40 @@ def register(subparsers: Any) -> None:
         "clear_left_column, left_row0..left_row5), a group of them (left_column_milestones: "
         "clear_left_column and one spec per brick of Breakout's left column) or an LTLf "
         "formula over the world's fluents; repeat for several",
+    )
+    train.add_argument(
+        "--spec-set",
+        action=_SpecSetAction,
+        dest="spec",
+        metavar="KEY=VALUE",
+        help="a setting of the --spec before it: reward_scale, low_confidence_cost, name "
+        "(and, with --reward paper, terminal_reward, reward_timing); repeat for several",
+    )
+    train.add_argument(
+        "--specs-file",
+        type=Path,
+        default=None,
+        help="a YAML file of specs (names, formulas, or mappings with per-spec settings)",
+    )
+    train.add_argument(
+        "--reward",
+        default="compliance",
+        help="reward scheme: compliance (default: complying is worth more than any gap "
+        "between two episodes' returns, paid at the episode's end, with progress shaping) "
+        "or paper (each spec's terminal_reward every accepting step: Algorithm 1 as "
+        "reproduced)",
+    )
+    train.add_argument(
+        "--reward-scale",
+        type=float,
+        default=None,
+        help="compliance scheme: what complying with a spec is worth (default: from the "
+        "world's declared return bounds)",
+    )
+    train.add_argument(
+        "--no-shaping",
+        action="store_true",
+        help="compliance scheme: no progress shaping over the DFAs",
     )
     train.add_argument("--algo", default="ppo", help="ppo, a2c or dqn (default ppo)")
     train.add_argument(
@@ -88,6 +127,14 @@ def register(subparsers: Any) -> None:
         default=[],
         metavar="KEY=VALUE",
         help="hyperparameter override, e.g. --hp learning_rate=3e-4",
+    )
+    train.add_argument(
+        "--hp-file",
+        type=Path,
+        default=None,
+        help="hyperparameters from this YAML file (one entry per algorithm, as in "
+        "noisybolt/configs/hyperparams/gridworld.yaml) instead of the world's built-in "
+        "ones; a world without built-in ones gets the documented _default.yaml",
     )
     train.add_argument(
         "--eval-freq",
@@ -138,6 +185,40 @@ def register(subparsers: Any) -> None:
     evaluate.set_defaults(func=_evaluate)
 
 
+class _SpecSetAction(argparse.Action):
+    """``--spec-set KEY=VALUE``: a setting of the ``--spec`` given just before it."""
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
+        import yaml
+
+        from noisybolt.agents.specs import BUILTIN_SPECS, SPEC_FILE_KEYS
+
+        specs = list(getattr(namespace, self.dest) or [])
+        if not specs:
+            parser.error("--spec-set sets a setting of the --spec before it: give a --spec first")
+        key, sep, text = str(values).partition("=")
+        key = key.strip()
+        if not sep or key not in SPEC_FILE_KEYS or key == "formula":
+            known = [k for k in SPEC_FILE_KEYS if k != "formula"]
+            parser.error(f"--spec-set takes KEY=VALUE with KEY one of {known}, got {values!r}")
+        last = specs[-1]
+        if isinstance(last, str):
+            text_spec = last.strip()
+            last = {"name": text_spec} if text_spec in BUILTIN_SPECS else {"formula": text_spec}
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        specs[-1] = {**last, key: value}
+        setattr(namespace, self.dest, specs)
+
+
 def _world_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     kwargs: dict[str, Any] = {}
     if args.noise is not None:
@@ -167,10 +248,16 @@ def _sigterm_as_interrupt() -> Iterator[None]:
 
 def _train(args: argparse.Namespace) -> int:
     from noisybolt.agents.hyperparams import parse_overrides
+    from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 
-    if not args.spec:
-        raise ConfigError("give at least one --spec (a built-in name or an LTLf formula)")
+    specs = list(args.spec)
+    if args.specs_file is not None:
+        specs += load_specs_file(args.specs_file)
+    if not specs:
+        raise ConfigError(
+            "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
+        )
     detector = DetectorConfig(
         kind=args.detector,
         path=str(args.classifier) if args.classifier else None,
@@ -179,9 +266,10 @@ def _train(args: argparse.Namespace) -> int:
     )
     config = TrainConfig.create(
         world=args.world,
-        specs=args.spec,
+        specs=specs,
         algo=args.algo,
         overrides=parse_overrides(args.hp),
+        hp_file=args.hp_file,
         n_envs=args.n_envs,
         world_kwargs=_world_kwargs(args),
         detector=detector,
@@ -191,11 +279,26 @@ def _train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
         cost_mode=args.cost_mode,
+        reward=args.reward,
+        reward_scale=args.reward_scale,
+        shaping=not args.no_shaping,
         bolted=not args.unbolted,
         keep_best=args.keep_best,
         progress_bar=not args.no_progress,
     )
-    out = args.out or Path("runs") / f"{args.world}-{args.algo}-seed{args.seed}"
+    from noisybolt.cli.check import goal_feasibility, with_exact_scale
+
+    if config.reward == "compliance" and args.reward_scale is None:
+        config = with_exact_scale(config)
+    best = goal_feasibility(config)
+    if best is not None and best.value is None:
+        print(
+            "warning: no episode of this world reaches the goal while complying with every "
+            "spec (noisybolt check says more): the agent must trade the goal for the bolt"
+        )
+    print(describe_scheme(config))
+    world_label = args.world.replace(":", ".")  # a factory path names no folder well
+    out = args.out or Path("runs") / f"{world_label}-{args.algo}-seed{args.seed}"
     if args.resume and not (out / "config.json").exists():
         raise ConfigError(f"--resume: {out} holds no run to continue")
     with _sigterm_as_interrupt():
@@ -210,6 +313,21 @@ def _train(args: argparse.Namespace) -> int:
     )
     print(f"\nrun directory: {result.run_dir}")
     return 0
+
+
+def describe_scheme(config: Any) -> str:
+    """One line saying how the run's bolt pays (the scale chosen, for ``compliance``)."""
+    if not config.bolted:
+        return "unbolted: the specs are tracked for compliance only, with no rewards"
+    if config.reward == "paper":
+        return "reward scheme: paper (each spec's terminal reward on every accepting step)"
+    scales = sorted({spec.terminal_reward for spec in config.spec_objects()})
+    shaping = "with" if config.shaping else "without"
+    return (
+        f"reward scheme: compliance, {shaping} progress shaping; complying with a spec is "
+        f"worth {', '.join(f'{s:g}' for s in scales)} at the episode's end "
+        f"(scale {config.reward_scale:g}; --reward-scale to change it)"
+    )
 
 
 def format_eval_table(

@@ -56,10 +56,14 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
+from noisybolt.bolt.schemes import ReturnBounds
 from noisybolt.envs.fluents import select_fluents
 from noisybolt.errors import ConfigError
 from noisybolt.perception.noise import make_noise
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
+
+#: The most points a game of Breakout can score: two walls of 432 (see return_bounds).
+MAX_SCORE = 864.0
 
 __all__ = [
     "BRICK_BITS",
@@ -483,6 +487,11 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self._final_images = None
 
     # -- the bolt's view ------------------------------------------------------------------
+    def return_bounds(self) -> ReturnBounds:
+        """Bounds on an episode's game score (see :mod:`noisybolt.envs.bounds`): 0 to two
+        walls of 108 bricks, each wall worth (1 + 1 + 4 + 4 + 7 + 7) * 18 = 432 points."""
+        return ReturnBounds(0.0, MAX_SCORE)
+
     @property
     def fluent_names(self) -> tuple[str, ...]:
         """The bolt's fluents, in the column order of :meth:`true_fluents`."""

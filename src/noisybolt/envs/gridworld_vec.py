@@ -39,6 +39,8 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from noisybolt.bolt.schemes import ReturnBounds
+from noisybolt.envs.bounds import episode_return_bounds
 from noisybolt.envs.gridworld import (
     AGENT_COLOUR,
     AGENT_OBJECT,
@@ -297,6 +299,15 @@ class VectorGridworld(VectorEnv):
         return tuple(frames)
 
     # ------------------------------------------------------------ BoltObservable API
+
+    def return_bounds(self) -> ReturnBounds:
+        """Bounds on an episode's return: every step pays ``step_reward``, the goal once
+        ``goal_reward`` more, within ``step_limit`` steps (see :mod:`noisybolt.envs.bounds`)."""
+        step = self.config.step_reward
+        goal = self.config.goal_reward
+        return episode_return_bounds(
+            step_reward=(step, step), horizon=self._step_limit, bonus=(min(goal, 0), max(goal, 0))
+        )
 
     @property
     def fluent_names(self) -> tuple[str, ...]:

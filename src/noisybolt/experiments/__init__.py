@@ -3,6 +3,8 @@
 * :mod:`noisybolt.experiments.optimal`: exact R^c_max (and R_max) by planning on the
   product of the gridworld's true dynamics and the specs' DFAs
   (``python -m noisybolt.experiments.optimal`` prints it for the paper's specs).
+* :mod:`noisybolt.experiments.spec_families`: specs nobody tuned for, generated from
+  Dwyer et al.'s specification patterns (the spec-family suite).
 * :mod:`noisybolt.experiments.sweep`: grids of training runs from YAML (rows x settings x
   seeds), resumable, with retries, on a local process pool or Ray Tune
   (:mod:`noisybolt.experiments.ray_backend`); results as mean ± std tables.
@@ -32,12 +34,17 @@ if TYPE_CHECKING:
     from noisybolt.experiments.optimal import (
         PAPER_TABLE1_RC_MAX,
         OptimalResult,
+        SchemeOptimum,
         SpecLike,
         SpecOptimum,
+        exact_compliance_scale,
         format_optima_table,
         optimal_constrained_return,
         optimal_unconstrained_return,
         paper_spec_optima,
+        scheme_optimum,
+        scheme_q_values,
+        tabular_gridworld_settings,
     )
     from noisybolt.experiments.report import (
         plot_learning_curves,
@@ -45,6 +52,7 @@ if TYPE_CHECKING:
         sweep_report,
         write_report,
     )
+    from noisybolt.experiments.spec_families import GeneratedSpec, generate_spec_suite
     from noisybolt.experiments.sweep import (
         GroupSummary,
         Stat,
@@ -78,6 +86,13 @@ _SOURCES: dict[str, str] = {
     "optimal_constrained_return": "optimal",
     "optimal_unconstrained_return": "optimal",
     "paper_spec_optima": "optimal",
+    "SchemeOptimum": "optimal",
+    "exact_compliance_scale": "optimal",
+    "scheme_optimum": "optimal",
+    "scheme_q_values": "optimal",
+    "tabular_gridworld_settings": "optimal",
+    "GeneratedSpec": "spec_families",
+    "generate_spec_suite": "spec_families",
     "CornerVisits": "case4",
     "case4_sweep": "case4",
     "measure_corners": "case4",
@@ -110,9 +125,11 @@ __all__ = [
     "PAPER_TABLE1_RC_MAX",
     "TABLE1_ROWS",
     "CornerVisits",
+    "GeneratedSpec",
     "GroupSummary",
     "OptimalResult",
     "PaperNumbers",
+    "SchemeOptimum",
     "SpecLike",
     "SpecOptimum",
     "Stat",
@@ -126,7 +143,9 @@ __all__ = [
     "builtin_sweeps",
     "case4_sweep",
     "collect_sweep",
+    "exact_compliance_scale",
     "format_optima_table",
+    "generate_spec_suite",
     "load_sweep",
     "measure_corners",
     "optimal_constrained_return",
@@ -137,8 +156,11 @@ __all__ = [
     "reproduce_table1",
     "run_report",
     "run_sweep",
+    "scheme_optimum",
+    "scheme_q_values",
     "sweep_report",
     "table1_sweep",
+    "tabular_gridworld_settings",
     "write_report",
     "write_table1",
 ]

@@ -133,7 +133,9 @@ def measure_corners(
     dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
     n_envs = max(1, min(n_envs, episodes))
-    env = build_bolted_env(config, detector, n_envs=n_envs, seed=seed, dfas=dfas)
+    env = build_bolted_env(
+        config, detector, n_envs=n_envs, seed=seed, dfas=dfas, letters=setup.letters
+    )
     world: Any = env.world
     if not hasattr(world, "agent_state"):
         raise ConfigError(f"{config.world} does not report agent positions (agent_state)")
@@ -227,6 +229,7 @@ def case4_sweep(
             "name": "case4",
             "base": {
                 "world": "gridworld",
+                "reward": "paper",  # Algorithm 1 as the paper pays it
                 "specs": [
                     "one_corner_once"
                     if low_confidence_cost is None

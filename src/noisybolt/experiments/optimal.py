@@ -63,6 +63,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from noisybolt.bolt.shaping import progress_potential
 from noisybolt.bolt.spec import Spec
 from noisybolt.envs.gridworld import (
     GRIDWORLD_FLUENTS,
@@ -72,17 +73,22 @@ from noisybolt.envs.gridworld import (
     resolve_fluents,
 )
 from noisybolt.errors import ConfigError
-from noisybolt.logic import DFA, compile_ltlf, masks_from_bool_matrix
+from noisybolt.logic import DFA, compile_ltlf, distance_to_acceptance, masks_from_bool_matrix
 
 __all__ = [
     "PAPER_TABLE1_RC_MAX",
     "OptimalResult",
+    "SchemeOptimum",
     "SpecLike",
     "SpecOptimum",
+    "exact_compliance_scale",
     "format_optima_table",
     "optimal_constrained_return",
     "optimal_unconstrained_return",
     "paper_spec_optima",
+    "scheme_optimum",
+    "scheme_q_values",
+    "tabular_gridworld_settings",
 ]
 
 #: What a spec may be given as: LTLf text over the gridworld fluents, a bolt
@@ -484,6 +490,186 @@ def format_optima_table(rows: Sequence[SpecOptimum]) -> str:
         formula = row.formula.replace("|", "\\|")  # a bare | would end the cell
         lines.append(f"| {row.name} | `{formula}` | {value} | {steps} | {row.paper_value:g} |")
     return "\n".join(lines)
+
+
+def tabular_gridworld_settings(world: object) -> dict[str, object] | None:
+    """The planner's world settings (size, max_steps, step and goal rewards) of a
+    vectorised gridworld, or None for a world the planner cannot explore."""
+    from noisybolt.envs.gridworld_vec import VectorGridworld
+
+    if not isinstance(world, VectorGridworld) or world.config.start_heading != "east":
+        return None
+    config = world.config
+    return {
+        "size": config.size,
+        "max_steps": config.max_steps,
+        "step_reward": config.step_reward,
+        "goal_reward": config.goal_reward,
+    }
+
+
+@dataclass(frozen=True)
+class SchemeOptimum:
+    """The optimal policy of the problem the ``compliance`` reward scheme sets (discounted).
+
+    Attributes:
+        complies: whether its episode from the start complies with every spec.
+        reaches_goal: whether that episode ends at the goal.
+        steps: the episode's length.
+        env_return: its (undiscounted) environment return.
+    """
+
+    complies: bool
+    reaches_goal: bool
+    steps: int
+    env_return: float
+
+
+def scheme_q_values(
+    specs: Sequence[SpecLike],
+    *,
+    scale: float,
+    gamma: float,
+    shaping: bool,
+    size: int = 6,
+    max_steps: int | None = None,
+    step_reward: float = -1.5,
+    goal_reward: float = 100.0,
+) -> np.ndarray:
+    """Optimal Q-values ``[horizon, n_agent, n_joint, n_actions]`` of the compliance scheme.
+
+    The learner's problem on the product of the gridworld and the specs' DFAs (on ground
+    truth, no perception noise), discounted by ``gamma``: each step pays the world's
+    reward and the progress terms of :class:`~noisybolt.bolt.ProgressShaping` (the
+    violation charge; at the end, the graded outcome; with ``shaping``, the
+    potential-based term), and an episode that ends (at the goal, or truncated at the
+    step limit) pays ``scale`` per spec whose DFA accepts. Backward induction over the
+    steps left.
+    """
+    dfas = [_as_dfa(spec) for spec in specs]
+    model = _gridworld_model(size, max_steps, step_reward, goal_reward)
+    product = _product(dfas, model)
+    n_agent, n_joint = product.successor.shape
+    # Per joint state, summed over specs: acceptance's worth, the potential, the
+    # violation charge as a potential (-scale where a spec can no longer accept).
+    accepted = np.zeros(n_joint)
+    potential = np.zeros(n_joint)
+    dead_cost = np.zeros(n_joint)
+    rest = np.arange(n_joint)
+    for dfa in dfas:  # the joint index's digits, first DFA lowest (as _product builds it)
+        q = rest % dfa.n_states
+        rest = rest // dfa.n_states
+        accepted += scale * dfa.accepting[q]
+        _, columns = resolve_fluents(dfa.fluents)
+        letters = masks_from_bool_matrix(model.fluents[:, columns])  # the world's own
+        potential += progress_potential(dfa, scale, letters)[q]
+        dead_cost += scale * (distance_to_acceptance(dfa)[q] < 0)
+    horizon = model.step_limit
+    n_actions = model.next_index.shape[1]
+    q_values = np.empty((horizon, n_agent, n_joint, n_actions))
+    value = np.zeros((n_agent, n_joint))  # never read at the last step: every episode ends
+    for t in range(horizon - 1, -1, -1):
+        for a in range(n_actions):
+            reached = model.next_index[:, a]
+            joint = product.successor[reached]  # [n_agent, n_joint]
+            ends = model.terminated[:, a, None] | (t == horizon - 1)
+            reward = model.reward[:, a, None] + dead_cost[None, :] - dead_cost[joint]
+            reward = reward + np.where(ends, accepted[joint] + potential[joint], 0.0)
+            if shaping:
+                reward = reward + np.where(ends, 0.0, gamma * potential[joint]) - potential
+            q_values[t, :, :, a] = reward + np.where(
+                ends, 0.0, gamma * value[reached[:, None], joint]
+            )
+        value = q_values[t].max(axis=-1)
+    return q_values
+
+
+def scheme_optimum(
+    specs: Sequence[SpecLike],
+    *,
+    scale: float,
+    gamma: float,
+    shaping: bool = True,
+    size: int = 6,
+    max_steps: int | None = None,
+    step_reward: float = -1.5,
+    goal_reward: float = 100.0,
+) -> SchemeOptimum:
+    """What the optimal policy of :func:`scheme_q_values`'s problem does from the start.
+
+    Example:
+        >>> r = scheme_optimum(["F(top_right_corner) & F(bottom_left_corner)"],
+        ...                    scale=346.0, gamma=0.99)
+        >>> r.complies, r.reaches_goal, r.steps
+        (True, True, 16)
+    """
+    world = {
+        "size": size,
+        "max_steps": max_steps,
+        "step_reward": step_reward,
+        "goal_reward": goal_reward,
+    }
+    q_values = scheme_q_values(specs, scale=scale, gamma=gamma, shaping=shaping, **world)
+    dfas = [_as_dfa(spec) for spec in specs]
+    model = _gridworld_model(size, max_steps, step_reward, goal_reward)
+    product = _product(dfas, model)
+    s, j, total = model.start, product.initial, 0.0
+    reaches_goal, steps = False, 0
+    for t in range(model.step_limit):
+        a = int(np.argmax(q_values[t, s, j]))
+        total += float(model.reward[s, a])
+        steps += 1
+        reaches_goal = bool(model.terminated[s, a])
+        s = int(model.next_index[s, a])
+        j = int(product.successor[s, j])
+        if reaches_goal:
+            break
+    return SchemeOptimum(
+        complies=bool(product.accepting[j]),
+        reaches_goal=reaches_goal,
+        steps=steps,
+        env_return=total,
+    )
+
+
+def exact_compliance_scale(
+    specs: Sequence[SpecLike],
+    *,
+    gamma: float,
+    floor: float,
+    cap: float,
+    size: int = 6,
+    max_steps: int | None = None,
+    step_reward: float = -1.5,
+    goal_reward: float = 100.0,
+) -> float | None:
+    """The compliance scheme's scale computed exactly on the gridworld's product.
+
+    Complying must be worth more than what it costs the world's return: twice the gap
+    between the best goal-reaching episode and the best compliant one
+    (``R_max - R^c_max``), plus ``floor`` so that a spec the shortest route already
+    follows still pays for staying on it; doubled until the optimal policy of the
+    discounted problem (:func:`scheme_optimum` with the learner's ``gamma``) complies,
+    and never above ``cap`` (the bound from the world's return range). Far smaller than
+    ``cap`` where complying costs a few steps, which keeps the learner's rewards in scale.
+
+    Returns:
+        The scale, or None when no goal-reaching episode complies (use ``cap``).
+    """
+    world = {
+        "size": size,
+        "max_steps": max_steps,
+        "step_reward": step_reward,
+        "goal_reward": goal_reward,
+    }
+    best = optimal_unconstrained_return(require_goal=True, **world)  # type: ignore[arg-type]
+    compliant = optimal_constrained_return(specs, require_goal=True, **world)  # type: ignore[arg-type]
+    if compliant.value is None or best.value is None:
+        return None
+    scale = min(cap, 2.0 * (best.value - compliant.value) + floor)
+    while scale < cap and not scheme_optimum(specs, scale=scale, gamma=gamma, **world).complies:  # type: ignore[arg-type]
+        scale = min(cap, 2.0 * scale)
+    return float(scale)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -224,6 +224,8 @@ def table1_sweep(
             "base": {
                 "world": "gridworld",
                 "world_kwargs": {"noise": noise},
+                # Algorithm 1 as the paper pays it (every accepting step +1, cost 0.5).
+                "reward": "paper",
                 "detector": {"kind": detector},
                 "eval_episodes": eval_episodes,
                 "keep_best": keep_best,

@@ -76,14 +76,44 @@ def is_valid(dfa: DFA) -> bool:
     return bool(np.all(dfa.accepting[reachable_states(dfa)]))
 
 
-def distance_to_acceptance(dfa: DFA) -> np.ndarray:
+def distance_to_acceptance(dfa: DFA, letters: np.ndarray | None = None) -> np.ndarray:
     """int64 ``[n_states]``: fewest letters from each state to an accepting one.
 
     0 for accepting states, ``-1`` for states from which no accepting state is reachable.
     Breadth-first search backwards from the accepting states.
+
+    Args:
+        dfa: the automaton.
+        letters: the letters a world can produce, as bitmasks over ``dfa.fluents`` (int
+            ``[n]``); None for every letter. A world rarely produces them all (the agent is
+            never in two corners at once), so distances over its own letters say better
+            how far a state is from acceptance. A state that cannot reach acceptance
+            over those letters keeps its distance over all letters (the sample may have
+            missed a letter the world can produce).
+
+    Example:
+        >>> from noisybolt.logic import compile_ltlf
+        >>> dfa = compile_ltlf("F(a) & F(b)", ["a", "b"])
+        >>> int(distance_to_acceptance(dfa)[dfa.initial_state])  # one letter: a & b
+        1
+        >>> int(distance_to_acceptance(dfa, np.array([0b00, 0b01, 0b10]))[dfa.initial_state])
+        2
     """
+    every = _distances(dfa, successors(dfa))
+    if letters is None:
+        return every
+    masks = np.unique(np.asarray(letters, dtype=np.uint64))
+    succ = []
+    for q in range(dfa.n_states):
+        reached, _ = dfa.step_batch(np.full(len(masks), q), masks)
+        succ.append(tuple(sorted({int(t) for t in reached})))
+    own = _distances(dfa, tuple(succ))
+    return np.where((own < 0) & (every >= 0), every, own)
+
+
+def _distances(dfa: DFA, succ: tuple[tuple[int, ...], ...]) -> np.ndarray:
     predecessors: list[list[int]] = [[] for _ in range(dfa.n_states)]
-    for q, targets in enumerate(successors(dfa)):
+    for q, targets in enumerate(succ):
         for t in targets:
             predecessors[t].append(q)
     distance = np.full(dfa.n_states, -1, dtype=np.int64)

@@ -7,8 +7,17 @@ from collections.abc import Sequence
 import gymnasium as gym
 import numpy as np
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, BoltStep, CostMode, RestrainingBolt, Spec, Thresholds
+from noisybolt.bolt import (
+    DEFAULT_THRESHOLDS,
+    BoltStep,
+    CostMode,
+    ProgressShaping,
+    RestrainingBolt,
+    Spec,
+    Thresholds,
+)
 from noisybolt.errors import IncompatibleError
+from noisybolt.logic import compile_ltlf, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 
@@ -74,8 +83,18 @@ def build_bolt(
     thresholds: Thresholds = DEFAULT_THRESHOLDS,
     cost_mode: CostMode = "count",
     end_on_violation: bool = False,
+    progress_gamma: float | None = None,
+    shaping: bool = True,
+    world_letters: np.ndarray | None = None,
 ) -> BoltParts:
     """Checks that specs, detector and world agree, and builds the bolt and its twin.
+
+    ``progress_gamma``: add the ``compliance`` reward scheme's progress terms
+    (:class:`~noisybolt.bolt.ProgressShaping`: graded outcome, violation charge and, with
+    ``shaping``, potential-based shaping) for a learner with this discount, each spec
+    scaled by its terminal reward; None for none (the ``paper`` scheme).
+    ``world_letters``: true fluents the world produces (bool ``[n, n_fluents]``, e.g.
+    from random play), so progress counts only steps the world can take.
 
     Raises:
         UnknownFluentError: a spec reads a fluent the world does not have (the message
@@ -88,10 +107,26 @@ def build_bolt(
             f"the detector predicts {list(detector.fluent_names)} but the world's fluents are "
             f"{list(world_fluents)}; use a detector made for this world"
         )
+    if dfas is None:
+        dfas = [compile_ltlf(spec.formula, world_fluents) for spec in specs]
+    terms = None
+    if progress_gamma is not None:
+        scales = [spec.terminal_reward for spec in specs]
+        letters = None
+        if world_letters is not None:
+            index = {name: i for i, name in enumerate(world_fluents)}
+            letters = [
+                masks_from_bool_matrix(world_letters[:, [index[f] for f in dfa.fluents]])
+                for dfa in dfas
+            ]
+        terms = ProgressShaping(
+            dfas, scales=scales, gamma=progress_gamma, shaping=shaping, letters=letters
+        )
     bolt = RestrainingBolt(
         specs,
         world_fluents,
         dfas=dfas,
+        shaping=terms,
         thresholds=thresholds,
         cost_mode=cost_mode,
         n_envs=n_envs,
@@ -130,6 +165,7 @@ def bolt_info(
         "bolt_reward": float(out.total[index]),
         "bolt_terminal": out.terminal[index],
         "bolt_low_confidence": out.low_confidence[index],
+        "bolt_progress": out.progress[index],
         "bolt_carried": float(out.carried[index]),
         "fluent_probs": probs[index],
         "true_fluents": truth[index],

@@ -43,6 +43,8 @@ class BoltVecEnv(VecEnvWrapper):
         detector: fluent detector, called once per step on the whole batch.
         world: the object meeting :class:`BoltObservable` (default ``venv.unwrapped``).
         dfas, thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
+        progress_gamma, shaping, world_letters: the compliance scheme's progress terms (see
+            :func:`~noisybolt.wrappers._common.build_bolt`); None for none.
         end_on_violation: must be False here (see the error it raises).
     """
 
@@ -57,6 +59,9 @@ class BoltVecEnv(VecEnvWrapper):
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
         end_on_violation: bool = False,
+        progress_gamma: float | None = None,
+        shaping: bool = True,
+        world_letters: np.ndarray | None = None,
     ) -> None:
         if end_on_violation:
             # Ending an episode that the world did not end needs a per-environment reset,
@@ -80,6 +85,9 @@ class BoltVecEnv(VecEnvWrapper):
             thresholds=thresholds,
             cost_mode=cost_mode,
             end_on_violation=end_on_violation,
+            progress_gamma=progress_gamma,
+            shaping=shaping,
+            world_letters=world_letters,
         )
         self.bolt = parts.bolt
         self._truth = parts.truth

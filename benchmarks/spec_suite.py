@@ -1,0 +1,241 @@
+"""Specs nobody tuned for, learned with the built-in defaults: the spec-family suite.
+
+Generates the suite (:func:`noisybolt.experiments.spec_families.generate_spec_suite`:
+Dwyer et al.'s patterns over the gridworld's fluents, each with a compliant route to the
+goal, fixed by ``--suite-seed``), trains every (spec, algorithm, seed, scheme) with
+``noisybolt.agents.training.train`` and the built-in hyperparameters, the classifier bolt
+on the regionally smudged camera, and judges compliance from ground truth. Prints, per
+algorithm and scheme, per pattern family: specs followed (>= 95 % compliance in every
+seed), goal rate, mean return against R^c_max, N_frames; then one summary line per
+scheme and algorithm, and (with ``--no-shaping`` among the schemes) the N_frames ratio
+of shaping to no shaping.
+
+Trials run in ``--workers`` processes; each writes its run directory under ``--out``, and
+a rerun skips trials already finished (their ``summary.json``), so a stopped suite
+resumes. Every trial's config and command are in its run directory.
+
+    .venv/bin/python benchmarks/spec_suite.py --algos ppo --seeds 1 --workers 2
+    .venv/bin/python benchmarks/spec_suite.py                  # the whole suite (hours)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from collections import defaultdict
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+SCHEMES = {
+    "compliance": {"reward": "compliance"},
+    "no-shaping": {"reward": "compliance", "shaping": False},
+    "paper": {"reward": "paper"},
+}
+
+
+def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> Any:
+    from noisybolt.agents.training import DetectorConfig, TrainConfig
+    from noisybolt.cli.check import with_exact_scale
+
+    config = TrainConfig.create(
+        world="gridworld",
+        specs=[{"formula": spec.formula, "name": spec.name}],
+        algo=algo,
+        world_kwargs={"noise": args.noise},
+        detector=DetectorConfig(kind=args.detector),
+        frames=args.frames,
+        seed=seed,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        checkpoint_freq=0,
+        eval_deterministic=algo == "dqn",
+        progress_bar=False,
+        **SCHEMES[scheme],
+    )
+    # What `noisybolt train` does by default: the compliance scale computed on the product.
+    return with_exact_scale(config, log=lambda _: None) if config.reward == "compliance" else config
+
+
+def run_trial(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> dict:
+    import torch
+
+    from noisybolt.agents.training import train
+
+    torch.set_num_threads(1)
+    out = Path(args.out) / scheme / algo / spec.name / f"seed{seed}"
+    summary = out / "summary.json"
+    if not summary.exists():
+        if out.exists():  # an unfinished trial: start it again
+            import shutil
+
+            shutil.rmtree(out)
+        config = trial_config(spec, algo, seed, scheme, args)
+        argv = [sys.executable, *sys.argv]
+        train(config, out, argv=argv, log=lambda _: None)
+    data = json.loads(summary.read_text())
+    final = data["final"]
+    return {
+        "spec": spec.name,
+        "family": spec.family,
+        "algo": algo,
+        "seed": seed,
+        "scheme": scheme,
+        "compliance": float(next(iter(final["compliance"].values()))),
+        "goal_rate": float(final["goal_rate"]),
+        "env_return": float(final["env_return_mean"]),
+        "rc_max": spec.rc_max,
+        "frames_to_comply": data["frames_to_comply"],
+        "frames": data["frames"],
+    }
+
+
+def _family(name: str) -> str:
+    """The pattern family of a suite entry (conjunctions count as their own family)."""
+    return "conjunction" if "+" in name else name.split("/")[0]
+
+
+def summarise(records: Sequence[dict], threshold: float, budget: int) -> list[str]:
+    """The per-family tables and the summary lines."""
+    lines: list[str] = []
+    groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
+    for r in records:
+        groups[(r["scheme"], r["algo"])].append(r)
+    summary: list[str] = []
+    n_frames_of: dict[tuple[str, str], list[float]] = {}
+    for (scheme, algo), rows in sorted(groups.items()):
+        by_spec: dict[str, list[dict]] = defaultdict(list)
+        for r in rows:
+            by_spec[r["spec"]].append(r)
+        lines.append(f"\n## {algo.upper()}, scheme {scheme}")
+        lines.append("| family | specs | followed | goal rate | return - R^c_max | N_frames |")
+        lines.append("|---|---:|---:|---:|---:|---:|")
+        fam_rows: dict[str, list[list[dict]]] = defaultdict(list)
+        for spec_rows in by_spec.values():
+            fam_rows[_family(spec_rows[0]["family"])].append(spec_rows)
+        total = followed_total = 0
+        gaps: list[float] = []
+        goals: list[float] = []
+        frames_all: list[float] = []
+        for family, specs in sorted(fam_rows.items()):
+            followed = [s for s in specs if all(r["compliance"] >= threshold for r in s)]
+            goal = [statistics.mean(r["goal_rate"] for r in s) for s in followed]
+            gap = [statistics.mean(r["env_return"] - r["rc_max"] for r in s) for s in followed]
+            # A trial that never complied counts at the budget (a lower bound on its N_frames).
+            frames = [statistics.mean(r["frames_to_comply"] or budget for r in s) for s in specs]
+            total += len(specs)
+            followed_total += len(followed)
+            gaps += gap
+            goals += goal
+            frames_all += frames
+            lines.append(
+                f"| {family} | {len(specs)} | {len(followed)} | "
+                f"{_mean(goal, pct=True)} | {_mean(gap)} | {_mean(frames, k=True)} |"
+            )
+        n_frames_of[(scheme, algo)] = frames_all
+        summary.append(
+            f"suite [{scheme}] {algo.upper()}: {followed_total}/{total} specs followed in every "
+            f"seed ({followed_total / max(total, 1):.0%}); goal rate on those "
+            f"{_mean(goals, pct=True)}; return - R^c_max {_mean(gaps)}; "
+            f"N_frames {_mean(frames_all, k=True)}"
+        )
+    for algo in sorted({a for _, a in groups}):
+        with_s, without = (
+            n_frames_of.get(("compliance", algo)),
+            n_frames_of.get(("no-shaping", algo)),
+        )
+        if with_s and without:
+            ratio = statistics.mean(with_s) / statistics.mean(without)
+            summary.append(f"shaping N_frames ratio {algo.upper()} (with / without): {ratio:.2f}")
+    return [*lines, "", *summary]
+
+
+def _mean(values: Sequence[float], *, pct: bool = False, k: bool = False) -> str:
+    if not values:
+        return "-"
+    m = statistics.mean(values)
+    if pct:
+        return f"{m:.0%}"
+    if k:
+        return f"{m / 1000:.1f}k"
+    return f"{m:+.2f}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--specs", type=int, default=24, help="suite size")
+    parser.add_argument("--suite-seed", type=int, default=0)
+    parser.add_argument("--only", nargs="*", default=None, help="spec names to run")
+    parser.add_argument("--algos", default="ppo,a2c,dqn")
+    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--schemes", default="compliance,paper")
+    parser.add_argument("--frames", type=int, default=60_000)
+    parser.add_argument("--eval-freq", type=int, default=5_000)
+    parser.add_argument("--eval-episodes", type=int, default=20)
+    parser.add_argument("--noise", default="regional")
+    parser.add_argument("--detector", default="classifier")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", default="runs/spec_suite")
+    args = parser.parse_args(argv)
+
+    from noisybolt.experiments.spec_families import generate_spec_suite
+
+    started = time.perf_counter()
+    suite = generate_spec_suite(n_specs=args.specs, seed=args.suite_seed)
+    if args.only:
+        suite = tuple(s for s in suite if s.name in set(args.only))
+    algos = [a.strip() for a in args.algos.split(",") if a.strip()]
+    schemes = [s.strip() for s in args.schemes.split(",") if s.strip()]
+    unknown = sorted(set(schemes) - set(SCHEMES))
+    if unknown:
+        parser.error(f"unknown scheme(s) {unknown}; known: {sorted(SCHEMES)}")
+    root = Path(args.out)
+    root.mkdir(parents=True, exist_ok=True)
+    (root / "suite.json").write_text(
+        json.dumps([s.__dict__ for s in suite], indent=1) + "\n", encoding="utf-8"
+    )
+    if args.detector == "classifier":  # train the cached classifier once, not per worker
+        from noisybolt.agents.training import prepare_bolt
+
+        prepare_bolt(trial_config(suite[0], algos[0], 0, schemes[0], args), seed=0)
+    jobs = [
+        (spec, algo, seed, scheme)
+        for seed in range(args.seeds)
+        for scheme in schemes
+        for algo in algos
+        for spec in suite
+    ]
+    print(
+        f"{len(suite)} specs x {len(algos)} algos x {args.seeds} seeds x {len(schemes)} "
+        f"schemes = {len(jobs)} trials, {args.workers} workers",
+        flush=True,
+    )
+    records = []
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = {pool.submit(run_trial, *job, args): job for job in jobs}
+        for done in as_completed(futures):
+            record = done.result()
+            records.append(record)
+            print(
+                f"[{len(records)}/{len(jobs)}] {record['scheme']:<10} {record['algo']} "
+                f"{record['spec']} seed {record['seed']}: compliance {record['compliance']:.0%}, "
+                f"goal {record['goal_rate']:.0%}, N_frames {record['frames_to_comply']}",
+                flush=True,
+            )
+    threshold = 0.95
+    text = "\n".join(summarise(records, threshold, args.frames))
+    (root / "records.json").write_text(json.dumps(records, indent=1) + "\n", encoding="utf-8")
+    (root / "suite.md").write_text(text + "\n", encoding="utf-8")
+    print(text)
+    print(f"wall time {time.perf_counter() - started:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

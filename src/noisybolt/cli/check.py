@@ -1,0 +1,148 @@
+"""``noisybolt check``: what a spec asks of a world, before any training.
+
+For each spec: whether it is satisfiable (else training is refused), whether every trace
+satisfies it (a warning: the bolt asks for nothing), its DFA's size and how many steps
+its start is from acceptance. Where the world's product can be explored exactly (the
+gridworld), also: whether some episode reaches the goal while complying, its return
+R^c_max beside the unconstrained R_max, the ``compliance`` scheme's scale computed on
+the product, and whether the optimal policy of that scheme complies.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+__all__ = ["exact_scale", "goal_feasibility", "register", "with_exact_scale"]
+
+
+def register(subparsers: Any) -> None:
+    """Adds ``noisybolt check``."""
+    check = subparsers.add_parser(
+        "check",
+        help="check specs against a world: satisfiable, vacuous, a compliant route to the goal",
+        description=__doc__.split("\n\n")[1] if __doc__ else None,
+    )
+    check.add_argument("--world", default="gridworld", help="world name (default gridworld)")
+    check.add_argument(
+        "--spec", action="append", default=[], metavar="NAME|FORMULA", help="repeat for several"
+    )
+    check.add_argument("--specs-file", default=None, help="a YAML file of specs")
+    check.add_argument("--algo", default="ppo", help="whose discount the scheme is planned for")
+    check.add_argument("--noise", default=None, help="the bolt camera's noise (world default)")
+    check.set_defaults(func=_check)
+
+
+def _tabular(config: Any) -> dict[str, Any] | None:
+    from noisybolt.envs import make_world
+    from noisybolt.experiments.optimal import tabular_gridworld_settings
+
+    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    return tabular_gridworld_settings(world)
+
+
+def goal_feasibility(config: Any) -> Any | None:
+    """The best compliant goal-reaching episode (an ``OptimalResult``) on a world whose
+    product can be explored; None for other worlds."""
+    from noisybolt.experiments.optimal import optimal_constrained_return
+
+    settings = _tabular(config)
+    if settings is None:
+        return None
+    formulas = [spec.formula for spec in config.spec_objects()]
+    return optimal_constrained_return(formulas, require_goal=True, **settings)
+
+
+def exact_scale(config: Any) -> float | None:
+    """The compliance scale computed on the world's product
+    (:func:`~noisybolt.experiments.optimal.exact_compliance_scale`), below the bound the
+    config holds; None where the product cannot be explored or no compliant episode
+    reaches the goal (the bound then stands)."""
+    from noisybolt.envs import make_world
+    from noisybolt.envs.bounds import world_return_bounds
+    from noisybolt.experiments.optimal import exact_compliance_scale
+
+    settings = _tabular(config)
+    if settings is None or config.reward != "compliance":
+        return None
+    bounds = world_return_bounds(make_world(config.world, num_envs=1, **config.world_settings))
+    floor = 0.1 * bounds.width if bounds is not None else 1.0
+    formulas = [spec.formula for spec in config.spec_objects()]
+    gamma = float(config.hyperparams.get("gamma", 0.99))
+    return exact_compliance_scale(
+        formulas, gamma=gamma, floor=floor, cap=float(config.reward_scale), **settings
+    )
+
+
+def with_exact_scale(config: Any, log: Callable[[str], None] = print) -> Any:
+    """``config`` with its compliance scale computed on the product where that is possible."""
+    scale = exact_scale(config)
+    if scale is None:
+        return config
+    log(
+        f"compliance scale computed on the {config.world}'s product: {scale:g} (the bound "
+        f"from its return range: {config.reward_scale:g})"
+    )
+    return replace(config, reward_scale=scale)
+
+
+def _check(args: argparse.Namespace) -> int:
+    from noisybolt.agents.specs import load_specs_file
+    from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
+    from noisybolt.errors import ConfigError
+    from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
+    from noisybolt.logic import distance_to_acceptance
+
+    specs: list[Any] = list(args.spec)
+    if args.specs_file:
+        specs += load_specs_file(args.specs_file)
+    if not specs:
+        raise ConfigError("give at least one --spec (or a --specs-file)")
+    config = TrainConfig.create(
+        world=args.world,
+        specs=specs,
+        algo=args.algo,
+        detector=DetectorConfig(kind="oracle"),
+        world_kwargs={} if args.noise is None else {"noise": args.noise},
+    )
+    lines: list[str] = []
+    setup = prepare_bolt(config, seed=0, log=lines.append)  # refuses unsatisfiable specs
+    for spec, dfa in zip(config.spec_objects(), setup.dfas, strict=True):
+        distance = int(distance_to_acceptance(dfa)[dfa.initial_state])
+        print(
+            f"spec {spec.name!r}: satisfiable; DFA of {dfa.n_states} states, "
+            f"{distance} letter(s) from acceptance at the start"
+        )
+    for line in lines:
+        print(line)
+    best = goal_feasibility(config)
+    if best is None:
+        print(f"the {args.world} cannot be explored exactly here: no route check")
+        print(f"compliance scale (from the world's return bounds): {config.reward_scale:g}")
+        return 0
+    settings = _tabular(config)
+    assert settings is not None
+    r_max = optimal_unconstrained_return(require_goal=True, **settings)
+    if best.value is None:
+        print(
+            "no episode reaches the goal while complying with every spec: training would "
+            "teach the agent to trade the goal for the bolt"
+        )
+        return 1
+    print(
+        f"compliant route to the goal: yes, R^c_max {best.value:g} in {best.steps} steps "
+        f"(unconstrained R_max {r_max.value:g} in {r_max.steps} steps)"
+    )
+    scale = exact_scale(config)
+    assert scale is not None
+    gamma = float(config.hyperparams.get("gamma", 0.99))
+    formulas = [spec.formula for spec in config.spec_objects()]
+    optimum = scheme_optimum(formulas, scale=scale, gamma=gamma, **settings)
+    print(
+        f"compliance scheme: scale {scale:g} (bound {config.reward_scale:g}); its optimal "
+        f"policy (gamma {gamma:g}) {'complies' if optimum.complies else 'does NOT comply'}"
+        f"{' and reaches the goal' if optimum.reaches_goal else ''} in {optimum.steps} steps"
+    )
+    return 0

@@ -1,0 +1,210 @@
+"""Reward schemes in a run's config: scales, specs files, bad input refused before writing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from noisybolt.agents.specs import load_specs_file
+from noisybolt.agents.training import (
+    DetectorConfig,
+    TrainConfig,
+    build_bolted_env,
+    prepare_bolt,
+    train,
+)
+from noisybolt.bolt import compliance_scale
+from noisybolt.cli import main
+from noisybolt.envs import make_world
+from noisybolt.envs.bounds import world_return_bounds
+from noisybolt.errors import (
+    ConfigError,
+    UnknownFluentError,
+    UnknownNameError,
+    UnsatisfiableSpecError,
+)
+
+ORACLE = DetectorConfig(kind="oracle")
+
+
+def _config(specs: list, **kwargs: object) -> TrainConfig:
+    kwargs.setdefault("detector", ORACLE)
+    return TrainConfig.create(
+        specs=specs,
+        frames=64,
+        eval_freq=0,
+        checkpoint_freq=0,
+        eval_episodes=1,
+        progress_bar=False,
+        n_envs=2,
+        **kwargs,
+    )
+
+
+def test_compliance_is_the_default_with_a_scale_from_the_worlds_return_bounds() -> None:
+    config = _config(["avoid_top_right"])
+    bounds = world_return_bounds(make_world("gridworld"))
+    assert bounds is not None and (bounds.low, bounds.high) == (-1.5 * 144, 98.5)
+    assert config.reward == "compliance" and config.reward_scale == compliance_scale(bounds)
+    (spec,) = config.spec_objects()
+    assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "episode_end"
+    paper = _config(["avoid_top_right"], reward="paper")
+    assert paper.spec_objects()[0].terminal_reward == 1.0
+    assert paper.spec_objects()[0].reward_timing == "every_step"
+    # The config holds the resolved scale: reading it back gives the same run.
+    assert TrainConfig.from_dict(config.to_dict()) == config
+
+
+def test_per_spec_scales_and_the_unbolted_twin() -> None:
+    config = _config(
+        ["edge", {"formula": "F(top_right_corner)", "reward_scale": 7}], reward_scale=40.0
+    )
+    assert [s.terminal_reward for s in config.spec_objects()] == [40.0, 7.0]
+    unbolted = _config(["edge"], bolted=False)
+    assert unbolted.progress_gamma is None
+    assert unbolted.spec_objects()[0].terminal_reward == 0.0
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"reward": "bonus"},
+        {"reward_scale": -3.0},
+        {"reward_scale": float("nan")},
+        {"reward": "paper", "reward_scale": 10.0},
+    ],
+)
+def test_bad_scheme_settings_are_refused(kwargs: dict) -> None:
+    with pytest.raises((ConfigError, UnknownNameError)):
+        _config(["edge"], **kwargs)
+
+
+def test_paper_only_spec_settings_are_refused_under_compliance() -> None:
+    with pytest.raises(ConfigError, match="reward_scale instead"):
+        _config([{"formula": "F(top_right_corner)", "terminal_reward": 5}])
+    assert _config([{"formula": "F(top_right_corner)", "terminal_reward": 5}], reward="paper")
+
+
+def test_the_bolted_env_pays_the_scheme_and_plain_algorithm_1_under_paper() -> None:
+    # !F(top_right_corner) with the oracle: 3 steps east reach the corner, a violation.
+    for reward, expected in (("compliance", [0.0, 0.0, -50.0]), ("paper", [1.0 + 1.0, 1.0, 0.0])):
+        config = _config(
+            ["avoid_top_right"],
+            reward=reward,
+            **({"reward_scale": 50.0} if reward == "compliance" else {}),
+        )
+        setup = prepare_bolt(config, seed=0, log=lambda _: None)
+        env = build_bolted_env(
+            config, setup.detector, n_envs=1, seed=0, dfas=setup.dfas, letters=setup.letters
+        )
+        env.reset()
+        bolt = []
+        for _ in range(3):
+            _, _, _, infos = env.step(np.array([2]))  # forward
+            bolt.append(infos[0]["bolt_reward"])
+        assert bolt == expected, reward
+
+
+def test_unsatisfiable_and_foreign_specs_are_refused_before_anything_is_written(
+    tmp_path: Path,
+) -> None:
+    run = tmp_path / "run"
+    with pytest.raises(UnsatisfiableSpecError):
+        train(_config(["F(top_right_corner) & G(!top_right_corner)"]), run, log=lambda _: None)
+    with pytest.raises(UnknownFluentError):
+        train(_config(["F(lava)"]), run, log=lambda _: None)
+    assert not run.exists()
+    warnings: list[str] = []
+    prepare_bolt(_config(["top_right_corner | !top_right_corner"]), seed=0, log=warnings.append)
+    assert any("holds on every trace" in w for w in warnings)
+
+
+def test_specs_file(tmp_path: Path) -> None:
+    good = tmp_path / "specs.yaml"
+    good.write_text(
+        "specs:\n  - edge\n  - formula: F(top_right_corner)\n    name: tr\n    reward_scale: 9\n"
+    )
+    specs = load_specs_file(good)
+    assert specs == ["edge", {"formula": "F(top_right_corner)", "name": "tr", "reward_scale": 9}]
+    assert [s.terminal_reward for s in _config(specs, reward_scale=20.0).spec_objects()] == [20, 9]
+    for text, message in (
+        ("- formula: F(a)\n  colour: red\n", "unknown key"),
+        ("- reward_scale: 3\n", "give a formula"),
+        ("specs: 3\n", "non-empty list"),
+        ("[unclosed\n", "not valid YAML"),
+    ):
+        bad = tmp_path / "bad.yaml"
+        bad.write_text(text)
+        with pytest.raises(ConfigError, match=message):
+            load_specs_file(bad)
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_specs_file(tmp_path / "missing.yaml")
+
+
+def test_a_run_saved_before_reward_schemes_resumes_as_the_paper_scheme(tmp_path: Path) -> None:
+    config = _config(["edge"], reward="paper")
+    run = tmp_path / "old"
+    train(config, run, log=lambda _: None)
+    saved = json.loads((run / "config.json").read_text())
+    for key in ("reward", "reward_scale", "shaping"):
+        saved.pop(key)
+    (run / "config.json").write_text(json.dumps(saved))
+    assert TrainConfig.from_dict(saved).reward == "paper"
+    bigger = TrainConfig.from_dict({**config.to_dict(), "frames": 128})
+    train(bigger, run, resume=True, log=lambda _: None)  # no "config differs"
+    changed = {**config.to_dict(), "reward": "compliance", "reward_scale": 5.0, "frames": 256}
+    with pytest.raises(ConfigError, match="reward"):
+        train(TrainConfig.from_dict(changed), run, resume=True, log=lambda _: None)
+
+
+def test_cli_reward_flags_and_spec_set(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "cli"
+    code = main(
+        [
+            "train",
+            "--spec",
+            "F(top_right_corner)",
+            "--spec-set",
+            "reward_scale=12",
+            "--spec",
+            "edge",
+            "--detector",
+            "oracle",
+            "--frames",
+            "64",
+            "--eval-freq",
+            "0",
+            "--checkpoint-freq",
+            "0",
+            "--eval-episodes",
+            "1",
+            "--n-envs",
+            "2",
+            "--no-progress",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "compliance scale computed on the gridworld's product" in printed
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["reward"] == "compliance" and saved["specs"][0]["reward_scale"] == 12
+    assert main(["train", "--spec", "edge", "--reward", "bonus", "--out", str(tmp_path / "x")]) == 2
+    assert (
+        main(["train", "--spec", "edge", "--reward-scale", "-1", "--out", str(tmp_path / "y")]) == 2
+    )
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+    with pytest.raises(SystemExit):
+        main(["train", "--spec-set", "reward_scale=3", "--spec", "edge"])
+
+
+def test_check_command(capsys: pytest.CaptureFixture) -> None:
+    assert main(["check", "--spec", "F(top_right_corner) & F(bottom_left_corner)"]) == 0
+    out = capsys.readouterr().out
+    assert "R^c_max 76 in 16 steps" in out and "complies and reaches the goal" in out
+    assert main(["check", "--spec", "F(top_right_corner & bottom_left_corner)"]) == 1
+    assert main(["check", "--spec", "F(top_right_corner) & G(!top_right_corner)"]) == 2

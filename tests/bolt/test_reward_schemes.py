@@ -1,0 +1,140 @@
+"""The compliance scheme's rewards, by hand, inside the bolt; its settings refused when bad."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from noisybolt.bolt import (
+    ProgressShaping,
+    RestrainingBolt,
+    ReturnBounds,
+    RewardScheme,
+    Spec,
+    compliance_scale,
+)
+from noisybolt.errors import ConfigError, UnknownNameError
+from noisybolt.logic import compile_ltlf
+
+FLUENTS = ["a", "b"]
+ON, OFF = 0.99, 0.01
+
+
+def _bolt(formula: str, *, scale: float = 30.0, shaping: bool = True, gamma: float = 1.0):
+    scheme = RewardScheme("compliance", scale=scale, shaping=shaping)
+    spec = scheme.apply(Spec(formula, terminal_reward=1.0, low_confidence_cost=0.5))
+    dfa = compile_ltlf(formula, FLUENTS)
+    terms = ProgressShaping([dfa], scales=[scale], gamma=gamma, shaping=shaping)
+    return RestrainingBolt([spec], FLUENTS, dfas=[dfa], shaping=terms)
+
+
+def _episode(bolt: RestrainingBolt, letters: list[tuple[float, float]]) -> list[float]:
+    """Bolt rewards of an episode whose observations are ``letters`` (reset included)."""
+    bolt.reset(np.array([letters[0]]))
+    rewards = []
+    for i, probs in enumerate(letters[1:], start=1):
+        rewards.append(float(bolt.step(np.array([probs]), done=i == len(letters) - 1).total[0]))
+    return rewards
+
+
+def test_a_detour_is_paid_as_it_progresses_and_acceptance_at_the_end() -> None:
+    # F(a) & F(b): 2 letters from acceptance (over letters with a and b apart), but the
+    # DFA's own graph has the letter a & b: distance 1, d_max 1, so each step is 15.
+    bolt = _bolt("F(a) & F(b)")
+    rewards = _episode(bolt, [(OFF, OFF), (ON, OFF), (OFF, OFF), (OFF, ON), (OFF, OFF)])
+    # reset: nothing; a seen: no progress by the DFA's distance (1 -> 1); b seen: +15
+    # (1 -> 0); the episode ends accepting: +30.
+    assert rewards == [0.0, 0.0, 15.0, 30.0]
+
+
+def test_an_unfinished_episode_keeps_its_shortfall_and_a_violation_pays_at_once() -> None:
+    unfinished = _bolt("F(a & X(F(b)))")  # d: 2 at the start, d_max 2: 10 a step
+    assert _episode(unfinished, [(OFF, OFF), (ON, OFF), (OFF, OFF)]) == [10.0, 0.0]
+    # G(!a): accepting (0) until a, then a rejecting sink: -30 then, nothing after it.
+    safety = _bolt("G(!a)")
+    assert _episode(safety, [(OFF, OFF), (OFF, OFF), (ON, OFF), (OFF, OFF), (OFF, OFF)]) == [
+        0.0,
+        -30.0,
+        0.0,
+        0.0,
+    ]
+    # Complying with G(!a) pays the scale once, at the end (no payment per accepting step).
+    assert _episode(_bolt("G(!a)"), [(OFF, OFF)] * 4) == [0.0, 0.0, 30.0]
+
+
+def test_without_shaping_the_outcome_is_paid_at_the_end() -> None:
+    bolt = _bolt("F(a & X(F(b)))", shaping=False)
+    assert _episode(bolt, [(OFF, OFF), (ON, OFF), (OFF, OFF)]) == [0.0, -10.0]
+    assert _episode(bolt, [(OFF, OFF), (ON, OFF), (OFF, ON)]) == [0.0, 30.0]
+
+
+def test_discounted_shaping_telescopes_to_the_same_value_for_every_route() -> None:
+    # Whatever the route, sum_t gamma^t F_t = -Phi(q_0) when the end's potential is 0.
+    gamma = 0.9
+    dfa = compile_ltlf("F(a & X(F(b)))", FLUENTS)
+    terms = ProgressShaping([dfa], scales=[30.0], gamma=gamma)
+    rng = np.random.default_rng(0)
+    q0 = dfa.initial_state
+    for _ in range(20):
+        states = [q0]
+        for _ in range(int(rng.integers(1, 8))):
+            letter = {"a": bool(rng.integers(2)), "b": bool(rng.integers(2))}
+            states.append(dfa.step(states[-1], letter))
+        total = 0.0
+        for t, (q, q_next) in enumerate(itertools.pairwise(states)):
+            done = t == len(states) - 2
+            term = terms(np.array([[q]]), np.array([[q_next]]), done=np.array([done]))[0, 0]
+            # Remove the graded end charge and the violation charge: the shaping alone.
+            no_shaping = ProgressShaping([dfa], scales=[30.0], gamma=gamma, shaping=False)
+            base = no_shaping(np.array([[q]]), np.array([[q_next]]), done=np.array([done]))
+            total += gamma**t * (term - base[0, 0])
+        assert math.isclose(total, -terms.potentials[0][q0], abs_tol=1e-9)
+
+
+def test_compliance_scale_and_scheme_settings() -> None:
+    assert compliance_scale(ReturnBounds(-216.0, 98.5)) == pytest.approx(1.1 * 314.5)
+    assert compliance_scale(ReturnBounds(3.0, 3.0)) == 1.0
+    paper = RewardScheme("paper")
+    spec = Spec("F(a)", terminal_reward=2.0, low_confidence_cost=0.5)
+    assert paper.apply(spec) is spec
+    applied = RewardScheme("compliance", scale=7.0).apply(spec, scale=9.0)
+    assert (applied.terminal_reward, applied.reward_timing) == (9.0, "episode_end")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error"),
+    [
+        ({"name": "bonus", "scale": 1.0}, UnknownNameError),
+        ({"name": "compliance", "scale": None}, ConfigError),
+        ({"name": "compliance", "scale": -1.0}, ConfigError),
+        ({"name": "compliance", "scale": 0.0}, ConfigError),
+        ({"name": "compliance", "scale": float("inf")}, ConfigError),
+        ({"name": "compliance", "scale": float("nan")}, ConfigError),
+        ({"name": "paper", "scale": 5.0}, ConfigError),
+    ],
+)
+def test_bad_schemes_are_refused(kwargs: dict, error: type[Exception]) -> None:
+    with pytest.raises(error):
+        RewardScheme(**kwargs)
+
+
+def test_bad_bounds_and_shaping_are_refused() -> None:
+    with pytest.raises(ConfigError):
+        ReturnBounds(1.0, 0.0)
+    with pytest.raises(ConfigError):
+        ReturnBounds(float("-inf"), 0.0)
+    dfa = compile_ltlf("F(a)", FLUENTS)
+    with pytest.raises(ConfigError):
+        ProgressShaping([dfa], scales=[1.0], gamma=0.0)
+    with pytest.raises(ConfigError):
+        ProgressShaping([dfa], scales=[1.0, 2.0], gamma=1.0)
+    with pytest.raises(ConfigError):  # shaping over DFAs that are not the bolt's
+        RestrainingBolt(
+            [Spec("F(a)", terminal_reward=1.0, low_confidence_cost=0.5)],
+            FLUENTS,
+            dfas=[dfa],
+            shaping=ProgressShaping([compile_ltlf("F(b)", FLUENTS)], scales=[1.0], gamma=1.0),
+        )
