@@ -236,6 +236,30 @@ def test_heatmap_png_has_the_asked_size(tmp_path: Path, draw_paths: bool) -> Non
         trajectory_heatmap([], size=6, path=tmp_path / "empty.png")
 
 
+def test_compared_heatmaps_share_one_picture_and_one_scale(tmp_path: Path) -> None:
+    top = [(1, 1), (2, 1), (3, 1), (4, 1), (4, 2), (4, 3), (4, 4)]
+    one = viz.compare_heatmaps(
+        {"down the west wall": [SCRIPT_CELLS]}, size=6, path=tmp_path / "one.png", title="t"
+    )
+    two = viz.compare_heatmaps(
+        {"without\nthe bolt": [top, top], "with\nthe bolt": [SCRIPT_CELLS]},
+        size=6,
+        path=tmp_path / "two.png",
+        title="two agents\nspec",
+        per_episode=False,
+    )
+    height, width = iio.imread(two).shape[:2]
+    one_width = iio.imread(one).shape[1]
+    assert width - one_width == pytest.approx(3.6 * 100 + 35, abs=2)  # one more room
+    assert height > 3.6 * 100
+    with pytest.raises(ConfigError, match="at least one panel"):
+        viz.compare_heatmaps({}, size=6, path=tmp_path / "none.png", title="t")
+    with pytest.raises(ConfigError, match="'empty'"):
+        viz.compare_heatmaps({"empty": []}, size=6, path=tmp_path / "empty.png", title="t")
+    with pytest.raises(ConfigError, match="outside"):
+        viz.compare_heatmaps({"x": [[(9, 9)]]}, size=6, path=tmp_path / "out.png", title="t")
+
+
 def test_public_api_and_docstring_examples() -> None:
     for name in viz.__all__:
         assert getattr(viz, name).__doc__ or name == "BAND_COLOURS"

@@ -10,7 +10,8 @@
   state as the bolt believes it and as the ground truth has it.
 * :func:`visit_counts` and :func:`trajectory_heatmap` show where a policy goes over many
   evaluation episodes, drawn over the room like the paper's Fig. 3, with the goal and
-  the two corners of the paper's specs outlined.
+  the two corners of the paper's specs outlined; :func:`compare_heatmaps` draws several
+  policies so side by side (e.g. one agent trained without and with a bolt).
 
 Everything is drawn with matplotlib's Agg canvas (no display, no pyplot state) and
 written atomically.
@@ -31,7 +32,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -50,6 +51,7 @@ from noisybolt.wrappers.bolt_wrapper import RestrainingBoltWrapper
 __all__ = [
     "BAND_COLOURS",
     "EpisodeRecording",
+    "compare_heatmaps",
     "default_frame",
     "policy_from_model",
     "record_episode",
@@ -677,6 +679,92 @@ def _draw_routes(
         )
 
 
+def _draw_heatmap(
+    ax: Any,
+    positions_per_episode: Sequence[Sequence[Cell]],
+    *,
+    size: int,
+    vmax: float | None,
+    goal: Cell | None,
+    start: Cell | None,
+    corners: bool,
+    per_episode: bool,
+    draw_paths: bool,
+    max_paths: int,
+) -> Any:
+    """Draws one room's visit frequencies on ``ax``; returns the image (for a colour bar)."""
+    if len(positions_per_episode) == 0:
+        raise ConfigError("a trajectory heat-map needs at least one episode's positions")
+    counts = visit_counts(positions_per_episode, size=size, per_episode=per_episode)
+    values = counts / len(positions_per_episode)
+    goal = (size - 2, size - 2) if goal is None else goal
+    wall = np.zeros((size, size), dtype=bool)
+    wall[0, :] = wall[-1, :] = wall[:, 0] = wall[:, -1] = True
+    shown = np.ma.masked_array(values, mask=wall)
+    if vmax is None:
+        vmax = 1.0 if per_episode else max(float(values.max()), 1e-9)
+    image = ax.imshow(
+        shown,
+        cmap="YlOrRd",
+        vmin=0.0,
+        vmax=vmax,
+        extent=(-0.5, size - 0.5, size - 0.5, -0.5),
+        interpolation="nearest",
+    )
+    ax.imshow(
+        np.where(wall, 1.0, np.nan),
+        cmap="Greys",
+        vmin=0.0,
+        vmax=2.0,
+        extent=(-0.5, size - 0.5, size - 0.5, -0.5),
+        interpolation="nearest",
+    )
+    ax.set_xticks(np.arange(size) - 0.5, minor=True)
+    ax.set_yticks(np.arange(size) - 0.5, minor=True)
+    ax.grid(which="minor", color="white", lw=1.0)
+    ax.tick_params(which="both", length=0, labelbottom=False, labelleft=False)
+    # With paths drawn the numbers move to a cell's top-right corner, off the routes.
+    dx, dy, ha, va = (0.42, -0.42, "right", "top") if draw_paths else (0.0, 0.0, "center", "center")
+    for y in range(1, size - 1):
+        for x in range(1, size - 1):
+            v = values[y, x]
+            colour = "#9a9a9a" if v == 0 else "white" if v > 0.6 * vmax else "black"
+            text = f"{v:.0%}" if per_episode else f"{v:.1f}"
+            ax.text(x + dx, y + dy, text, ha=ha, va=va, fontsize=8, color=colour)
+    tag: dict[str, Any] = {"fontsize": 6, "ha": "center", "va": "bottom", "bbox": _TAG_BOX}
+    _outline(ax, goal, "#009e73", lw=2.5)
+    ax.text(goal[0], goal[1] + 0.42, "goal", **tag)
+    if start is not None:
+        ax.text(start[0] - 0.42, start[1] - 0.42, "S", **{**tag, "ha": "left", "va": "top"})
+    if corners:
+        for cell, name in (((size - 2, 1), "top-right"), ((1, size - 2), "bottom-left")):
+            _outline(ax, cell, "#0072b2", lw=1.6, ls="--")
+            ax.text(cell[0], cell[1] + 0.42, name, **tag)
+    if draw_paths:
+        _draw_routes(ax, positions_per_episode, max_routes=max_paths)
+    return image
+
+
+def _colour_bar(fig: Figure, image: Any, cax: Any, *, per_episode: bool) -> None:
+    bar = fig.colorbar(image, cax=cax)
+    bar.set_label("share of episodes visiting" if per_episode else "visits per episode", fontsize=8)
+    bar.ax.tick_params(labelsize=7)
+    if per_episode:
+        bar.ax.yaxis.set_major_formatter(lambda v, _: f"{v:.0%}")
+
+
+def _save_png(fig: Figure, path: PathLike, dpi: int) -> Path:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    path = Path(path)
+    atomic_write_bytes(path, buffer.getvalue())
+    return path
+
+
+def _episodes(n: int) -> str:
+    return f"{n} episode{'s' if n != 1 else ''}"
+
+
 def trajectory_heatmap(
     positions_per_episode: Sequence[Sequence[Cell]],
     *,
@@ -724,68 +812,123 @@ def trajectory_heatmap(
     """
     if len(positions_per_episode) == 0:
         raise ConfigError("trajectory_heatmap needs at least one episode's positions")
-    counts = visit_counts(positions_per_episode, size=size, per_episode=per_episode)
-    n_episodes = len(positions_per_episode)
-    values = counts / n_episodes
-    goal = (size - 2, size - 2) if goal is None else goal
-
     fig = Figure(figsize=figsize, dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((0.04, 0.04, 0.72, 0.84))
     cax = fig.add_axes((0.80, 0.12, 0.035, 0.68))
-    wall = np.zeros((size, size), dtype=bool)
-    wall[0, :] = wall[-1, :] = wall[:, 0] = wall[:, -1] = True
-    shown = np.ma.masked_array(values, mask=wall)
-    vmax = 1.0 if per_episode else max(float(values.max()), 1e-9)
-    image = ax.imshow(
-        shown,
-        cmap="YlOrRd",
-        vmin=0.0,
-        vmax=vmax,
-        extent=(-0.5, size - 0.5, size - 0.5, -0.5),
-        interpolation="nearest",
+    image = _draw_heatmap(
+        ax,
+        positions_per_episode,
+        size=size,
+        vmax=None,
+        goal=goal,
+        start=start,
+        corners=corners,
+        per_episode=per_episode,
+        draw_paths=draw_paths,
+        max_paths=max_paths,
     )
-    ax.imshow(
-        np.where(wall, 1.0, np.nan),
-        cmap="Greys",
-        vmin=0.0,
-        vmax=2.0,
-        extent=(-0.5, size - 0.5, size - 0.5, -0.5),
-        interpolation="nearest",
+    _colour_bar(fig, image, cax, per_episode=per_episode)
+    n_episodes = len(positions_per_episode)
+    fig.suptitle(f"{title}  ({_episodes(n_episodes)})", fontsize=10, y=0.955)
+    return _save_png(fig, path, dpi)
+
+
+def compare_heatmaps(
+    panels: Mapping[str, Sequence[Sequence[Cell]]],
+    *,
+    size: int,
+    path: PathLike,
+    title: str,
+    goal: Cell | None = None,
+    start: Cell | None = (1, 1),
+    corners: bool = True,
+    per_episode: bool = True,
+    draw_paths: bool = True,
+    max_paths: int = 20,
+    panel_inches: float = 3.6,
+    dpi: int = _DPI,
+) -> Path:
+    """Draws several policies' heat-maps side by side on one colour scale, in one PNG.
+
+    Each panel is drawn as :func:`trajectory_heatmap` draws its room (with the routes
+    by default): e.g. the same agent trained without and with a bolt.
+
+    Args:
+        panels: panel title (may span lines) → per episode, the ``(x, y)`` cells visited;
+            drawn left to right in the mapping's order.
+        size: room side in cells, walls included.
+        path: the PNG to write (atomically; folders are created).
+        title: the figure's title (may span lines), e.g. the spec.
+        goal, start, corners, per_episode, draw_paths, max_paths: as for
+            :func:`trajectory_heatmap`.
+        panel_inches: each room's side in inches.
+        dpi: pixels per inch.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        ConfigError: for no panels, a panel without episodes, or a cell outside the room.
+
+    Example:
+        >>> import tempfile, pathlib
+        >>> out = pathlib.Path(tempfile.mkdtemp()) / "compare.png"
+        >>> compare_heatmaps(
+        ...     {"along the top": [[(1, 1), (2, 1), (3, 1), (4, 1), (4, 2), (4, 3), (4, 4)]],
+        ...      "down the west wall": [[(1, 1), (1, 2), (1, 3), (1, 4), (2, 4), (3, 4), (4, 4)]]},
+        ...     size=6, path=out, title="two routes").name
+        'compare.png'
+    """
+    if not panels:
+        raise ConfigError("compare_heatmaps needs at least one panel")
+    for label, episodes in panels.items():
+        if len(episodes) == 0:
+            raise ConfigError(f"panel {label!r} has no episodes to draw")
+    n = len(panels)
+    title_lines = title.count("\n") + 1
+    label_lines = max(label.count("\n") + 1 for label in panels)
+    # Inches: a margin, the rooms with a gap between them, then the colour bar on the right;
+    # the title and the panels' titles above the rooms.
+    margin, gap, bar_w = 0.15, 0.35, 0.9
+    head = 0.25 + 0.22 * title_lines + 0.2 * label_lines
+    width = margin + n * panel_inches + (n - 1) * gap + bar_w
+    height = margin + panel_inches + head
+    fig = Figure(figsize=(width, height), dpi=dpi)
+    FigureCanvasAgg(fig)
+    # One colour scale for every panel, so that equal colours mean equal numbers.
+    vmax: float | None = 1.0 if per_episode else None
+    if vmax is None:
+        vmax = (
+            max(float(visit_counts(e, size=size).max()) / len(e) for e in panels.values()) or 1e-9
+        )
+    image = None
+    for i, (label, episodes) in enumerate(panels.items()):
+        left = margin + i * (panel_inches + gap)
+        ax = fig.add_axes(
+            (left / width, margin / height, panel_inches / width, panel_inches / height)
+        )
+        image = _draw_heatmap(
+            ax,
+            episodes,
+            size=size,
+            vmax=vmax,
+            goal=goal,
+            start=start,
+            corners=corners,
+            per_episode=per_episode,
+            draw_paths=draw_paths,
+            max_paths=max_paths,
+        )
+        ax.set_title(f"{label}  ({_episodes(len(episodes))})", fontsize=9)
+    cax = fig.add_axes(
+        (
+            (width - bar_w + 0.15) / width,
+            (margin + 0.1 * panel_inches) / height,
+            0.14 / width,
+            0.8 * panel_inches / height,
+        )
     )
-    ax.set_xticks(np.arange(size) - 0.5, minor=True)
-    ax.set_yticks(np.arange(size) - 0.5, minor=True)
-    ax.grid(which="minor", color="white", lw=1.0)
-    ax.tick_params(which="both", length=0, labelbottom=False, labelleft=False)
-    # With paths drawn the numbers move to a cell's top-right corner, off the routes.
-    dx, dy, ha, va = (0.42, -0.42, "right", "top") if draw_paths else (0.0, 0.0, "center", "center")
-    for y in range(1, size - 1):
-        for x in range(1, size - 1):
-            v = values[y, x]
-            colour = "#9a9a9a" if v == 0 else "white" if v > 0.6 * vmax else "black"
-            text = f"{v:.0%}" if per_episode else f"{v:.1f}"
-            ax.text(x + dx, y + dy, text, ha=ha, va=va, fontsize=8, color=colour)
-    tag: dict[str, Any] = {"fontsize": 6, "ha": "center", "va": "bottom", "bbox": _TAG_BOX}
-    _outline(ax, goal, "#009e73", lw=2.5)
-    ax.text(goal[0], goal[1] + 0.42, "goal", **tag)
-    if start is not None:
-        ax.text(start[0] - 0.42, start[1] - 0.42, "S", **{**tag, "ha": "left", "va": "top"})
-    if corners:
-        for cell, name in (((size - 2, 1), "top-right"), ((1, size - 2), "bottom-left")):
-            _outline(ax, cell, "#0072b2", lw=1.6, ls="--")
-            ax.text(cell[0], cell[1] + 0.42, name, **tag)
-    if draw_paths:
-        _draw_routes(ax, positions_per_episode, max_routes=max_paths)
-    label = "share of episodes visiting" if per_episode else "visits per episode"
-    bar = fig.colorbar(image, cax=cax)
-    bar.set_label(label, fontsize=8)
-    bar.ax.tick_params(labelsize=7)
-    if per_episode:
-        bar.ax.yaxis.set_major_formatter(lambda v, _: f"{v:.0%}")
-    plural = "s" if n_episodes != 1 else ""
-    fig.suptitle(f"{title}  ({n_episodes} episode{plural})", fontsize=10, y=0.955)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
-    path = Path(path)
-    atomic_write_bytes(path, buffer.getvalue())
-    return path
+    _colour_bar(fig, image, cax, per_episode=per_episode)
+    fig.suptitle(title, fontsize=10, y=1 - 0.1 / height, va="top")
+    return _save_png(fig, path, dpi)

@@ -1,0 +1,117 @@
+"""``noisybolt demo``: the bolt changes where the agent goes, judged from ground truth."""
+
+from __future__ import annotations
+
+import doctest
+import json
+import re
+from pathlib import Path
+
+import imageio.v3 as iio
+import pytest
+
+import noisybolt.cli.demo as demo
+from noisybolt.cli import main
+from noisybolt.cli.demo import DEMO_ALGO, DEMO_SPEC, compare_bolted_unbolted
+from noisybolt.errors import ConfigError
+
+TOP_RIGHT = (4, 1)
+
+
+@pytest.fixture(scope="module")
+def comparison(tmp_path_factory: pytest.TempPathFactory) -> demo.DemoComparison:
+    # The demo's spec and learner with fast settings: the oracle detector instead of the
+    # classifier (no classifier to train, cheaper steps) and 30k frames instead of 40k.
+    return compare_bolted_unbolted(
+        spec=DEMO_SPEC,
+        algo=DEMO_ALGO,
+        frames=30_000,
+        detector="oracle",
+        episodes=20,
+        seed=0,
+        out=tmp_path_factory.mktemp("demo"),
+        progress=False,
+        log=lambda _: None,
+    )
+
+
+def test_the_bolted_agent_complies_and_the_unbolted_one_does_not(
+    comparison: demo.DemoComparison,
+) -> None:
+    unbolted, bolted = comparison.unbolted.evaluation, comparison.bolted.evaluation
+    assert comparison.spec_name == "avoid_top_right"
+    assert unbolted.goal_rate >= 0.9 and bolted.goal_rate >= 0.9
+    # Ground truth: the true trace's DFA state at the end of each episode.
+    assert unbolted.compliance["avoid_top_right"] <= 0.1
+    assert bolted.compliance["avoid_top_right"] >= 0.9
+    # The unbolted agent takes the 7-step route through the corner, the bolted one the
+    # 8-step route around it: the bolt costs the world's return a step.
+    assert unbolted.length_mean < bolted.length_mean
+    assert unbolted.env_return_mean > bolted.env_return_mean
+    assert bolted.bolt_return_mean > unbolted.bolt_return_mean
+    through_corner = [TOP_RIGHT in episode for episode in comparison.unbolted.positions]
+    assert sum(through_corner) >= 0.9 * len(through_corner)
+    assert not any(TOP_RIGHT in episode for episode in comparison.bolted.positions)
+
+
+def test_the_demo_writes_its_picture_gif_and_numbers(comparison: demo.DemoComparison) -> None:
+    picture = iio.imread(comparison.files["picture"])
+    assert picture.ndim == 3 and picture.shape[1] > 1.5 * picture.shape[0]  # two rooms
+    assert iio.imread(comparison.files["gif"], index=None).shape[0] >= 8  # >= 7 steps + reset
+    summary = json.loads(Path(comparison.files["summary"]).read_text())
+    assert summary["spec"] == {"name": "avoid_top_right", "formula": "!F(top_right_corner)"}
+    assert summary["bolted"]["evaluation"]["compliance"]["avoid_top_right"] >= 0.9
+    for agent in (comparison.unbolted, comparison.bolted):
+        assert (agent.run_dir / "model.zip").exists()
+        assert agent.frames == 30_000
+
+
+def test_the_table_puts_the_two_agents_side_by_side(comparison: demo.DemoComparison) -> None:
+    lines = demo.format_comparison(comparison).splitlines()
+    assert lines[0].split() == ["unbolted", "bolted"]
+    rows = dict(re.split(r"\s{2,}", line, maxsplit=1) for line in lines[1:])
+    rows = {name: cells.split() for name, cells in rows.items()}
+    assert rows["complies with avoid_top_right (ground truth)"][0] in ("0%", "5%", "10%")
+    assert set(rows) >= {"route length (steps)", "goal rate", "env return R_pi", "bolt return"}
+
+
+def test_demo_spec_runs_the_comparison_for_another_spec(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "edge"
+    args = ["demo", "--spec", "edge", "--detector", "oracle", "--frames", "80"]
+    assert main([*args, "--episodes", "1", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "edge = G(on_edge)" in printed
+    assert "complies with edge (ground truth)" in printed
+    for name in ("comparison.png", "bolted.gif", "comparison.json"):
+        assert str(out / name) in printed and (out / name).exists()
+
+
+def test_bad_input_is_refused_before_anything_is_trained(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "bad"
+    args = ["demo", "--detector", "oracle", "--out", str(out)]
+    assert main([*args, "--spec", "F(no_such_fluent)"]) == 2
+    assert "no_such_fluent" in capsys.readouterr().err
+    assert not (out / "unbolted").exists()
+    with pytest.raises(ConfigError, match="episodes"):
+        compare_bolted_unbolted(detector="oracle", episodes=0, out=out)
+    (out / "unbolted").mkdir(parents=True)
+    with pytest.raises(ConfigError, match="already holds a demo"):
+        compare_bolted_unbolted(detector="oracle", out=out)
+
+
+def test_the_walkthrough_still_walks_the_scripted_episode(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["demo", "--walkthrough"]) == 0
+    printed = capsys.readouterr().out
+    assert "== One scripted episode through Algorithm 1 ==" in printed
+    assert "ground truth: edge: complied, avoid_top_right: complied" in printed
+
+
+def test_docstring_examples() -> None:
+    result = doctest.testmod(demo, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.failed == 0 and result.attempted > 0
