@@ -25,6 +25,10 @@ __all__ = ["CNN_KINDS", "BoltFeaturesExtractor", "check_cnn", "conv_stack"]
 #: Images with both sides at least this large get the Nature-DQN convolutions.
 LARGE_IMAGE_MIN_SIDE = 36
 
+#: Width of the dense layer over an observation that is not an image (a Discrete state,
+#: one-hot, or a Box vector), unless ``image_features`` sets it.
+VECTOR_FEATURES = 64
+
 #: The convolution stacks :func:`conv_stack` builds, by name (``auto``: by image size).
 CNN_KINDS = ("auto", "nature", "atari2013", "grid")
 
@@ -93,6 +97,13 @@ def conv_stack(in_channels: int, height: int, width: int, kind: str = "auto") ->
     )
 
 
+def _is_vector(space: gym.Space) -> bool:
+    """Whether the agent's observation is a state or a vector rather than an image."""
+    if isinstance(space, (gym.spaces.Discrete, gym.spaces.MultiDiscrete, gym.spaces.MultiBinary)):
+        return True
+    return isinstance(space, gym.spaces.Box) and len(space.shape) == 1
+
+
 def _channels_first(shape: tuple[int, ...]) -> bool:
     # SB3 transposes channel-last uint8 images before they reach us; other image-like Boxes
     # (float or non-0..255 bounds) arrive as declared, so decide from the shape: the
@@ -103,12 +114,17 @@ def _channels_first(shape: tuple[int, ...]) -> bool:
 class BoltFeaturesExtractor(BaseFeaturesExtractor):
     """Features ``G(image) | Q`` for ``Dict{"image": Box(H,W,C), "dfa": MultiDiscrete}``.
 
+    A world whose observation is not an image (a ``Discrete`` state, which SB3 one-hot
+    encodes, or a flat ``Box`` vector) gets a dense layer of :data:`VECTOR_FEATURES`
+    units with a ReLU instead of the convolutions, before the DFA states are appended.
+
     Args:
         observation_space: the (possibly SB3-transposed) Dict observation space.
         image_key: key of the agent's image.
         dfa_key: key of the DFA states (absent or empty for an unbolted agent).
         image_features: if given, a linear layer + ReLU projects the flattened
-            convolution output to this many features before the DFA states are appended.
+            convolution output to this many features before the DFA states are appended
+            (for a non-image observation: the dense layer's width).
         cnn: which convolutions (see :func:`conv_stack`; default by image size).
 
     Example:
@@ -119,6 +135,11 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
         >>> obs = {"image": torch.zeros(2, 3, 6, 6), "dfa": torch.zeros(2, 5)}
         >>> extractor(obs).shape
         torch.Size([2, 581])
+        >>> lake = gym.spaces.Dict({
+        ...     "image": gym.spaces.Discrete(16), "dfa": gym.spaces.MultiDiscrete([3])})
+        >>> body = BoltFeaturesExtractor(lake)
+        >>> body({"image": torch.zeros(2, 16), "dfa": torch.zeros(2, 3)}).shape
+        torch.Size([2, 67])
     """
 
     def __init__(
@@ -140,31 +161,43 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
             )
         image_space = observation_space.spaces[image_key]
         shape = tuple(int(s) for s in image_space.shape or ())
-        if len(shape) != 3:
-            raise ConfigError(f"the agent's image must be 3-D (H, W, C), got shape {shape}")
-        first = _channels_first(shape)
-        channels, height, width = shape if first else (shape[2], shape[0], shape[1])
-        convs = conv_stack(channels, height, width, cnn)
-        with torch.no_grad():
-            n_conv = int(convs(torch.zeros(1, channels, height, width)).shape[1])
+        first = False
         projection: nn.Module = nn.Identity()
-        n_image = n_conv
-        if image_features is not None:
-            projection = nn.Sequential(nn.Linear(n_conv, image_features), nn.ReLU())
-            n_image = image_features
+        if _is_vector(image_space):
+            # Not an image (a Discrete state, already one-hot by SB3, or a Box vector): a
+            # dense layer stands where the convolutions would.
+            n_in = get_flattened_obs_dim(image_space)
+            n_image = image_features if image_features is not None else VECTOR_FEATURES
+            convs: nn.Module = nn.Sequential(nn.Flatten(), nn.Linear(n_in, n_image), nn.ReLU())
+        else:
+            if len(shape) != 3:
+                raise ConfigError(
+                    f"the agent's observation must be an image (H, W, C), a Discrete state or "
+                    f"a flat Box vector, got {image_space}"
+                )
+            first = _channels_first(shape)
+            channels, height, width = shape if first else (shape[2], shape[0], shape[1])
+            convs = conv_stack(channels, height, width, cnn)
+            with torch.no_grad():
+                n_conv = int(convs(torch.zeros(1, channels, height, width)).shape[1])
+            n_image = n_conv
+            if image_features is not None:
+                projection = nn.Sequential(nn.Linear(n_conv, image_features), nn.ReLU())
+                n_image = image_features
         dfa_space = observation_space.spaces.get(dfa_key)
         n_dfa = get_flattened_obs_dim(dfa_space) if dfa_space is not None else 0
         super().__init__(observation_space, features_dim=n_image + n_dfa)
         self.image_key = image_key
         self.dfa_key = dfa_key if n_dfa else None
         self.channels_first = first
+        self.is_vector = _is_vector(image_space)
         self.convs = convs
         self.projection = projection
 
     def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
         """Concatenates the image features with the (already one-hot) DFA states."""
         image = observations[self.image_key].float()
-        if not self.channels_first:
+        if not (self.channels_first or self.is_vector):
             image = image.permute(0, 3, 1, 2)
         features = self.projection(self.convs(image))
         if self.dfa_key is None:

@@ -1,8 +1,11 @@
 """Hyperparameters per world and algorithm (YAML, RL-Zoo style), with overrides.
 
 The built-in files live in ``noisybolt/configs/hyperparams/<world>.yaml``, one entry per
-algorithm. Overrides come from the command line as ``key=value`` strings (the value is read
-as YAML, so ``net_arch=[32,32]`` is a list) and may reach into nested mappings with dots
+algorithm. A world named by factory path (``package.module:factory``) without a file of
+its own gets the documented fallbacks of ``_default.yaml`` there; a user's own file in the
+same layout replaces either (``hp_file``, ``noisybolt train --hp-file``). Overrides come
+from the command line as ``key=value`` strings (the value is read as YAML, so
+``net_arch=[32,32]`` is a list) and may reach into nested mappings with dots
 (``policy_kwargs.net_arch=[32,32]``). Unknown keys are refused with the known ones listed.
 """
 
@@ -11,8 +14,10 @@ from __future__ import annotations
 import contextlib
 import copy
 import inspect
+import os
 from collections.abc import Iterable, Mapping
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import yaml
@@ -23,6 +28,7 @@ from noisybolt.errors import ConfigError, UnknownNameError
 
 __all__ = [
     "ALGORITHMS",
+    "DEFAULT_HYPERPARAMS",
     "META_KEYS",
     "algorithm_class",
     "known_hyperparameters",
@@ -31,6 +37,10 @@ __all__ = [
 ]
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN}
+
+#: The fallback file for a factory-path world with no file of its own (its comments say
+#: where the values come from).
+DEFAULT_HYPERPARAMS = "_default"
 
 #: noisybolt's own keys, consumed before the rest reaches the SB3 constructor.
 META_KEYS: frozenset[str] = frozenset(
@@ -100,9 +110,13 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
 def _builtin(world: str) -> dict[str, Any]:
     files = resources.files("noisybolt.configs").joinpath("hyperparams")
     known = sorted(
-        p.name.removesuffix(".yaml") for p in files.iterdir() if p.name.endswith(".yaml")
+        p.name.removesuffix(".yaml")
+        for p in files.iterdir()
+        if p.name.endswith(".yaml") and not p.name.startswith("_")
     )
-    if world not in known:
+    if world not in known and ":" in world:  # a factory path: the documented fallbacks
+        world = DEFAULT_HYPERPARAMS
+    elif world not in known:
         raise UnknownNameError(
             f"no hyperparameters for world {world!r}; known worlds: {known}",
             name=world,
@@ -112,14 +126,42 @@ def _builtin(world: str) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
+def _user_file(path: str | os.PathLike[str], algo: str) -> dict[str, Any]:
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    except OSError as exc:
+        raise ConfigError(f"cannot read the hyperparameter file {path}: {exc}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"the hyperparameter file {path} is not valid YAML: {exc}") from None
+    if not isinstance(data, dict) or algo not in data:
+        found = sorted(data) if isinstance(data, dict) else type(data).__name__
+        raise ConfigError(
+            f"the hyperparameter file {path} needs an entry {algo!r} (one mapping per "
+            f"algorithm, as in noisybolt/configs/hyperparams/gridworld.yaml); found {found}"
+        )
+    return data
+
+
 def load_hyperparams(
-    world: str, algo: str, overrides: Mapping[str, Any] | None = None
+    world: str,
+    algo: str,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    hp_file: str | os.PathLike[str] | None = None,
 ) -> dict[str, Any]:
     """Resolved hyperparameters of ``algo`` on ``world``, with ``overrides`` applied.
 
+    Args:
+        world: a world with a built-in file, or a factory path (fallbacks:
+            ``_default.yaml``).
+        algo: ``ppo``, ``a2c`` or ``dqn``.
+        overrides: ``{key: value}``, dotted keys reaching into mappings.
+        hp_file: a YAML file of the built-in layout to read instead of the built-in one.
+
     Raises:
-        UnknownNameError: unknown world or algorithm.
-        ConfigError: an override names a key the algorithm does not have.
+        UnknownNameError: unknown world (with no ``hp_file``) or algorithm.
+        ConfigError: an override or file names a key the algorithm does not have, or
+            ``hp_file`` is unreadable or has no entry for ``algo``.
 
     Example:
         >>> params = load_hyperparams("gridworld", "ppo", {"n_epochs": 2})
@@ -128,7 +170,7 @@ def load_hyperparams(
     """
     algo = algo.lower()
     algorithm_class(algo)
-    table = _builtin(world)
+    table = _user_file(hp_file, algo) if hp_file is not None else _builtin(world)
     params = copy.deepcopy(table.get(algo) or {})
     known = known_hyperparameters(algo)
     for key, value in (overrides or {}).items():
@@ -148,7 +190,6 @@ def load_hyperparams(
         node[rest[-1]] = value
     unknown = sorted(set(params) - known)
     if unknown:
-        raise ConfigError(
-            f"built-in hyperparameters for {world}/{algo} have unknown keys {unknown}"
-        )
+        source = hp_file if hp_file is not None else f"built-in hyperparameters for {world}"
+        raise ConfigError(f"{source}/{algo} has unknown keys {unknown}")
     return params

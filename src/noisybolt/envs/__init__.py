@@ -20,7 +20,13 @@ import gymnasium as gym
 from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS, GridAction, GridworldEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.envs.labels import FluentLabels
-from noisybolt.envs.registry import known_worlds, make_world, register_world
+from noisybolt.envs.registry import (
+    check_world,
+    known_worlds,
+    make_single_world,
+    make_world,
+    register_world,
+)
 from noisybolt.envs.sb3 import SB3VecEnv
 
 __all__ = [
@@ -31,7 +37,9 @@ __all__ = [
     "GridworldEnv",
     "SB3VecEnv",
     "VectorGridworld",
+    "check_world",
     "known_worlds",
+    "make_single_world",
     "make_world",
     "register_gym_envs",
     "register_world",

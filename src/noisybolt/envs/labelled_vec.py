@@ -41,6 +41,7 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
     Args:
         env_fns: one function per environment, each returning a labelled env with the
             same fluents (usually the same factory repeated).
+        seed: seeds the first reset that is given no seed (env ``i`` with ``seed + i``).
 
     Raises:
         ConfigError: no env functions, or envs whose fluents differ.
@@ -49,7 +50,9 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP}  # noqa: RUF012
 
-    def __init__(self, env_fns: Sequence[Callable[[], gym.Env]]) -> None:
+    def __init__(
+        self, env_fns: Sequence[Callable[[], gym.Env]], *, seed: int | None = None
+    ) -> None:
         if not env_fns:
             raise ConfigError("LabelledVectorEnv needs at least one env function")
         self._venv = SyncVectorEnv(list(env_fns), autoreset_mode=AutoresetMode.SAME_STEP)
@@ -63,6 +66,7 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         self.observation_space = self._venv.observation_space
         self.action_space = self._venv.action_space
         self.render_mode = self._venv.render_mode
+        self._first_seed = seed
         self._images: np.ndarray | None = None
         self._truth: np.ndarray | None = None
         self._final_images: np.ndarray | None = None
@@ -77,6 +81,10 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         """Resets every env (env ``i`` with ``seed + i``) and keeps their labels."""
+        if seed is None:
+            seed, self._first_seed = self._first_seed, None
+        else:
+            self._first_seed = None
         obs, info = self._venv.reset(seed=seed, options=options)
         self._images, self._truth = _labels(info, self.num_envs, "reset")
         self._final_images, self._final_truth = self._images, self._truth

@@ -1,6 +1,13 @@
 """Worlds by name: ``make_world("gridworld", num_envs=8, seed=0, noise="regional")``.
 
-A world factory returns a vectorised world meeting
+A world is named in a config by a registered name or by a *factory path*
+``"package.module:factory"``: ``factory()`` returns one labelled Gymnasium env (see
+:class:`~noisybolt.envs.labels.FluentLabels`), and :func:`make_world` steps
+``num_envs`` of them as a :class:`~noisybolt.envs.labelled_vec.LabelledVectorEnv`. Any
+process (a resumed run, ``evaluate``, a spawned worker) rebuilds it from the path; a
+module not on ``sys.path`` is looked for in the current directory too.
+
+A registered world factory returns a vectorised world meeting
 :class:`~noisybolt.perception.protocols.BoltObservable` (and, for training, a Gymnasium
 :class:`~gymnasium.vector.VectorEnv` with same-step autoreset). Factories are registered
 as ``"module:attribute"`` paths and imported only when asked for, so a world whose module
@@ -19,14 +26,35 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import os
+import sys
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
-from noisybolt.errors import BackendUnavailableError, ConfigError, UnknownNameError
+import gymnasium as gym
+
+from noisybolt.errors import (
+    BackendUnavailableError,
+    ConfigError,
+    UnknownNameError,
+    UnlabelledEnvError,
+    WorldFactoryError,
+)
 from noisybolt.perception.noise import NoiseSpec
 from noisybolt.perception.protocols import BoltObservable
 
-__all__ = ["known_worlds", "make_world", "register_world"]
+__all__ = [
+    "WorldDisplay",
+    "check_world",
+    "is_factory_path",
+    "known_worlds",
+    "make_single_world",
+    "make_world",
+    "register_world",
+    "resolve_factory",
+    "world_display",
+]
 
 WorldFactory = Callable[..., BoltObservable]
 
@@ -35,6 +63,166 @@ _WORLDS: dict[str, str | WorldFactory] = {
     # Written separately (envs/breakout.py); the factory takes the same keywords.
     "breakout": "noisybolt.envs.breakout:make_breakout_world",
 }
+
+
+# One labelled (non-vectorised) env of each registered world, for recordings (GIFs).
+_SINGLE: dict[str, str] = {
+    "gridworld": "noisybolt.envs.gridworld:GridworldEnv",
+    "breakout": "noisybolt.envs.breakout:BreakoutEnv",
+}
+
+
+@dataclass(frozen=True)
+class WorldDisplay:
+    """How recordings show a world.
+
+    Attributes:
+        gif_steps: steps recorded per episode (None: the whole episode).
+        gif_fps: GIF frame rate.
+        action_names: names drawn for the actions, in the world's action order (None:
+            their numbers).
+        grid_positions: the world's single env has ``agent_pos`` in a square room of
+            ``size`` cells (heat-maps can be drawn).
+    """
+
+    gif_steps: int | None = 1000
+    gif_fps: float = 4.0
+    action_names: tuple[str, ...] | None = None
+    grid_positions: bool = False
+
+
+_DISPLAY: dict[str, WorldDisplay] = {
+    "gridworld": WorldDisplay(
+        gif_steps=None,
+        gif_fps=4.0,
+        action_names=("left", "right", "forward", "no-op"),
+        grid_positions=True,
+    ),
+    # A Breakout game can last thousands of steps.
+    "breakout": WorldDisplay(
+        gif_steps=600, gif_fps=15.0, action_names=("no-op", "fire", "right", "left")
+    ),
+}
+
+
+def world_display(name: str) -> WorldDisplay:
+    """How recordings show the world ``name`` (defaults for a factory-path world)."""
+    return _DISPLAY.get(name, WorldDisplay())
+
+
+def is_factory_path(name: str) -> bool:
+    """Whether ``name`` is a factory path ``"package.module:factory"`` (not a registered name)."""
+    return isinstance(name, str) and name not in _WORLDS and ":" in name
+
+
+def resolve_factory(path: str) -> Callable[[], gym.Env]:
+    """The function a factory path names (imported; the current directory is searched too).
+
+    Raises:
+        WorldFactoryError: the path is malformed, its module does not import, or it names
+            nothing callable.
+    """
+    module_name, sep, attribute = path.partition(":")
+    if not sep or not module_name or not attribute.isidentifier():
+        raise WorldFactoryError(
+            f"a world factory path is 'package.module:factory', got {path!r}", path=path
+        )
+    try:
+        module = _import_here_too(module_name)
+    except Exception as exc:
+        raise WorldFactoryError(
+            f"world {path!r}: importing {module_name} failed ({type(exc).__name__}: {exc}); "
+            "is the module on PYTHONPATH or in the current directory?",
+            path=path,
+        ) from exc
+    factory = getattr(module, attribute, None)
+    if not callable(factory):
+        raise WorldFactoryError(
+            f"world {path!r}: {module_name} has no function {attribute!r}", path=path
+        )
+    return factory
+
+
+def _import_here_too(module_name: str) -> Any:
+    try:
+        return importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        # A console script does not put the current directory on sys.path (python -m does).
+        top = module_name.partition(".")[0]
+        here = os.getcwd()
+        if exc.name != top or here in sys.path or "" in sys.path:
+            raise
+        sys.path.insert(0, here)
+        return importlib.import_module(module_name)
+
+
+def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
+    """``factory()``, checked to be one labelled Gymnasium env."""
+    from noisybolt.envs.labels import fluent_names_of
+
+    env = factory()
+    if not isinstance(env, gym.Env):
+        raise WorldFactoryError(
+            f"world {path!r}: the factory must return one Gymnasium env (gym.Env), got "
+            f"{type(env).__name__}",
+            path=path,
+        )
+    try:
+        fluent_names_of(env)
+    except UnlabelledEnvError:
+        raise WorldFactoryError(
+            f"world {path!r}: the factory returned an env without labels; return "
+            "noisybolt.FluentLabels(env, fluents={name: fn(env) -> bool}, ...)",
+            path=path,
+        ) from None
+    return env
+
+
+def check_world(name: str) -> None:
+    """Checks that ``name`` is a registered world or an importable factory path.
+
+    Raises:
+        UnknownNameError: neither (the message lists the registered worlds).
+        WorldFactoryError: a factory path that does not import.
+    """
+    if is_factory_path(name):
+        resolve_factory(name)
+    elif name not in _WORLDS:
+        raise UnknownNameError(
+            f"unknown world {name!r}; known worlds: {list(known_worlds())}, or a factory "
+            "path 'package.module:factory' returning a labelled env",
+            name=str(name),
+            known=known_worlds(),
+        )
+
+
+def make_single_world(name: str, **settings: Any) -> gym.Env:
+    """One labelled (non-vectorised) env of a world, e.g. to record an episode.
+
+    Args:
+        name: a registered world or a factory path.
+        **settings: the world's settings (registered worlds only).
+
+    Raises:
+        ConfigError: settings given to a factory-path world.
+        UnknownNameError, WorldFactoryError: as :func:`check_world`.
+    """
+    check_world(name)
+    if is_factory_path(name):
+        _no_settings(name, settings)
+        return _labelled_env(name, resolve_factory(name))
+    module_name, _, attribute = _SINGLE[name].partition(":")
+    env: gym.Env = getattr(importlib.import_module(module_name), attribute)(**settings)
+    return env
+
+
+def _no_settings(name: str, settings: dict[str, Any]) -> None:
+    given = sorted(k for k, v in settings.items() if v not in (None, "none"))
+    if given:
+        raise ConfigError(
+            f"world {name!r} is built by its factory alone and takes no settings; got "
+            f"{', '.join(given)} (put the camera's noise in the factory's FluentLabels)"
+        )
 
 
 def known_worlds() -> tuple[str, ...]:
@@ -88,7 +276,7 @@ def make_world(
     """Build a vectorised world by name.
 
     Args:
-        name: one of :func:`known_worlds`.
+        name: one of :func:`known_worlds`, or a factory path (see the module docs).
         num_envs: number of environments in the batch.
         seed: seeds the world's randomness (the bolt camera's noise included).
         noise: the bolt camera's noise spec (see
@@ -100,10 +288,21 @@ def make_world(
         UnknownNameError: for a name outside :func:`known_worlds` (listing them).
         ConfigError: for a parameter the world does not take, or a bad value.
         BackendUnavailableError: if the world's module cannot be imported here.
+        WorldFactoryError: a factory path that does not import or returns an env without
+            labels.
     """
+    if is_factory_path(name):
+        from noisybolt.envs.labelled_vec import LabelledVectorEnv
+
+        _no_settings(name, {"noise": noise, "obs_mode": obs_mode, **kwargs})
+        env_fn = resolve_factory(name)
+        first = _labelled_env(name, env_fn)
+        fns = [lambda: first] + [lambda: _labelled_env(name, env_fn)] * (num_envs - 1)
+        return LabelledVectorEnv(fns, seed=seed)
     if name not in _WORLDS:
         raise UnknownNameError(
-            f"unknown world {name!r}; known: {', '.join(known_worlds())}",
+            f"unknown world {name!r}; known: {', '.join(known_worlds())}, or a factory path "
+            "'package.module:factory' returning a labelled env",
             name=str(name),
             known=known_worlds(),
         )
