@@ -146,3 +146,7 @@ def test_train_then_evaluate_in_a_new_process(
     record = json.loads((out / "evaluation.json").read_text())
     assert record["n_episodes"] == 3
     assert 0.0 <= record["goal_rate"] <= 1.0
+    gif = tmp_path / "episode.gif"
+    assert main(["evaluate", str(out), "--episodes", "1", "--gif", str(gif)]) == 2
+    assert "GIFs are not yet drawn for 'frozenlake:make_lake'" in capsys.readouterr().err
+    assert not gif.exists()
