@@ -44,8 +44,22 @@ def test_channel_last_images_are_accepted() -> None:
 
 
 def test_unbolted_agent_has_image_features_only_and_projection_works() -> None:
+    torch.manual_seed(0)
     extractor = BoltFeaturesExtractor(_space((3, 6, 6), None), image_features=32)
     assert extractor.features_dim == 32
+    images = torch.randint(0, 11, (3, 3, 6, 6)).float()
+    features = extractor({"image": images})  # no "dfa" entry: an unbolted agent
+    assert features.shape == (3, 32)
+    # The projection is a trained linear layer and a ReLU over the flattened convolutions.
+    (linear, relu) = extractor.projection
+    assert isinstance(linear, torch.nn.Linear) and isinstance(relu, torch.nn.ReLU)
+    flat = extractor.convs(images)
+    assert flat.shape == (3, 64 * 3 * 3)
+    torch.testing.assert_close(features, torch.relu(flat @ linear.weight.T + linear.bias))
+    assert (features > 0).any() and not torch.equal(features[0], features[1])
+    # Its weights get gradients: the projection is part of what the agent learns.
+    features.sum().backward()
+    assert linear.weight.grad is not None and linear.weight.grad.abs().sum() > 0
 
 
 def test_bad_spaces_are_named_errors() -> None:

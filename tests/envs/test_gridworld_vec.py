@@ -324,7 +324,10 @@ def test_public_api_is_documented_and_examples_run(module: str) -> None:
         obj = getattr(mod, name)
         if isinstance(obj, type | types.FunctionType):
             assert obj.__doc__, f"{module}.{name} has no docstring"
-    assert doctest.testmod(mod, optionflags=doctest.ELLIPSIS).failed == 0
+    result = doctest.testmod(mod, optionflags=doctest.ELLIPSIS)
+    assert result.failed == 0
+    # The package only re-exports (its modules hold the examples); every module has some.
+    assert result.attempted > 0 or module == "noisybolt.envs", f"{module} has no examples"
 
 
 @pytest.mark.parametrize(("heading", "after_forward"), [("east", (2, 1)), ("south", (1, 2))])
