@@ -112,6 +112,7 @@ def test_bad_factory_paths_are_named_before_anything_is_written(
 ) -> None:
     (tmp_path / "badworlds.py").write_text(BAD_WORLDS)
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
     monkeypatch.delitem(sys.modules, "badworlds", raising=False)
     out = tmp_path / "run"
     argv = ["train", "--world", world, "--spec", "F(a)", "--frames", "64", "--out", str(out)]

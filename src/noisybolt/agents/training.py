@@ -43,6 +43,7 @@ from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, RewardScheme, Spec, Thresholds, compliance_scale
 from noisybolt.envs import SB3VecEnv, check_world, make_world
 from noisybolt.envs.bounds import world_return_bounds
+from noisybolt.envs.registry import is_factory_path, world_fingerprint
 from noisybolt.errors import (
     ConfigError,
     UnknownFluentError,
@@ -366,24 +367,34 @@ def classifier_architecture(camera: Any) -> Any:
 
 
 def default_classifier_path(
-    world: str, config: DetectorConfig, camera: Any, architecture: Any
+    world: str,
+    config: DetectorConfig,
+    camera: Any,
+    architecture: Any,
+    *,
+    fingerprint: str | None = None,
 ) -> Path:
-    """Where the on-the-fly classifier for this world, camera and recipe is cached."""
+    """Where the on-the-fly classifier for this world, camera and recipe is cached.
+
+    ``fingerprint`` (:func:`noisybolt.envs.registry.world_fingerprint`, taken for a
+    factory-path world) keys it by what the fluents mean too: a user's world whose fluent
+    definition changed under the same name gets a new classifier, not the old one.
+    """
     from noisybolt.perception.compat import camera_spec_to_dict
 
-    key = json.dumps(
-        {
-            "world": world,
-            "camera": camera_spec_to_dict(camera),
-            "architecture": asdict(architecture),
-            "samples": config.samples,
-            "epochs": config.epochs,
-            "seed": config.seed,
-        },
-        sort_keys=True,
-    ).encode()
-    digest = hashlib.sha256(key).hexdigest()[:16]
-    return _cache_root() / "classifiers" / f"{world}-{digest}.safetensors"
+    fields = {
+        "world": world,
+        "camera": camera_spec_to_dict(camera),
+        "architecture": asdict(architecture),
+        "samples": config.samples,
+        "epochs": config.epochs,
+        "seed": config.seed,
+    }
+    if fingerprint is not None:
+        fields["fluents"] = fingerprint
+    digest = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:16]
+    label = world.replace(":", ".")
+    return _cache_root() / "classifiers" / f"{label}-{digest}.safetensors"
 
 
 def make_detector(
@@ -412,7 +423,15 @@ def make_detector(
     path = (
         Path(config.path)
         if config.path
-        else default_classifier_path(world, config, camera_spec, architecture)
+        else default_classifier_path(
+            world,
+            config,
+            camera_spec,
+            architecture,
+            fingerprint=world_fingerprint(world, dict(world_kwargs))
+            if is_factory_path(world)
+            else None,
+        )
     )
     if config.path is None and not path.exists():
         log(f"no cached classifier for this camera: training one ({path})")

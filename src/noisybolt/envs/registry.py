@@ -54,6 +54,7 @@ __all__ = [
     "register_world",
     "resolve_factory",
     "world_display",
+    "world_fingerprint",
 ]
 
 WorldFactory = Callable[..., BoltObservable]
@@ -232,6 +233,37 @@ def _no_settings(name: str, settings: dict[str, Any]) -> None:
             f"world {name!r} is built by its factory alone and takes no settings; got "
             f"{', '.join(given)} (put the camera's noise in the factory's FluentLabels)"
         )
+
+
+def world_fingerprint(
+    name: str, world_kwargs: dict[str, Any] | None = None, *, samples: int = 64, seed: int = 0
+) -> str:
+    """What a world's fluents *mean*: a digest of labelled bolt images it shows.
+
+    A classifier cached under a world's name and camera stays right only while the
+    fluents keep their definitions; a user's world (a factory path) can change one
+    without changing its name. The digest is over ``samples`` labelled images collected
+    from the world with ``seed`` (images and labels), so a changed fluent, camera or
+    noise gives another digest.
+
+    Example:
+        >>> len(world_fingerprint("gridworld", {"obs_mode": "grid"}))
+        16
+    """
+    import hashlib
+
+    from noisybolt.perception.dataset import collect_samples
+
+    world = make_world(name, num_envs=4, seed=seed, **(world_kwargs or {}))
+    try:
+        data = collect_samples(world, num_samples=samples, seed=seed)
+    finally:
+        if isinstance(world, gym.vector.VectorEnv):
+            world.close()
+    digest = hashlib.sha256(data.labels.tobytes())
+    digest.update(str(data.labels.shape).encode())
+    digest.update(data.images.tobytes())
+    return digest.hexdigest()[:16]
 
 
 def known_worlds() -> tuple[str, ...]:
