@@ -10,16 +10,17 @@ from pathlib import Path
 import imageio.v3 as iio
 import pytest
 
-import noisybolt.cli.demo as demo
+import noisybolt.agents.comparison as comparison_module
+from noisybolt.agents.comparison import BoltComparison, compare_bolted_unbolted, format_comparison
 from noisybolt.cli import main
-from noisybolt.cli.demo import DEMO_ALGO, DEMO_SPEC, compare_bolted_unbolted
+from noisybolt.cli.demo import DEMO_ALGO, DEMO_NOISE, DEMO_SPEC
 from noisybolt.errors import ConfigError
 
 TOP_RIGHT = (4, 1)
 
 
 @pytest.fixture(scope="module")
-def comparison(tmp_path_factory: pytest.TempPathFactory) -> demo.DemoComparison:
+def comparison(tmp_path_factory: pytest.TempPathFactory) -> BoltComparison:
     # The demo's spec and learner with fast settings: the oracle detector instead of the
     # classifier (no classifier to train, cheaper steps) and 30k frames instead of 40k.
     return compare_bolted_unbolted(
@@ -27,6 +28,7 @@ def comparison(tmp_path_factory: pytest.TempPathFactory) -> demo.DemoComparison:
         algo=DEMO_ALGO,
         frames=30_000,
         detector="oracle",
+        noise=DEMO_NOISE,
         episodes=20,
         seed=0,
         out=tmp_path_factory.mktemp("demo"),
@@ -36,7 +38,7 @@ def comparison(tmp_path_factory: pytest.TempPathFactory) -> demo.DemoComparison:
 
 
 def test_the_bolted_agent_complies_and_the_unbolted_one_does_not(
-    comparison: demo.DemoComparison,
+    comparison: BoltComparison,
 ) -> None:
     unbolted, bolted = comparison.unbolted.evaluation, comparison.bolted.evaluation
     assert comparison.spec_name == "avoid_top_right"
@@ -54,7 +56,7 @@ def test_the_bolted_agent_complies_and_the_unbolted_one_does_not(
     assert not any(TOP_RIGHT in episode for episode in comparison.bolted.positions)
 
 
-def test_the_demo_writes_its_picture_gif_and_numbers(comparison: demo.DemoComparison) -> None:
+def test_the_demo_writes_its_picture_gif_and_numbers(comparison: BoltComparison) -> None:
     picture = iio.imread(comparison.files["picture"])
     assert picture.ndim == 3 and picture.shape[1] > 1.5 * picture.shape[0]  # two rooms
     assert iio.imread(comparison.files["gif"], index=None).shape[0] >= 8  # >= 7 steps + reset
@@ -66,8 +68,8 @@ def test_the_demo_writes_its_picture_gif_and_numbers(comparison: demo.DemoCompar
         assert agent.frames == 30_000
 
 
-def test_the_table_puts_the_two_agents_side_by_side(comparison: demo.DemoComparison) -> None:
-    lines = demo.format_comparison(comparison).splitlines()
+def test_the_table_puts_the_two_agents_side_by_side(comparison: BoltComparison) -> None:
+    lines = format_comparison(comparison).splitlines()
     assert lines[0].split() == ["unbolted", "bolted"]
     rows = dict(re.split(r"\s{2,}", line, maxsplit=1) for line in lines[1:])
     rows = {name: cells.split() for name, cells in rows.items()}
@@ -97,10 +99,10 @@ def test_bad_input_is_refused_before_anything_is_trained(
     assert "no_such_fluent" in capsys.readouterr().err
     assert not (out / "unbolted").exists()
     with pytest.raises(ConfigError, match="episodes"):
-        compare_bolted_unbolted(detector="oracle", episodes=0, out=out)
+        compare_bolted_unbolted(spec=DEMO_SPEC, algo=DEMO_ALGO, frames=8, episodes=0, out=out)
     (out / "unbolted").mkdir(parents=True)
     with pytest.raises(ConfigError, match="already holds a demo"):
-        compare_bolted_unbolted(detector="oracle", out=out)
+        compare_bolted_unbolted(spec=DEMO_SPEC, algo=DEMO_ALGO, frames=8, out=out)
 
 
 def test_the_walkthrough_still_walks_the_scripted_episode(
@@ -113,5 +115,5 @@ def test_the_walkthrough_still_walks_the_scripted_episode(
 
 
 def test_docstring_examples() -> None:
-    result = doctest.testmod(demo, optionflags=doctest.NORMALIZE_WHITESPACE)
+    result = doctest.testmod(comparison_module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.failed == 0 and result.attempted > 0
