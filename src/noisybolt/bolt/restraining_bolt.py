@@ -77,6 +77,11 @@ class RestrainingBolt:
         shaping: the compliance scheme's progress terms added to every transition's
             reward (:class:`~noisybolt.bolt.ProgressShaping`; its DFAs must be this
             bolt's, in order); None for none (Algorithm 1 as the paper states it).
+        pay_at_truncation: whether an episode cut by a time limit (``truncated`` in
+            :meth:`step`) is paid as ended (``episode_end`` rewards, the progress terms'
+            end charge). True by default (plain LTLf on the trace so far); the
+            ``compliance`` scheme sets False: a learner that bootstraps at a time limit
+            (SB3 does) already counts what would follow, outcome included.
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
@@ -112,6 +117,7 @@ class RestrainingBolt:
         n_envs: int = 1,
         end_on_violation: bool = False,
         shaping: ProgressShaping | None = None,
+        pay_at_truncation: bool = True,
     ) -> None:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
@@ -132,6 +138,7 @@ class RestrainingBolt:
         ):
             raise ConfigError("shaping must be a ProgressShaping over this bolt's own DFAs")
         self._shaping = shaping
+        self._pay_at_truncation = bool(pay_at_truncation)
         self._n_envs = int(n_envs)
         self._end_on_violation = bool(end_on_violation)
         self._states = self._engine.initial_states(self._n_envs)
@@ -255,6 +262,7 @@ class RestrainingBolt:
         probs: np.ndarray,
         done: np.ndarray | bool | None = None,
         env_mask: np.ndarray | None = None,
+        truncated: np.ndarray | bool | None = None,
     ) -> BoltStep:
         """One transition for every selected environment, on the observation after its action.
 
@@ -266,6 +274,9 @@ class RestrainingBolt:
                 (terminated or truncated). Ended environments must be :meth:`reset`
                 before their next step.
             env_mask: bool ``[n_envs]``, the environments that step (None: all).
+            truncated: bool ``[n_envs]`` (or one bool): of the ``done`` episodes, those
+                cut by a time limit rather than ended by the task (see
+                ``pay_at_truncation``); None: none.
 
         Returns:
             The :class:`BoltStep`; ``total`` includes the reward ``carried`` from reset.
@@ -299,14 +310,19 @@ class RestrainingBolt:
                 "before stepping them"
             )
         states = self._states[rows]
+        paid_end = (
+            done
+            if self._pay_at_truncation
+            else done & ~_env_flags(truncated, self._n_envs, "truncated")
+        )
         out = self._engine._step(
             states,
             probs[rows],
-            done=done[rows],
+            done=paid_end[rows],
             first=np.zeros(len(states), dtype=bool),
             end_on_violation=self._end_on_violation,
         )
-        out = self._shaped(out, states, done[rows] | out.terminate)
+        out = self._shaped(out, states, paid_end[rows] | out.terminate)
         carried = self._pending[rows].copy()  # a view when rows is a slice
         out = out._replace(carried=carried, total=out.total + carried)
         self._pending[rows] = 0.0

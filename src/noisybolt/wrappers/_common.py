@@ -86,6 +86,7 @@ def build_bolt(
     progress_gamma: float | None = None,
     shaping: bool = True,
     world_letters: np.ndarray | None = None,
+    pay_at_truncation: bool = True,
 ) -> BoltParts:
     """Checks that specs, detector and world agree, and builds the bolt and its twin.
 
@@ -95,6 +96,7 @@ def build_bolt(
     scaled by its terminal reward; None for none (the ``paper`` scheme).
     ``world_letters``: true fluents the world produces (bool ``[n, n_fluents]``, e.g.
     from random play), so progress counts only steps the world can take.
+    ``pay_at_truncation``: see :class:`~noisybolt.bolt.RestrainingBolt`.
 
     Raises:
         UnknownFluentError: a spec reads a fluent the world does not have (the message
@@ -127,6 +129,7 @@ def build_bolt(
         world_fluents,
         dfas=dfas,
         shaping=terms,
+        pay_at_truncation=pay_at_truncation,
         thresholds=thresholds,
         cost_mode=cost_mode,
         n_envs=n_envs,

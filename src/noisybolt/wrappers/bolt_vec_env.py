@@ -43,7 +43,8 @@ class BoltVecEnv(VecEnvWrapper):
         detector: fluent detector, called once per step on the whole batch.
         world: the object meeting :class:`BoltObservable` (default ``venv.unwrapped``).
         dfas, thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
-        progress_gamma, shaping, world_letters: the compliance scheme's progress terms (see
+        progress_gamma, shaping, world_letters, pay_at_truncation: the compliance scheme's
+            progress terms and its ending (see
             :func:`~noisybolt.wrappers._common.build_bolt`); None for none.
         end_on_violation: must be False here (see the error it raises).
     """
@@ -62,6 +63,7 @@ class BoltVecEnv(VecEnvWrapper):
         progress_gamma: float | None = None,
         shaping: bool = True,
         world_letters: np.ndarray | None = None,
+        pay_at_truncation: bool = True,
     ) -> None:
         if end_on_violation:
             # Ending an episode that the world did not end needs a per-environment reset,
@@ -88,6 +90,7 @@ class BoltVecEnv(VecEnvWrapper):
             progress_gamma=progress_gamma,
             shaping=shaping,
             world_letters=world_letters,
+            pay_at_truncation=pay_at_truncation,
         )
         self.bolt = parts.bolt
         self._truth = parts.truth
@@ -162,7 +165,9 @@ class BoltVecEnv(VecEnvWrapper):
             probs, first_probs = both[: self.num_envs], both[self.num_envs :]
         else:
             probs = self._probs(images, truth)
-        out = self.bolt.step(probs, done=dones)
+        # SB3's convention: a time limit's cut is flagged in the step's info.
+        truncated = np.array([bool(info.get("TimeLimit.truncated")) for info in infos])
+        out = self.bolt.step(probs, done=dones, truncated=truncated & dones)
         self._truth.step(truth)
         true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
         rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
