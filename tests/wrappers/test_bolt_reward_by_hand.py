@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from noisybolt.bolt import Spec
+from noisybolt.bolt import Spec, Thresholds
 from noisybolt.envs import SB3VecEnv
 from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS, GridworldEnv, gridworld_fluents
 from noisybolt.envs.gridworld_vec import VectorGridworld
@@ -178,9 +178,12 @@ def _can_accept(formula: str, q: int) -> bool:
 class PaperBolt:
     """Algorithm 1 for one environment, in plain Python, with the episode timing."""
 
-    def __init__(self, specs: Sequence[Spec], *, cost_mode: str) -> None:
+    def __init__(
+        self, specs: Sequence[Spec], *, cost_mode: str, truth: float = TRUTH, high: float = HIGH
+    ) -> None:
         self.specs = list(specs)
         self.cost_mode = cost_mode
+        self.truth, self.high = truth, high
         self.states: list[int] = []
         self.carried = 0.0
         self.terminate = False
@@ -203,7 +206,7 @@ class PaperBolt:
         self, probs: np.ndarray, *, first: bool, done: bool, end_on_violation: bool = False
     ) -> float:
         p = dict(zip(FLUENTS, (float(v) for v in probs), strict=True))
-        self._trace.append({f: p[f] >= TRUTH for f in FLUENTS})
+        self._trace.append({f: p[f] >= self.truth for f in FLUENTS})
         moves = []
         for spec, q in zip(self.specs, self.states, strict=True):
             dfa = _dfa(spec.formula)
@@ -216,11 +219,12 @@ class PaperBolt:
         ended = done or self.terminate
         total = 0.0
         for k, (spec, (q, target)) in enumerate(zip(self.specs, moves, strict=True)):
-            low = [f for f in _edge_support(spec.formula, q, target) if TRUTH <= p[f] <= HIGH]
+            truth, high = self.truth, self.high
+            low = [f for f in _edge_support(spec.formula, q, target) if truth <= p[f] <= high]
             if self.cost_mode == "count":
                 total -= spec.low_confidence_cost * len(low)
             else:  # weight 1 at the truth threshold, falling linearly to 0 at the high one
-                total -= spec.low_confidence_cost * sum((HIGH - p[f]) / (HIGH - TRUTH) for f in low)
+                total -= spec.low_confidence_cost * sum((high - p[f]) / (high - truth) for f in low)
             accepting = holds(_parsed(spec.formula), self._trace)
             entered = accepting and (first or not self._accepting[k])
             paid = accepting and (
@@ -292,12 +296,33 @@ def _truth_row(x: int, y: int, d: int) -> np.ndarray:
 def test_wrapper_reward_is_the_twins_plus_algorithm_1_by_hand(
     spec_set: str, timing: str, cost_mode: str
 ) -> None:
-    specs = _specs(spec_set, timing)
     seed = list(SPEC_SETS).index(spec_set) * 10 + [*TIMINGS, "mixed"].index(timing)
+    _check_single_wrapper(_specs(spec_set, timing), cost_mode=cost_mode, seed=seed)
+
+
+@pytest.mark.parametrize("cost_mode", ["count", "proportional"])
+def test_the_band_thresholds_are_settings_the_wrapper_obeys(cost_mode: str) -> None:
+    # With truth 0.6 and high 0.8: 0.5 and 0.55 are no longer true, 0.84 and 0.9 are high.
+    thresholds = Thresholds(truth=0.6, high=0.8)
+    _check_single_wrapper(
+        _specs("two_fluent_edges", "mixed"), cost_mode=cost_mode, seed=41, thresholds=thresholds
+    )
+
+
+def _check_single_wrapper(
+    specs: list[Spec], *, cost_mode: str, seed: int, thresholds: Thresholds | None = None
+) -> None:
+    thresholds = thresholds or Thresholds()
     detector = TableDetector(FLUENTS, seed=seed)
     twin, bolted = GridworldEnv(max_steps=25), GridworldEnv(max_steps=25)
-    wrapped = RestrainingBoltWrapper(bolted, specs, detector, cost_mode=cost_mode)  # type: ignore[arg-type]
-    reference = PaperBolt(specs, cost_mode=cost_mode)
+    wrapped = RestrainingBoltWrapper(
+        bolted,
+        specs,
+        detector,
+        cost_mode=cost_mode,  # type: ignore[arg-type]
+        thresholds=thresholds,
+    )
+    reference = PaperBolt(specs, cost_mode=cost_mode, truth=thresholds.truth, high=thresholds.high)
     walker = Walker(np.random.default_rng(seed))
 
     twin.reset(seed=seed)
@@ -311,7 +336,7 @@ def test_wrapper_reward_is_the_twins_plus_algorithm_1_by_hand(
         tobs, treward, tterm, ttrunc, _ = twin.step(action)
         obs, reward, term, trunc, _ = wrapped.step(action)
         probs = detector.row(_truth(twin))
-        low_steps += bool(((probs >= TRUTH) & (probs <= HIGH)).any())
+        low_steps += bool(((probs >= thresholds.truth) & (probs <= thresholds.high)).any())
         expected = reference.step(probs, done=tterm or ttrunc)
         np.testing.assert_array_equal(obs["image"], tobs)
         assert (term, trunc) == (tterm, ttrunc)
