@@ -236,6 +236,25 @@ def test_heatmap_png_has_the_asked_size(tmp_path: Path, draw_paths: bool) -> Non
         trajectory_heatmap([], size=6, path=tmp_path / "empty.png")
 
 
+def test_any_labelled_env_records_what_its_info_showed_the_bolt() -> None:
+    import gymnasium as gym
+
+    from noisybolt import FluentLabels
+
+    lake = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
+    labelled = FluentLabels(
+        lake, fluents={"top_row": lambda e: e.s < 4, "at_goal": lambda e: e.s == 15}
+    )
+    env = RestrainingBoltWrapper(labelled, ["X(G(!top_row))"], "oracle")
+    rec = record_episode(env, lambda obs: 1, seed=0, max_steps=3)  # down, down, down
+    assert rec.n_steps == 3 and rec.positions is None
+    assert rec.frames.shape == rec.bolt_images.shape == (4, 256, 256, 3)
+    # No noise: the bolt saw the env's own render, step by step.
+    np.testing.assert_array_equal(rec.bolt_images, rec.frames)
+    assert rec.true_accepting[:, 0].tolist() == [False, True, True, True]
+    assert render_episode_frames(rec).shape[0] == 4
+
+
 def test_compared_heatmaps_share_one_picture_and_one_scale(tmp_path: Path) -> None:
     top = [(1, 1), (2, 1), (3, 1), (4, 1), (4, 2), (4, 3), (4, 4)]
     one = viz.compare_heatmaps(

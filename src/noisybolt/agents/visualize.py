@@ -29,10 +29,9 @@ Example:
 
 from __future__ import annotations
 
-import contextlib
 import io
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,6 +45,7 @@ from matplotlib.patches import Circle, Rectangle
 from noisybolt.bolt import Band, confidence_bands
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_bytes
+from noisybolt.perception.protocols import BOLT_IMAGE_KEY
 from noisybolt.wrappers.bolt_wrapper import RestrainingBoltWrapper
 
 __all__ = [
@@ -226,39 +226,6 @@ def policy_from_model(model: Any, *, deterministic: bool = True) -> Policy:
     return policy
 
 
-@contextlib.contextmanager
-def _tap_bolt_camera(world: Any) -> Iterator[list[np.ndarray]]:
-    """Keeps a copy of every image the bolt's camera returns while the block runs.
-
-    Calling ``bolt_image()`` a second time would draw fresh noise and shift the camera's
-    random stream, so the recording would change the episode it records; instead the
-    world's method is shadowed on the instance for the block and restored after.
-    """
-    seen: list[np.ndarray] = []
-    shadowed = getattr(world, "__dict__", {}).get("bolt_image")
-    original = world.bolt_image
-
-    def tapped() -> np.ndarray:
-        image = original()
-        seen.append(np.array(image, dtype=np.uint8, copy=True))
-        return image
-
-    try:
-        world.bolt_image = tapped
-    except AttributeError as exc:
-        raise ConfigError(
-            f"cannot record the bolt's camera of {type(world).__name__}: its bolt_image "
-            "cannot be observed"
-        ) from exc
-    try:
-        yield seen
-    finally:
-        if shadowed is None:
-            del world.bolt_image
-        else:
-            world.bolt_image = shadowed
-
-
 def record_episode(
     env: RestrainingBoltWrapper,
     policy: Policy,
@@ -269,8 +236,10 @@ def record_episode(
 ) -> EpisodeRecording:
     """Runs ``policy`` for one episode and records what :func:`save_episode_gif` draws.
 
-    The bolt's images are the very ones its detector read (not a second, differently
-    noised look), so recording does not change the episode.
+    The bolt's images are the very ones its detector read: the env's
+    ``info["bolt_image"]`` at reset and every step (the world–bolt contract, so any
+    labelled env records, e.g. one in :class:`noisybolt.FluentLabels`); recording takes
+    no second, differently noised look, so it does not change the episode.
 
     Args:
         env: the bolted environment (it is reset with ``seed``).
@@ -286,7 +255,8 @@ def record_episode(
         The recording; ``T`` is the number of steps taken.
 
     Raises:
-        ConfigError: for a negative ``max_steps``, or frames that cannot be drawn.
+        ConfigError: for a negative ``max_steps``, frames that cannot be drawn, or an
+            ``info`` without the bolt's image.
     """
     if max_steps is not None and (isinstance(max_steps, bool) or max_steps < 0):
         raise ConfigError(f"max_steps must be None or an integer >= 0, got {max_steps!r}")
@@ -296,6 +266,7 @@ def record_episode(
     thresholds = bolt.thresholds
 
     frames: list[np.ndarray] = []
+    bolt_images: list[np.ndarray] = []
     probs: list[np.ndarray] = []
     bands: list[np.ndarray] = []
     states: list[np.ndarray] = []
@@ -308,6 +279,12 @@ def record_episode(
 
     def keep(info: dict[str, Any]) -> None:
         # Copies throughout: a world or the bolt may hand out views of buffers it reuses.
+        if BOLT_IMAGE_KEY not in info:
+            raise ConfigError(
+                f"the bolted env's info has no {BOLT_IMAGE_KEY!r}: record_episode draws what "
+                "the bolt saw from it (wrap the env in noisybolt.FluentLabels)"
+            )
+        bolt_images.append(np.array(info[BOLT_IMAGE_KEY], dtype=np.uint8, copy=True))
         p = np.array(info["fluent_probs"], dtype=np.float64)
         probs.append(p)
         # reset's info carries no bands; both come from the same thresholds.
@@ -321,30 +298,24 @@ def record_episode(
             positions.append((int(x), int(y)))
 
     terminated = truncated = False
-    with _tap_bolt_camera(world) as seen:
-        obs, info = env.reset(seed=seed)
+    obs, info = env.reset(seed=seed)
+    keep(info)
+    while max_steps is None or len(actions) < max_steps:
+        action = policy(obs)
+        obs, _, terminated, truncated, info = env.step(action)
+        actions.append(action)
+        env_rewards.append(float(info["env_reward"]))
+        bolt_rewards.append(float(info["bolt_reward"]))
         keep(info)
-        while max_steps is None or len(actions) < max_steps:
-            action = policy(obs)
-            obs, _, terminated, truncated, info = env.step(action)
-            actions.append(action)
-            env_rewards.append(float(info["env_reward"]))
-            bolt_rewards.append(float(info["bolt_reward"]))
-            keep(info)
-            if terminated or truncated:
-                break
-    if len(seen) != len(frames):
-        raise ConfigError(
-            f"the bolt looked {len(seen)} times in {len(frames)} observations; record_episode "
-            "needs a wrapper that reads bolt_image() once per reset and step"
-        )
+        if terminated or truncated:
+            break
     shapes = {f.shape for f in frames}
     if len(shapes) != 1 or len(next(iter(shapes))) != 3 or next(iter(shapes))[2] != 3:
         raise ConfigError(f"frames must all be RGB [H, W, 3] of one shape, got {sorted(shapes)}")
 
     return EpisodeRecording(
         frames=np.stack(frames),
-        bolt_images=np.stack(seen),
+        bolt_images=np.stack(bolt_images),
         probs=np.stack(probs),
         bands=np.stack(bands).astype(np.int8),
         dfa_states=np.stack(states),
