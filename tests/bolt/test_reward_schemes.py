@@ -138,3 +138,28 @@ def test_bad_bounds_and_shaping_are_refused() -> None:
             dfas=[dfa],
             shaping=ProgressShaping([compile_ltlf("F(b)", FLUENTS)], scales=[1.0], gamma=1.0),
         )
+
+
+def test_a_time_limit_cut_pays_no_outcome_when_the_learner_bootstraps_there() -> None:
+    scale = 30.0
+    dfa = compile_ltlf("F(a & X(F(b)))", FLUENTS)
+    spec = RewardScheme("compliance", scale=scale).apply(
+        Spec("F(a & X(F(b)))", terminal_reward=1.0, low_confidence_cost=0.5)
+    )
+
+    def last_reward(pay_at_truncation: bool, truncated: bool, b: float) -> float:
+        terms = ProgressShaping([dfa], scales=[scale], gamma=1.0)
+        bolt = RestrainingBolt(
+            [spec], FLUENTS, dfas=[dfa], shaping=terms, pay_at_truncation=pay_at_truncation
+        )
+        bolt.reset(np.array([[ON, OFF]]))  # a seen: 10 of progress, paid with step 1
+        out = bolt.step(np.array([[OFF, b]]), done=True, truncated=truncated)
+        return float(out.total[0] - out.carried[0])
+
+    # Accepted on the last step (b): progress 10 and, if the episode is paid as ended, 30.
+    assert last_reward(True, True, ON) == 40.0
+    assert last_reward(False, False, ON) == 40.0  # terminated: paid
+    assert last_reward(False, True, ON) == 10.0  # cut by the time limit: progress only
+    # Short of acceptance: with gamma 1 the end charge (-10) and the shaping's end (+10)
+    # net to what an unended step pays, so a cut changes nothing there.
+    assert last_reward(True, True, OFF) == last_reward(False, True, OFF) == 0.0
