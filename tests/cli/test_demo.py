@@ -100,6 +100,8 @@ def test_bad_input_is_refused_before_anything_is_trained(
     assert not (out / "unbolted").exists()
     with pytest.raises(ConfigError, match="episodes"):
         compare_bolted_unbolted(spec=DEMO_SPEC, algo=DEMO_ALGO, frames=8, episodes=0, out=out)
+    with pytest.raises(ConfigError, match="one spec"):
+        compare_bolted_unbolted(spec="left_column_milestones", algo="a2c", frames=8, out=out)
     (out / "unbolted").mkdir(parents=True)
     with pytest.raises(ConfigError, match="already holds a demo"):
         compare_bolted_unbolted(spec=DEMO_SPEC, algo=DEMO_ALGO, frames=8, out=out)

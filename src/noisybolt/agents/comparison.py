@@ -16,14 +16,17 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from noisybolt.agents.evaluation import EpisodeRecord, EvalResult, summarise
-from noisybolt.bolt import Thresholds
+from noisybolt.bolt import CostMode, Thresholds
 from noisybolt.envs.gridworld import GridAction, GridworldEnv
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
 from noisybolt.wrappers import RestrainingBoltWrapper
+
+if TYPE_CHECKING:  # training imports torch and Stable-Baselines3: loaded when first used
+    from noisybolt.agents.training import BoltSetup, TrainConfig
 
 __all__ = [
     "AgentOutcome",
@@ -125,7 +128,8 @@ def compare_bolted_unbolted(
     bolted agent's first evaluation episode) and ``OUT/comparison.json``.
 
     Args:
-        spec: a built-in spec name or an LTLf formula over the gridworld's fluents.
+        spec: a built-in spec name or an LTLf formula over the gridworld's fluents (one
+            spec, not a group).
         algo: ``ppo``, ``a2c`` or ``dqn``, with the gridworld's default hyperparameters.
         frames: training frames of each agent.
         detector: the bolt's fluent detector (``classifier``, ``oracle``, ``synthetic``).
@@ -137,8 +141,9 @@ def compare_bolted_unbolted(
         log: where progress messages go.
 
     Raises:
-        ConfigError: ``out`` already holds a demo, fewer than one episode, or a bad
-            setting of the training config (checked before anything is written).
+        ConfigError: ``out`` already holds a demo, fewer than one episode, a group of
+            specs, or a bad setting of the training config (all checked before anything
+            is written).
         UnknownFluentError: the spec names a fluent the gridworld does not have.
     """
     import torch
@@ -179,7 +184,12 @@ def compare_bolted_unbolted(
         for bolted in (False, True)
     }
     bolted_config = configs[True]
-    (spec_obj,) = bolted_config.spec_objects()
+    specs = bolted_config.spec_objects()
+    if len(specs) != 1:
+        raise ConfigError(
+            f"{spec!r} names {len(specs)} specs; the comparison is drawn for one spec"
+        )
+    spec_obj = specs[0]
     # The detector first (a classifier is trained on the fly and cached the first time),
     # so that the two trainings load the same one and their times compare.
     setup = prepare_bolt(bolted_config, seed=seed, progress=progress, log=log)
@@ -249,7 +259,7 @@ def _label(bolted: bool) -> str:
 
 
 def _record(
-    model: Any, config: Any, setup: Any, *, episodes: int, deterministic: bool
+    model: Any, config: TrainConfig, setup: BoltSetup, *, episodes: int, deterministic: bool
 ) -> list[Any]:
     """``episodes`` recorded episodes of ``model`` in the bolted gridworld."""
     from noisybolt.agents.visualize import policy_from_model, record_episode
@@ -260,7 +270,7 @@ def _record(
         setup.detector,
         dfas=setup.dfas,
         thresholds=Thresholds(**config.thresholds),
-        cost_mode=config.cost_mode,
+        cost_mode=cast(CostMode, config.cost_mode),  # checked by TrainConfig
     )
     policy = policy_from_model(model, deterministic=deterministic)
     return [record_episode(env, policy, seed=EVAL_SEED + i) for i in range(episodes)]
