@@ -110,15 +110,12 @@ def test_killed_run_resumes_from_its_last_complete_checkpoint(tmp_path: Path) ->
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     latest = run / "checkpoints" / "latest.json"
-    deadline = time.monotonic() + 120
+    # No deadline (a busy machine is slow, not wrong): the run either writes the
+    # checkpoint or ends, and an ended run fails the test with its error output.
     try:
-        while time.monotonic() < deadline:
-            if latest.exists() and json.loads(latest.read_text())["frames"] >= 3072:
-                break
+        while not (latest.exists() and json.loads(latest.read_text())["frames"] >= 3072):
             assert proc.poll() is None, proc.stderr.read().decode() if proc.stderr else ""
             time.sleep(0.2)
-        else:
-            pytest.fail("no checkpoint within 120 s")
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
@@ -190,16 +187,16 @@ def test_detector_for_other_fluents_is_refused(tmp_path: Path) -> None:
         ({"algo": "sac"}, UnknownNameError, "known algorithms"),
         ({"world": "pong"}, UnknownNameError, "gridworld"),
         ({"overrides": {"n_epoch": 2}}, ConfigError, "n_epochs"),
-        ({"detector": "camera"}, UnknownNameError, "oracle"),
     ],
 )
 def test_unknown_names_are_named_errors(kwargs: dict, error: type, match: str) -> None:
-    if kwargs.get("detector") == "camera":
-        with pytest.raises(error, match=match):
-            DetectorConfig(kind="camera")
-        return
     with pytest.raises(error, match=match):
         _config(**kwargs)
+
+
+def test_an_unknown_detector_is_a_named_error_listing_the_known_ones() -> None:
+    with pytest.raises(UnknownNameError, match="oracle"):
+        DetectorConfig(kind="camera")
 
 
 def test_cli_reports_bad_input_with_exit_code_2(
@@ -238,8 +235,16 @@ def test_evaluate_command_prints_the_table(
 
 
 def test_ppo_with_the_oracle_learns_to_follow_the_edge_to_the_goal(tmp_path: Path) -> None:
+    # Table 1's first row under the paper's rewards. The shortest route already follows
+    # the edge, so this shows a bolted PPO agent learning the task; that the spec can
+    # change the route is tested in test_bolt_decides_route.py.
     config = _config(
-        frames=40_000, eval_freq=10_000, eval_episodes=20, checkpoint_freq=0, overrides={}
+        frames=40_000,
+        eval_freq=10_000,
+        eval_episodes=20,
+        checkpoint_freq=0,
+        overrides={},
+        reward="paper",
     )
     result = train(config, tmp_path / "run", log=_quiet)
     assert result.final.goal_rate >= 0.9
@@ -257,6 +262,7 @@ def test_a2c_with_the_oracle_learns_to_avoid_the_top_right_corner(tmp_path: Path
         eval_episodes=20,
         checkpoint_freq=0,
         overrides={},
+        reward="paper",
     )
     result = train(config, tmp_path / "run", log=_quiet)
     assert result.final.goal_rate >= 0.9
@@ -270,10 +276,34 @@ def test_evaluating_more_often_does_not_change_training(tmp_path: Path) -> None:
     assert rare.history[-1] == often.history[-1]  # same policy evaluated at 2048 frames
 
 
-def test_dqn_with_reward_normalisation_trains(tmp_path: Path) -> None:
+def test_dqn_with_reward_normalisation_trains_on_normalised_rewards(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from noisybolt.agents import training
+
+    models = []
+    make_model = training._make_model
+
+    def keep(*args: object, **kwargs: object) -> object:
+        models.append(make_model(*args, **kwargs))  # type: ignore[arg-type]
+        return models[-1]
+
+    monkeypatch.setattr(training, "_make_model", keep)
     config = _config(algo="dqn", overrides={"normalize_reward": True, "learning_starts": 100})
     result = train(config, tmp_path / "run", log=_quiet)
     assert result.frames == 2048
+    (model,) = models
+    normaliser = model.get_vec_normalize_env()
+    # DQN samples its replay buffer through this normaliser: it must be the training
+    # env's, have normalised rewards, and have seen every step of the run.
+    assert isinstance(normaliser, VecNormalize) and model.get_env() is normaliser
+    assert normaliser.norm_reward and not normaliser.norm_obs
+    assert normaliser.ret_rms.count == pytest.approx(2048, abs=1)  # one per env per step
+    raw = model.replay_buffer.rewards[: model.replay_buffer.size()]  # type: ignore[union-attr]
+    scaled = normaliser.normalize_reward(raw)
+    assert raw.std() > 1 and 0 < scaled.std() < raw.std() / 2  # -1.5 a step, +100 a goal
 
 
 def test_keep_best_keeps_the_model_of_the_best_shaped_return(
@@ -322,18 +352,52 @@ def test_without_keep_best_the_last_model_is_kept(tmp_path: Path) -> None:
     assert not (tmp_path / "run" / "best").exists()
 
 
-def test_the_best_model_survives_a_resume(tmp_path: Path) -> None:
+@pytest.mark.parametrize("best_at", [1024, 2560])
+def test_the_best_model_survives_a_resume(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, best_at: int
+) -> None:
+    # Evaluations every 512 frames: 512, 1024, 1536 in the first leg, 2048, 2560, 3072
+    # after the resume. The one at ``best_at`` is made the best by a bonus on its return,
+    # so the kept model is known in advance: from the first leg (it must survive the
+    # resume and the second leg's checkpoints) or from the second.
+    from dataclasses import replace
+
+    from stable_baselines3 import PPO
+
+    from noisybolt.agents import training
+
+    original_evaluate, original_policy = (
+        training._BoltCallback.evaluate,
+        training.evaluate_bolted_policy,
+    )
+    evaluated: dict[int, dict[str, torch.Tensor]] = {}
+
+    def evaluate(self: training._BoltCallback) -> training.EvalResult:
+        frames = int(self.model.num_timesteps)
+        evaluated[frames] = {k: v.clone() for k, v in self.model.policy.state_dict().items()}
+        bonus = 1000.0 if frames == best_at else 0.0
+
+        def boosted(*args: object, **kwargs: object) -> training.EvalResult:
+            result = original_policy(*args, **kwargs)  # type: ignore[arg-type]
+            return replace(result, env_return_mean=result.env_return_mean + bonus)
+
+        with monkeypatch.context() as patch:
+            patch.setattr(training, "evaluate_bolted_policy", boosted)
+            return original_evaluate(self)
+
+    monkeypatch.setattr(training._BoltCallback, "evaluate", evaluate)
     config = {"keep_best": True, "eval_freq": 512}
     train(_config(frames=1536, **config), tmp_path / "run", log=_quiet)
     first = json.loads((tmp_path / "run" / "summary.json").read_text())["kept_model"]
+    assert first["frames"] == min(best_at, 1024)
     train(_config(frames=3072, **config), tmp_path / "run", resume=True, log=_quiet)
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
-    shaped = [m["env_return_mean"] + m["bolt_return_mean"] for m in metrics]
-    best = max(range(len(shaped)), key=lambda i: (shaped[i], i))
+    assert [m["frames"] for m in metrics] == [512, 1024, 1536, 2048, 2560, 3072]
     kept = json.loads((tmp_path / "run" / "summary.json").read_text())["kept_model"]
-    assert kept["frames"] == metrics[best]["frames"]
-    if first["shaped_return"] > max(shaped[3:]):  # the first leg's model is still the best
-        assert kept["frames"] == first["frames"]
+    assert kept["frames"] == best_at and kept["chosen_by"] == "best shaped return"
+    model = PPO.load(tmp_path / "run" / "model.zip", device="cpu").policy.state_dict()
+    assert all(torch.equal(model[k], evaluated[best_at][k]) for k in model)
+    assert [f.name for f in (tmp_path / "run" / "best").iterdir()] == [f"step_{best_at:012d}"]
 
 
 def test_entropy_schedule_moves_linearly_and_stops_at_its_end() -> None:
