@@ -41,7 +41,7 @@ SCHEMES = {
 
 def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> Any:
     from noisybolt.agents.training import DetectorConfig, TrainConfig
-    from noisybolt.cli.check import with_exact_scale
+    from noisybolt.experiments.checks import with_exact_scale
 
     config = TrainConfig.create(
         world="gridworld",

@@ -229,7 +229,7 @@ class TrainConfig:
                 if isinstance(item, Mapping)
                 else []
             )
-            if paper_keys and not paper:
+            if paper_keys and not paper and isinstance(item, Mapping):
                 raise ConfigError(
                     f"spec {item.get('name') or item.get('formula')!r} sets {paper_keys}, which "
                     "only the paper reward scheme pays; under the compliance scheme set "

@@ -11,11 +11,9 @@ the product, and whether the optimal policy of that scheme complies.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
-from dataclasses import replace
 from typing import Any
 
-__all__ = ["exact_scale", "goal_feasibility", "register", "with_exact_scale"]
+__all__ = ["register"]
 
 
 def register(subparsers: Any) -> None:
@@ -35,63 +33,11 @@ def register(subparsers: Any) -> None:
     check.set_defaults(func=_check)
 
 
-def _tabular(config: Any) -> dict[str, Any] | None:
-    from noisybolt.envs import make_world
-    from noisybolt.experiments.optimal import tabular_gridworld_settings
-
-    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-    return tabular_gridworld_settings(world)
-
-
-def goal_feasibility(config: Any) -> Any | None:
-    """The best compliant goal-reaching episode (an ``OptimalResult``) on a world whose
-    product can be explored; None for other worlds."""
-    from noisybolt.experiments.optimal import optimal_constrained_return
-
-    settings = _tabular(config)
-    if settings is None:
-        return None
-    formulas = [spec.formula for spec in config.spec_objects()]
-    return optimal_constrained_return(formulas, require_goal=True, **settings)
-
-
-def exact_scale(config: Any) -> float | None:
-    """The compliance scale computed on the world's product
-    (:func:`~noisybolt.experiments.optimal.exact_compliance_scale`), below the bound the
-    config holds; None where the product cannot be explored or no compliant episode
-    reaches the goal (the bound then stands)."""
-    from noisybolt.envs import make_world
-    from noisybolt.envs.bounds import world_return_bounds
-    from noisybolt.experiments.optimal import exact_compliance_scale
-
-    settings = _tabular(config)
-    if settings is None or config.reward != "compliance":
-        return None
-    bounds = world_return_bounds(make_world(config.world, num_envs=1, **config.world_settings))
-    floor = 0.1 * bounds.width if bounds is not None else 1.0
-    formulas = [spec.formula for spec in config.spec_objects()]
-    gamma = float(config.hyperparams.get("gamma", 0.99))
-    return exact_compliance_scale(
-        formulas, gamma=gamma, floor=floor, cap=float(config.reward_scale), **settings
-    )
-
-
-def with_exact_scale(config: Any, log: Callable[[str], None] = print) -> Any:
-    """``config`` with its compliance scale computed on the product where that is possible."""
-    scale = exact_scale(config)
-    if scale is None:
-        return config
-    log(
-        f"compliance scale computed on the {config.world}'s product: {scale:g} (the bound "
-        f"from its return range: {config.reward_scale:g})"
-    )
-    return replace(config, reward_scale=scale)
-
-
 def _check(args: argparse.Namespace) -> int:
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
     from noisybolt.errors import ConfigError
+    from noisybolt.experiments.checks import exact_scale, goal_feasibility, tabular_settings
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
 
@@ -122,7 +68,7 @@ def _check(args: argparse.Namespace) -> int:
         print(f"the {args.world} cannot be explored exactly here: no route check")
         print(f"compliance scale (from the world's return bounds): {config.reward_scale:g}")
         return 0
-    settings = _tabular(config)
+    settings = tabular_settings(config)
     assert settings is not None
     r_max = optimal_unconstrained_return(require_goal=True, **settings)
     if best.value is None:

@@ -286,7 +286,7 @@ def _train(args: argparse.Namespace) -> int:
         keep_best=args.keep_best,
         progress_bar=not args.no_progress,
     )
-    from noisybolt.cli.check import goal_feasibility, with_exact_scale
+    from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
     if config.reward == "compliance" and args.reward_scale is None:
         config = with_exact_scale(config)

@@ -603,13 +603,16 @@ def scheme_optimum(
         >>> r.complies, r.reaches_goal, r.steps
         (True, True, 16)
     """
-    world = {
-        "size": size,
-        "max_steps": max_steps,
-        "step_reward": step_reward,
-        "goal_reward": goal_reward,
-    }
-    q_values = scheme_q_values(specs, scale=scale, gamma=gamma, shaping=shaping, **world)
+    q_values = scheme_q_values(
+        specs,
+        scale=scale,
+        gamma=gamma,
+        shaping=shaping,
+        size=size,
+        max_steps=max_steps,
+        step_reward=step_reward,
+        goal_reward=goal_reward,
+    )
     dfas = [_as_dfa(spec) for spec in specs]
     model = _gridworld_model(size, max_steps, step_reward, goal_reward)
     product = _product(dfas, model)

@@ -552,6 +552,7 @@ def _slug(value: Any) -> str:
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
     from noisybolt.agents.training import DetectorConfig, TrainConfig
+    from noisybolt.experiments.checks import with_exact_scale
 
     values = dict(settings)
     if "specs" not in values:
@@ -564,7 +565,8 @@ def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainCo
         raise ConfigError(f"{where}: unknown detector setting(s) {unknown}; known: {sorted(known)}")
     try:
         detector = DetectorConfig(**detector_fields)
-        return TrainConfig.create(
+        scale_given = values.get("reward_scale") is not None
+        config = TrainConfig.create(
             world=values.pop("world", "gridworld"),
             specs=values.pop("specs"),
             algo=values.pop("algo", "ppo"),
@@ -574,6 +576,9 @@ def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainCo
             seed=seed,
             **values,
         )
+        # What `noisybolt train` would choose: the compliance scale computed on the
+        # world's product where it can be explored.
+        return config if scale_given else with_exact_scale(config, log=None)
     except NoisyboltError as error:
         raise ConfigError(f"{where}: {error}") from None
     except (TypeError, ValueError) as error:

@@ -1,0 +1,84 @@
+"""Checks of a run's specs on a world whose product can be explored: routes and scales.
+
+Used by ``noisybolt check``, ``noisybolt train`` and sweeps (trials take the same scale a
+``train`` of theirs would), so the compliance scheme's scale is the same whichever way a
+run is started. The Python API's :class:`~noisybolt.agents.training.TrainConfig` (a lower
+layer) takes the scale from the world's return bounds; :func:`with_exact_scale` refines it.
+
+Example:
+    >>> from noisybolt.agents.training import DetectorConfig, TrainConfig
+    >>> config = TrainConfig.create(specs=["F(bottom_left_corner)"],
+    ...                             detector=DetectorConfig(kind="oracle"))
+    >>> round(config.reward_scale, 2), round(with_exact_scale(config, log=None).reward_scale, 2)
+    (345.95, 34.45)
+    >>> goal_feasibility(config).steps
+    8
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from noisybolt.agents.training import TrainConfig
+    from noisybolt.experiments.optimal import OptimalResult
+
+__all__ = ["exact_scale", "goal_feasibility", "tabular_settings", "with_exact_scale"]
+
+
+def tabular_settings(config: TrainConfig) -> dict[str, Any] | None:
+    """The planner's world settings for ``config``'s world, or None if it is not tabular."""
+    from noisybolt.envs import make_world
+    from noisybolt.experiments.optimal import tabular_gridworld_settings
+
+    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    return tabular_gridworld_settings(world)
+
+
+def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
+    """The best compliant goal-reaching episode on a world whose
+    product can be explored; None for other worlds."""
+    from noisybolt.experiments.optimal import optimal_constrained_return
+
+    settings = tabular_settings(config)
+    if settings is None:
+        return None
+    formulas = [spec.formula for spec in config.spec_objects()]
+    return optimal_constrained_return(formulas, require_goal=True, **settings)
+
+
+def exact_scale(config: TrainConfig) -> float | None:
+    """The compliance scale computed on the world's product
+    (:func:`~noisybolt.experiments.optimal.exact_compliance_scale`), below the bound the
+    config holds; None where the product cannot be explored or no compliant episode
+    reaches the goal (the bound then stands)."""
+    from noisybolt.envs import make_world
+    from noisybolt.envs.bounds import world_return_bounds
+    from noisybolt.experiments.optimal import exact_compliance_scale
+
+    settings = tabular_settings(config)
+    if settings is None or config.reward != "compliance" or config.reward_scale is None:
+        return None
+    bounds = world_return_bounds(make_world(config.world, num_envs=1, **config.world_settings))
+    floor = 0.1 * bounds.width if bounds is not None else 1.0
+    formulas = [spec.formula for spec in config.spec_objects()]
+    gamma = float(config.hyperparams.get("gamma", 0.99))
+    return exact_compliance_scale(
+        formulas, gamma=gamma, floor=floor, cap=float(config.reward_scale), **settings
+    )
+
+
+def with_exact_scale(config: TrainConfig, log: Callable[[str], None] | None = print) -> TrainConfig:
+    """``config`` with its compliance scale computed on the product where that is possible
+    (unchanged otherwise, or under the paper scheme); ``log`` says which it chose."""
+    scale = exact_scale(config)
+    if scale is None:
+        return config
+    if log is not None:
+        log(
+            f"compliance scale computed on the {config.world}'s product: {scale:g} (the bound "
+            f"from its return range: {config.reward_scale:g})"
+        )
+    return replace(config, reward_scale=scale)

@@ -1,0 +1,74 @@
+"""The compliance scheme teaches a detour that the paper's rewards do not (slow: trains)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+from noisybolt.experiments.checks import with_exact_scale
+
+BOTH_CORNERS = "F(top_right_corner) & F(bottom_left_corner)"  # a 16-step detour, not 7
+
+
+def _run(tmp_path: Path, reward: str, algo: str = "ppo") -> float:
+    config = TrainConfig.create(
+        specs=[BOTH_CORNERS],
+        algo=algo,
+        reward=reward,
+        detector=DetectorConfig(kind="oracle"),
+        frames=60_000,
+        eval_freq=5_000,
+        eval_episodes=20,
+        checkpoint_freq=0,
+        keep_best=True,
+        progress_bar=False,
+    )
+    if reward == "compliance":
+        config = with_exact_scale(config, log=lambda _: None)
+    result = train(config, tmp_path / reward, log=lambda _: None)
+    assert result.final.goal_rate >= 0.95
+    return result.final.compliance[BOTH_CORNERS]
+
+
+@pytest.mark.slow
+def test_both_corners_are_visited_under_the_compliance_scheme_only(tmp_path: Path) -> None:
+    assert _run(tmp_path, "compliance") >= 0.95
+    # +1 per accepting step pays 1 for the 9 extra steps (13.5) of the detour: the paper's
+    # rewards make the shortcut optimal, and PPO takes it.
+    assert _run(tmp_path, "paper") <= 0.05
+
+
+@pytest.mark.slow
+def test_a_slice_of_the_spec_suite(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = Path(__file__).parents[2] / "benchmarks" / "spec_suite.py"
+    spec = importlib.util.spec_from_file_location("spec_suite", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["spec_suite"] = module  # the process pool pickles its functions by module
+    spec.loader.exec_module(module)
+    argv = [
+        "--specs",
+        "24",
+        "--only",
+        "s06-existence-globally+universality-after",
+        "s22-existence-globally",
+        "--algos",
+        "ppo",
+        "--seeds",
+        "1",
+        "--schemes",
+        "compliance",
+        "--detector",
+        "oracle",
+        "--workers",
+        "1",
+        "--out",
+        str(tmp_path),
+    ]
+    assert module.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "suite [compliance] PPO: 2/2 specs followed in every seed" in out
