@@ -6,6 +6,8 @@ import importlib.util
 from pathlib import Path
 from types import ModuleType
 
+import pytest
+
 import noisybolt
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -44,3 +46,28 @@ def test_frozenlake_agent_reaches_the_goal_by_the_route_the_bolt_wants() -> None
     assert info["is_success"] is True  # the goal, cell 15
     assert info["true_accepting"].tolist() == [True]  # complied: never back on the top row
     assert route == [4, 8, 9, 13, 14, 15]  # six steps: the shortest compliant route
+
+
+def test_minigrid_room_is_bolted_with_fluents_of_the_agents_cell() -> None:
+    room = _example("minigrid_empty")
+    left, right, forward = 0, 1, 2  # MiniGrid's turn left, turn right, move forward
+
+    def run(actions: list[int]) -> tuple[float, bool, dict]:
+        env = noisybolt.RestrainingBoltWrapper(room.make_room(), [room.SPEC], "oracle")
+        env.reset(seed=0)  # top-left cell, facing east; the goal is bottom-right
+        total, terminated = 0.0, False
+        for action in actions:
+            _, reward, terminated, _, info = env.step(action)
+            total += float(reward)
+        return total, terminated, info
+
+    # Down the left wall, then across: 6 actions; MiniGrid pays 1 - 0.9 * 6/100, the bolt 1.
+    total, terminated, info = run([right, forward, forward, left, forward, forward])
+    assert terminated and info["is_success"] is True
+    assert info["true_accepting"].tolist() == [True]
+    assert total == pytest.approx(1 - 0.9 * 6 / 100 + 1.0)
+    # Along the top wall: one action shorter, but the bolt pays nothing.
+    total, terminated, info = run([forward, forward, right, forward, forward])
+    assert terminated and info["is_success"] is True
+    assert info["true_accepting"].tolist() == [False]
+    assert total == pytest.approx(1 - 0.9 * 5 / 100)
