@@ -66,7 +66,10 @@ def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Na
     return with_exact_scale(config, log=lambda _: None) if config.reward == "compliance" else config
 
 
-def run_trial(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> dict:
+def run_trial(
+    spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace
+) -> dict | None:
+    """Trains one trial (unless finished) and returns its record (None: not run, collecting)."""
     import torch
 
     from noisybolt.agents.training import train
@@ -74,6 +77,8 @@ def run_trial(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Names
     torch.set_num_threads(1)
     out = Path(args.out) / scheme / algo / spec.name / f"seed{seed}"
     summary = out / "summary.json"
+    if not summary.exists() and args.collect:
+        return None
     if not summary.exists():
         if out.exists():  # an unfinished trial: start it again
             import shutil
@@ -191,6 +196,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--detector", default="classifier")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="runs/spec_suite")
+    parser.add_argument(
+        "--collect",
+        action="store_true",
+        help="train nothing: tabulate the trials already finished under --out",
+    )
     args = parser.parse_args(argv)
 
     from noisybolt.experiments.spec_families import generate_spec_suite
@@ -209,7 +219,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     (root / "suite.json").write_text(
         json.dumps([s.__dict__ for s in suite], indent=1) + "\n", encoding="utf-8"
     )
-    if args.detector == "classifier":  # train the cached classifier once, not per worker
+    if (
+        args.detector == "classifier" and not args.collect
+    ):  # train the cached classifier once, not per worker
         from noisybolt.agents.training import prepare_bolt
 
         prepare_bolt(trial_config(suite[0], algos[0], 0, schemes[0], args), seed=0)
@@ -229,10 +241,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     records = []
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if args.collect:
+        records = [r for job in jobs if (r := run_trial(*job, args)) is not None]
+        print(f"{len(records)} of {len(jobs)} trials finished")
+        jobs = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         futures = {pool.submit(run_trial, *job, args): job for job in jobs}
         for done in as_completed(futures):
             record = done.result()
+            assert record is not None
             records.append(record)
             print(
                 f"[{len(records)}/{len(jobs)}] {record['scheme']:<10} {record['algo']} "
