@@ -220,24 +220,20 @@ class TrainConfig:
         A spec given as a mapping may carry ``reward_scale`` (its scale under the
         ``compliance`` scheme) beside the :class:`~noisybolt.bolt.Spec` fields.
         """
-        resolved = []
         paper = kwargs.get("reward", "compliance") == "paper"
+        resolved = []
         for item in expand_specs(specs):
             scale = None
-            paper_keys = (
-                sorted({"terminal_reward", "reward_timing"} & set(item))
-                if isinstance(item, Mapping)
-                else []
-            )
-            if paper_keys and not paper and isinstance(item, Mapping):
-                raise ConfigError(
-                    f"spec {item.get('name') or item.get('formula')!r} sets {paper_keys}, which "
-                    "only the paper reward scheme pays; under the compliance scheme set "
-                    "reward_scale instead, or use --reward paper"
-                )
-            if isinstance(item, Mapping) and "reward_scale" in item:
+            if isinstance(item, Mapping):
                 item = dict(item)
-                scale = item.pop("reward_scale")
+                scale = item.pop("reward_scale", None)
+                paid_by_paper = sorted({"terminal_reward", "reward_timing"} & set(item))
+                if paid_by_paper and not paper:
+                    raise ConfigError(
+                        f"spec {item.get('name') or item.get('formula')!r} sets "
+                        f"{paid_by_paper}, which only the paper reward scheme pays; under the "
+                        "compliance scheme set reward_scale instead, or use --reward paper"
+                    )
             fields = asdict(resolve_spec(item))
             if scale is not None:
                 fields["reward_scale"] = scale

@@ -21,6 +21,16 @@ accepted episode (the engine's ``episode_end`` timing) and, with this module:
 
   so each letter closer to acceptance pays about ``scale / (d_max + 1)`` at once.
 
+Which discount: the bolt of ``noisybolt train`` uses ``gamma = 1``
+(:attr:`~noisybolt.agents.training.TrainConfig.progress_gamma`). The scheme's objective is
+undiscounted (compliance first is a statement about whole episodes), and with ``gamma < 1``
+a state short of acceptance, whose potential is negative, pays ``(1 - gamma) * |Phi|`` for
+every step it is held (Ng's terms then take it back at the end): measured on
+``F(top_right_corner) & F(bottom_left_corner)``, PPO learnt to wander with one corner
+visited, 100+-step episodes, instead of finishing. With ``gamma = 1`` progress is paid when
+it is made and nothing for waiting; for a learner that discounts, the shaping is then
+invariant for the undiscounted objective, not exactly for its discounted one.
+
 Over an episode the shaping terms sum (discounted) to ``gamma^T * 0 - Phi(q_0)``, which
 no action changes, so the optimal policy of the scheme is the same with and without
 shaping (tested by value iteration on the gridworld's product). Without shaping, the

@@ -28,13 +28,18 @@ if TYPE_CHECKING:
 __all__ = ["exact_scale", "goal_feasibility", "tabular_settings", "with_exact_scale"]
 
 
-def tabular_settings(config: TrainConfig) -> dict[str, Any] | None:
-    """The planner's world settings for ``config``'s world, or None if it is not tabular."""
+def _world(config: TrainConfig) -> Any:
     from noisybolt.envs import make_world
+
+    return make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+
+
+def tabular_settings(config: TrainConfig, world: Any = None) -> dict[str, Any] | None:
+    """The planner's world settings for ``config``'s world (``world``, if built already),
+    or None if it is not tabular."""
     from noisybolt.experiments.optimal import tabular_gridworld_settings
 
-    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-    return tabular_gridworld_settings(world)
+    return tabular_gridworld_settings(_world(config) if world is None else world)
 
 
 def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
@@ -54,14 +59,16 @@ def exact_scale(config: TrainConfig) -> float | None:
     (:func:`~noisybolt.experiments.optimal.exact_compliance_scale`), below the bound the
     config holds; None where the product cannot be explored or no compliant episode
     reaches the goal (the bound then stands)."""
-    from noisybolt.envs import make_world
     from noisybolt.envs.bounds import world_return_bounds
     from noisybolt.experiments.optimal import exact_compliance_scale
 
-    settings = tabular_settings(config)
-    if settings is None or config.reward != "compliance" or config.reward_scale is None:
+    if config.reward != "compliance" or config.reward_scale is None:
         return None
-    bounds = world_return_bounds(make_world(config.world, num_envs=1, **config.world_settings))
+    world = _world(config)
+    settings = tabular_settings(config, world)
+    if settings is None:
+        return None
+    bounds = world_return_bounds(world)
     floor = 0.1 * bounds.width if bounds is not None else 1.0
     formulas = [spec.formula for spec in config.spec_objects()]
     gamma = float(config.hyperparams.get("gamma", 0.99))
