@@ -21,6 +21,8 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from noisybolt.errors import UnknownFluentError
+
 if TYPE_CHECKING:
     from noisybolt.agents.training import TrainConfig
     from noisybolt.experiments.optimal import OptimalResult
@@ -51,7 +53,10 @@ def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
     if settings is None:
         return None
     formulas = [spec.formula for spec in config.spec_objects()]
-    return optimal_constrained_return(formulas, require_goal=True, **settings)
+    try:
+        return optimal_constrained_return(formulas, require_goal=True, **settings)
+    except UnknownFluentError:
+        return None  # training refuses the spec, naming the world's fluents
 
 
 def exact_scale(config: TrainConfig) -> float | None:
@@ -72,9 +77,12 @@ def exact_scale(config: TrainConfig) -> float | None:
     floor = 0.1 * bounds.width if bounds is not None else 1.0
     formulas = [spec.formula for spec in config.spec_objects()]
     gamma = float(config.hyperparams.get("gamma", 0.99))
-    return exact_compliance_scale(
-        formulas, gamma=gamma, floor=floor, cap=float(config.reward_scale), **settings
-    )
+    try:
+        return exact_compliance_scale(
+            formulas, gamma=gamma, floor=floor, cap=float(config.reward_scale), **settings
+        )
+    except UnknownFluentError:
+        return None  # training refuses the spec, naming the world's fluents
 
 
 def with_exact_scale(config: TrainConfig, log: Callable[[str], None] | None = print) -> TrainConfig:
