@@ -56,6 +56,7 @@ def test_several_sprites_and_an_output_buffer() -> None:
     assert comp.grid_shape == (2, 2) and comp.image_shape == (4, 4, 1)
 
 
+@pytest.mark.slow  # a timing: the default suite asserts no speeds (benchmarks/ measure them)
 def test_compositor_is_fast_enough_to_matter() -> None:
     # The benchmark measures it properly; here only a floor far below it (~1e6 frames/s).
     import time
