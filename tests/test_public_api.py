@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import doctest
+import importlib
 import subprocess
 import sys
+
+import pytest
 
 import noisybolt
 
@@ -50,3 +54,22 @@ def test_importing_the_logic_layer_loads_neither_gymnasium_nor_torch() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "noisybolt",
+        "noisybolt.envs.labels",
+        "noisybolt.envs.labelled_vec",
+        "noisybolt.envs.registry",
+        "noisybolt.wrappers._inputs",
+        "noisybolt.wrappers.bolt_wrapper",
+        "noisybolt.wrappers.make_vec",
+        "noisybolt.agents.extractor",
+        "noisybolt.agents.hyperparams",
+    ],
+)
+def test_docstring_examples_run(name: str) -> None:
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0 and result.failed == 0

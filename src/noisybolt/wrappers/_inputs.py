@@ -79,7 +79,9 @@ def resolve_detector(
             return OracleDetector(fluent_names)
         if detector == "synthetic":
             return SyntheticDetector(fluent_names, seed=seed)
-        if detector == "classifier" and samples is not None:
+        if detector == "classifier":
+            if samples is None:
+                raise ConfigError("a classifier by name needs labelled samples to train on")
             from noisybolt.perception.training import TrainingConfig, train_classifier
 
             result = train_classifier(samples(), training=TrainingConfig(seed=seed), progress=False)
