@@ -20,6 +20,7 @@ from noisybolt.errors import (
 )
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
 from noisybolt.wrappers import BoltVecEnv, RestrainingBoltWrapper, make_bolted_vec_env
+from noisybolt.wrappers._inputs import coerce_specs
 
 HOLES = (5, 7, 11, 12)
 FLUENTS = {
@@ -184,3 +185,29 @@ def test_make_bolted_vec_env_refuses_bad_input() -> None:
         make_bolted_vec_env(lambda: gym.make("FrozenLake-v1"), 2, ["G(top_row)"])
     with pytest.raises(UnknownFluentError):
         make_bolted_vec_env(lake, 2, ["G(lava)"], OracleDetector(list(FLUENTS)))
+
+
+def test_batched_bolt_needs_a_world_that_shows_ended_episodes() -> None:
+    from noisybolt.envs import SB3VecEnv
+    from noisybolt.envs.labelled_vec import LabelledVectorEnv
+
+    world = LabelledVectorEnv([lake, lake])
+
+    class NoLastView:  # meets BoltObservable, not AutoresetBoltObservable
+        fluent_names = world.fluent_names
+        num_envs = 2
+        camera_spec = None
+
+        def bolt_images(self) -> np.ndarray:
+            return world.bolt_images()
+
+        def true_fluents(self) -> np.ndarray:
+            return world.true_fluents()
+
+    with pytest.raises(ConfigError, match="final_bolt_images"):
+        BoltVecEnv(
+            SB3VecEnv(world),
+            coerce_specs("G(top_row)"),
+            OracleDetector(list(FLUENTS)),
+            world=NoLastView(),
+        )  # type: ignore[arg-type]

@@ -8,7 +8,7 @@ process (a resumed run, ``evaluate``, a spawned worker) rebuilds it from the pat
 module not on ``sys.path`` is looked for in the current directory too.
 
 A registered world factory returns a vectorised world meeting
-:class:`~noisybolt.perception.protocols.BoltObservable` (and, for training, a Gymnasium
+:class:`~noisybolt.perception.protocols.AutoresetBoltObservable` (and, for training, a Gymnasium
 :class:`~gymnasium.vector.VectorEnv` with same-step autoreset). Factories are registered
 as ``"module:attribute"`` paths and imported only when asked for, so a world whose module
 or dependencies are missing breaks only itself. Every factory takes the keywords
@@ -42,7 +42,7 @@ from noisybolt.errors import (
     WorldFactoryError,
 )
 from noisybolt.perception.noise import NoiseSpec
-from noisybolt.perception.protocols import BoltObservable
+from noisybolt.perception.protocols import AutoresetBoltObservable
 
 __all__ = [
     "WorldDisplay",
@@ -57,7 +57,7 @@ __all__ = [
     "world_fingerprint",
 ]
 
-WorldFactory = Callable[..., BoltObservable]
+WorldFactory = Callable[..., AutoresetBoltObservable]
 
 _WORLDS: dict[str, str | WorldFactory] = {
     "gridworld": "noisybolt.envs.gridworld_vec:VectorGridworld",
@@ -313,7 +313,7 @@ def make_world(
     noise: NoiseSpec = "none",
     obs_mode: str | None = None,
     **kwargs: Any,
-) -> BoltObservable:
+) -> AutoresetBoltObservable:
     """Build a vectorised world by name.
 
     Args:

@@ -24,7 +24,14 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["BOLT_IMAGE_KEY", "TRUE_FLUENTS_KEY", "BoltObservable", "CameraSpec", "FluentDetector"]
+__all__ = [
+    "BOLT_IMAGE_KEY",
+    "TRUE_FLUENTS_KEY",
+    "AutoresetBoltObservable",
+    "BoltObservable",
+    "CameraSpec",
+    "FluentDetector",
+]
 
 #: ``info`` key of the bolt camera's image of the state just reached (see the module docs).
 BOLT_IMAGE_KEY = "bolt_image"
@@ -87,6 +94,24 @@ class BoltObservable(Protocol):
 
     def true_fluents(self) -> np.ndarray:
         """bool ``[num_envs, n_fluents]``: the ground-truth fluents now."""
+        ...
+
+
+@runtime_checkable
+class AutoresetBoltObservable(BoltObservable, Protocol):
+    """A batched world that starts an ended episode's successor in the same step (what
+    the batched bolt trains on), and still shows the bolt the ended episode's last view.
+
+    Rows of environments whose episode did not end equal the current view.
+    """
+
+    def final_bolt_images(self) -> np.ndarray:
+        """uint8 ``[num_envs, H, W, C]``: the bolt's view of the states the last step
+        reached, before the autoreset."""
+        ...
+
+    def final_true_fluents(self) -> np.ndarray:
+        """bool ``[num_envs, n_fluents]``: the ground truth of those states."""
         ...
 
 

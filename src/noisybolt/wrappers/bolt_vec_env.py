@@ -9,8 +9,8 @@ Auto-reset: an SB3 ``VecEnv`` returns, for an environment whose episode just end
 ``infos[i]["terminal_observation"]``. The bolt must read that last observation to finish
 the old episode's trace, so the world must also show it: through methods
 ``final_bolt_images()`` and ``final_true_fluents()`` (batched, rows of environments that
-did not end equal to the current view), or per environment in
-``infos[i]["final_bolt_image"]`` and ``infos[i]["final_true_fluents"]``.
+did not end equal to the current view; see
+:class:`~noisybolt.perception.protocols.AutoresetBoltObservable`).
 The DFAs then restart on the new episode's first observation, and the reward of that
 first transition is paid with the environment's next step.
 """
@@ -27,7 +27,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepR
 from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds, confidence_bands
 from noisybolt.errors import ConfigError
 from noisybolt.logic.dfa import DFA
-from noisybolt.perception.protocols import BoltObservable, FluentDetector
+from noisybolt.perception.protocols import AutoresetBoltObservable, FluentDetector
 from noisybolt.wrappers._common import bolt_info, build_bolt, dict_observation_space
 
 __all__ = ["BoltVecEnv"]
@@ -41,7 +41,8 @@ class BoltVecEnv(VecEnvWrapper):
             put monitors *below* the bolt so they record environment returns).
         specs: the bolt's specifications.
         detector: fluent detector, called once per step on the whole batch.
-        world: the object meeting :class:`BoltObservable` (default ``venv.unwrapped``).
+        world: the object meeting :class:`AutoresetBoltObservable` (default
+            ``venv.unwrapped``).
         dfas, thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
         progress_gamma, shaping, world_letters, pay_at_truncation: the compliance scheme's
             progress terms and its ending (see
@@ -55,7 +56,7 @@ class BoltVecEnv(VecEnvWrapper):
         specs: Sequence[Spec],
         detector: FluentDetector,
         *,
-        world: BoltObservable | None = None,
+        world: AutoresetBoltObservable | None = None,
         dfas: Sequence[DFA] | None = None,
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
@@ -73,10 +74,12 @@ class BoltVecEnv(VecEnvWrapper):
                 "RestrainingBoltWrapper around single environments for it"
             )
         world = world if world is not None else venv.unwrapped  # type: ignore[assignment]
-        if not isinstance(world, BoltObservable):
+        if not isinstance(world, AutoresetBoltObservable):
             raise ConfigError(
                 f"{type(world).__name__} cannot be bolted: it needs fluent_names, num_envs, "
-                "camera_spec, bolt_images() and true_fluents() (see BoltObservable)"
+                "camera_spec, bolt_images(), true_fluents(), final_bolt_images() and "
+                "final_true_fluents() (see AutoresetBoltObservable); for your own Gymnasium "
+                "env use noisybolt.make_bolted_vec_env"
             )
         parts = build_bolt(
             specs,
@@ -103,7 +106,7 @@ class BoltVecEnv(VecEnvWrapper):
         )
 
     @property
-    def world(self) -> BoltObservable:
+    def world(self) -> AutoresetBoltObservable:
         """The bolted world."""
         return self._world
 
@@ -122,28 +125,6 @@ class BoltVecEnv(VecEnvWrapper):
         self._truth.reset(truth)
         return self._obs(obs, self.bolt.states)
 
-    def _final_views(
-        self, ended: np.ndarray, images: np.ndarray, truth: np.ndarray, infos: Sequence[dict]
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The bolt's view and true fluents of the observations the last step reached."""
-        final_images = getattr(self._world, "final_bolt_images", None)
-        final_truth = getattr(self._world, "final_true_fluents", None)
-        if callable(final_images) and callable(final_truth):
-            return final_images(), np.asarray(final_truth(), dtype=bool)
-        images, truth = images.copy(), truth.copy()
-        for i in ended:
-            try:
-                images[i] = infos[i]["final_bolt_image"]
-                truth[i] = infos[i]["final_true_fluents"]
-            except KeyError:
-                raise ConfigError(
-                    f"{type(self._world).__name__} ended an episode but offers neither "
-                    "final_bolt_images()/final_true_fluents() nor infos['final_bolt_image'] "
-                    "and infos['final_true_fluents']: a bolted world must show the bolt "
-                    "the last observation of an episode"
-                ) from None
-        return images, truth
-
     def step_wait(self) -> VecEnvStepReturn:
         """Steps the world, moves the DFAs, shapes rewards, restarts ended episodes."""
         obs, env_rewards, dones, infos = self.venv.step_wait()
@@ -155,7 +136,8 @@ class BoltVecEnv(VecEnvWrapper):
         # episode's first; keep the new ones for the restart below.
         first_images, first_truth = images, truth
         if ended.size:
-            images, truth = self._final_views(ended, images, truth, infos)
+            images = self._world.final_bolt_images()
+            truth = np.asarray(self._world.final_true_fluents(), dtype=bool)
             # One detector call for the ended episodes' last views and the new episodes'
             # first views together: a call on a few images costs mostly its overhead.
             both = self._probs(
