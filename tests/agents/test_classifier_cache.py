@@ -9,9 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from noisybolt.agents.training import DetectorConfig, make_detector
+from noisybolt.agents.training import DetectorConfig, TrainConfig, make_detector, train
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import world_fingerprint
+from noisybolt.errors import ConfigError
 
 WORLD = """
 import gymnasium as gym
@@ -80,3 +81,40 @@ def test_the_fingerprint_follows_labels_and_images_not_the_module(
     _write_world(tmp_path, "e.s < 4")
     assert world_fingerprint("cachedlake:make") != top
     sys.modules.pop("cachedlake", None)
+
+
+def test_retrain_trains_the_cached_classifier_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    _write_world(tmp_path, "e.s == 14")
+    world = make_world("cachedlake:make", num_envs=1, seed=0)
+    config = DetectorConfig(kind="classifier", samples=64, epochs=1)
+    kwargs = {
+        "world": "cachedlake:make",
+        "world_kwargs": {},
+        "fluent_names": world.fluent_names,
+        "camera_spec": world.camera_spec,
+        "progress": False,
+    }
+    log: list[str] = []
+    make_detector(config, log=log.append, **kwargs)  # type: ignore[arg-type]
+    make_detector(config, log=log.append, **kwargs)  # type: ignore[arg-type]
+    assert len(log) == 2 and log[0].startswith("no cached classifier")  # + its report
+    make_detector(config, log=log.append, retrain=True, **kwargs)  # type: ignore[arg-type]
+    assert log[2].startswith("retraining it")
+    with pytest.raises(ConfigError, match="used as given"):
+        make_detector(
+            DetectorConfig(kind="classifier", path=str(tmp_path / "mine.safetensors")),
+            retrain=True,
+            **kwargs,  # type: ignore[arg-type]
+        )
+    sys.modules.pop("cachedlake", None)
+
+
+def test_retrain_is_refused_on_resume(tmp_path: Path) -> None:
+    config = TrainConfig.create(specs=["edge"], detector=DetectorConfig(kind="oracle"))
+    with pytest.raises(ConfigError, match="halfway"):
+        train(config, tmp_path / "run", resume=True, retrain_classifier=True)
+    assert not (tmp_path / "run").exists()

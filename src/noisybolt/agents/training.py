@@ -402,8 +402,15 @@ def make_detector(
     camera_spec: Any,
     progress: bool = True,
     log: Callable[[str], None] = print,
+    retrain: bool = False,
 ) -> FluentDetector:
-    """Builds the detector; a classifier is loaded (checked against the world) or trained."""
+    """Builds the detector; a classifier is loaded (checked against the world) or trained.
+
+    ``retrain`` trains the cached on-the-fly classifier again even if one is cached.
+
+    Raises:
+        ConfigError: ``retrain`` with a classifier file given (``config.path``).
+    """
     from noisybolt.perception.classifier import load_classifier
     from noisybolt.perception.detectors import BetaNoise, OracleDetector, SyntheticDetector
 
@@ -429,8 +436,13 @@ def make_detector(
             else None,
         )
     )
-    if config.path is None and not path.exists():
-        log(f"no cached classifier for this camera: training one ({path})")
+    if retrain and config.path is not None:
+        raise ConfigError(
+            "retraining applies to the cached classifier; a classifier file is used as given"
+        )
+    if config.path is None and (retrain or not path.exists()):
+        why = "retraining it" if retrain else "no cached classifier for this camera"
+        log(f"{why}: training one ({path})")
         _train_classifier_on_the_fly(
             path,
             config,
@@ -537,8 +549,10 @@ def prepare_bolt(
     seed: int,
     progress: bool = False,
     log: Callable[[str], None] = print,
+    retrain_classifier: bool = False,
 ) -> BoltSetup:
-    """Compiles the specs over the world's fluents and builds the detector.
+    """Compiles the specs over the world's fluents and builds the detector
+    (``retrain_classifier``: see :func:`make_detector`'s ``retrain``).
 
     Raises:
         UnknownFluentError: a spec names a fluent the world lacks (listing the world's).
@@ -555,6 +569,7 @@ def prepare_bolt(
         camera_spec=probe.camera_spec,
         progress=progress,
         log=log,
+        retrain=retrain_classifier,
     )
     letters = None
     if config.progress_gamma is not None:
@@ -854,6 +869,7 @@ def train(
     resume: bool = False,
     argv: Sequence[str] | None = None,
     log: Callable[[str], None] = print,
+    retrain_classifier: bool = False,
 ) -> TrainResult:
     """Trains (or resumes) a bolted agent; see the module docstring for the run directory.
 
@@ -865,6 +881,11 @@ def train(
     """
     torch.set_num_threads(1)
     run = RunDirectory(run_dir)
+    if resume and retrain_classifier:
+        raise ConfigError(
+            "--retrain-classifier with --resume would change the bolt's eyes halfway through "
+            "a run; retrain for a new run"
+        )
     if resume:
         run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
     elif run.exists():
@@ -887,7 +908,13 @@ def train(
                 f"life_loss_terminal: the {config.world!r} world has no lives (it needs a "
                 "lives() method); remove the hyperparameter"
             )
-    setup = prepare_bolt(config, seed=config.seed, progress=config.progress_bar, log=log)
+    setup = prepare_bolt(
+        config,
+        seed=config.seed,
+        progress=config.progress_bar,
+        log=log,
+        retrain_classifier=retrain_classifier,
+    )
     dfas, detector = setup.dfas, setup.detector
     run.path.mkdir(parents=True, exist_ok=True)
     run.write_config(config.to_dict())

@@ -106,6 +106,12 @@ def register(subparsers: Any) -> None:
         "--classifier", type=Path, help="classifier file (default: cached or trained)"
     )
     train.add_argument(
+        "--retrain-classifier",
+        action="store_true",
+        help="train the cached classifier for this world and camera again (e.g. after "
+        "changing what a fluent means); not with --resume",
+    )
+    train.add_argument(
         "--low-confidence",
         action="append",
         default=[],
@@ -303,7 +309,9 @@ def _train(args: argparse.Namespace) -> int:
         raise ConfigError(f"--resume: {out} holds no run to continue")
     with _sigterm_as_interrupt():
         try:
-            result = train(config, out, resume=args.resume)
+            result = train(
+                config, out, resume=args.resume, retrain_classifier=args.retrain_classifier
+            )
         except KeyboardInterrupt:
             return 130  # train() saved a checkpoint and said how to resume
     print(
