@@ -41,7 +41,7 @@ from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, load_hyperparams
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, RewardScheme, Spec, Thresholds, compliance_scale
-from noisybolt.envs import SB3VecEnv, check_world, make_world
+from noisybolt.envs import DEFAULT_WORLD, SB3VecEnv, check_world, make_world
 from noisybolt.envs.bounds import world_return_bounds
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
 from noisybolt.errors import (
@@ -155,7 +155,7 @@ class TrainConfig:
         progress_bar: show a progress bar.
     """
 
-    world: str = "gridworld"
+    world: str = DEFAULT_WORLD
     world_kwargs: dict[str, Any] = field(default_factory=dict)
     specs: tuple[dict[str, Any], ...] = ()
     algo: str = "ppo"
@@ -207,7 +207,7 @@ class TrainConfig:
     def create(
         cls,
         *,
-        world: str = "gridworld",
+        world: str = DEFAULT_WORLD,
         specs: Sequence[str | Mapping[str, Any]],
         algo: str = "ppo",
         overrides: Mapping[str, Any] | None = None,

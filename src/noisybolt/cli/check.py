@@ -23,7 +23,7 @@ def register(subparsers: Any) -> None:
         help="check specs against a world: satisfiable, vacuous, a compliant route to the goal",
         description=__doc__.split("\n\n")[1] if __doc__ else None,
     )
-    check.add_argument("--world", default="gridworld", help="world name (default gridworld)")
+    check.add_argument("--world", default=None, help="world name (default: the gridworld)")
     check.add_argument(
         "--spec", action="append", default=[], metavar="NAME|FORMULA", help="repeat for several"
     )
@@ -36,11 +36,13 @@ def register(subparsers: Any) -> None:
 def _check(args: argparse.Namespace) -> int:
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
+    from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.errors import ConfigError
     from noisybolt.experiments.checks import exact_scale, goal_feasibility, tabular_settings
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
 
+    args.world = args.world or DEFAULT_WORLD
     specs: list[Any] = list(args.spec)
     if args.specs_file:
         specs += load_specs_file(args.specs_file)

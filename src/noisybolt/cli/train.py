@@ -48,8 +48,8 @@ def register(subparsers: Any) -> None:
     )
     train.add_argument(
         "--world",
-        default="gridworld",
-        help="a world name (default gridworld) or a factory path PACKAGE.MODULE:FACTORY whose "
+        default=None,
+        help="a world name (default: the gridworld) or a factory path PACKAGE.MODULE:FACTORY whose "
         "FACTORY() returns a labelled env (noisybolt.FluentLabels); recorded in config.json",
     )
     train.add_argument(
@@ -256,7 +256,9 @@ def _train(args: argparse.Namespace) -> int:
     from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+    from noisybolt.envs.registry import DEFAULT_WORLD
 
+    args.world = args.world or DEFAULT_WORLD
     specs = list(args.spec)
     if args.specs_file is not None:
         specs += load_specs_file(args.specs_file)

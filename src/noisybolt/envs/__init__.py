@@ -21,6 +21,7 @@ from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS, GridAction, GridworldEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.envs.labels import FluentLabels
 from noisybolt.envs.registry import (
+    DEFAULT_WORLD,
     check_world,
     known_worlds,
     make_single_world,
@@ -30,6 +31,7 @@ from noisybolt.envs.registry import (
 from noisybolt.envs.sb3 import SB3VecEnv
 
 __all__ = [
+    "DEFAULT_WORLD",
     "GRIDWORLD_FLUENTS",
     "GYM_IDS",
     "FluentLabels",

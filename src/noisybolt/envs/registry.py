@@ -45,6 +45,7 @@ from noisybolt.perception.noise import NoiseSpec
 from noisybolt.perception.protocols import AutoresetBoltObservable
 
 __all__ = [
+    "DEFAULT_WORLD",
     "WorldDisplay",
     "check_world",
     "is_factory_path",
@@ -58,6 +59,10 @@ __all__ = [
 ]
 
 WorldFactory = Callable[..., AutoresetBoltObservable]
+
+#: The paper's 6x6 gridworld: the world of a run that names none, and of the paper's
+#: experiments (Table 1, case 4). World names live here, in ``envs``, and nowhere else.
+DEFAULT_WORLD = "gridworld"
 
 _WORLDS: dict[str, str | WorldFactory] = {
     "gridworld": "noisybolt.envs.gridworld_vec:VectorGridworld",

@@ -221,6 +221,7 @@ def case4_sweep(
     smudged bottom-left corner is on the shorter route. ``low_confidence_cost``: the
     spec's charge for a low-confidence fluent on the edge taken (None: the built-in 0.5).
     """
+    from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.experiments.sweep import SweepConfig
 
     every = eval_freq if eval_freq is not None else max(1, min(10_000, frames // 30))
@@ -228,7 +229,7 @@ def case4_sweep(
         {
             "name": "case4",
             "base": {
-                "world": "gridworld",
+                "world": DEFAULT_WORLD,  # the paper's gridworld
                 "reward": "paper",  # Algorithm 1 as the paper pays it
                 "specs": [
                     "one_corner_once"

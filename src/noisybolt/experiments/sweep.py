@@ -552,6 +552,7 @@ def _slug(value: Any) -> str:
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
     from noisybolt.agents.training import DetectorConfig, TrainConfig
+    from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.experiments.checks import with_exact_scale
 
     values = dict(settings)
@@ -567,7 +568,7 @@ def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainCo
         detector = DetectorConfig(**detector_fields)
         scale_given = values.get("reward_scale") is not None
         config = TrainConfig.create(
-            world=values.pop("world", "gridworld"),
+            world=values.pop("world", DEFAULT_WORLD),
             specs=values.pop("specs"),
             algo=values.pop("algo", "ppo"),
             overrides=values.pop("hyperparams", None),

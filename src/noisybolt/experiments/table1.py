@@ -188,6 +188,7 @@ def table1_sweep(
     Raises:
         ConfigError: unknown rows, or impossible values.
     """
+    from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.experiments.sweep import SweepConfig
 
     if not frames_scale > 0:
@@ -222,7 +223,7 @@ def table1_sweep(
         {
             "name": "table1",
             "base": {
-                "world": "gridworld",
+                "world": DEFAULT_WORLD,  # the paper's gridworld
                 "world_kwargs": {"noise": noise},
                 # Algorithm 1 as the paper pays it (every accepting step +1, cost 0.5).
                 "reward": "paper",
