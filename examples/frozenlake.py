@@ -7,8 +7,8 @@ for noisy readings, or ``"classifier"`` to learn them from the images).
 
 Run: ``python examples/frozenlake.py``; or through the CLI, from this folder::
 
-    noisybolt train --world frozenlake:make_lake --spec "X(G(!top_row))" --reward-scale 2 \
-        --detector synthetic --frames 20k
+    noisybolt train --world frozenlake:make_lake --spec "X(G(!top_row))"
+        --reward-scale 2 --detector synthetic --frames 20k     (one line)
 """
 
 import gymnasium as gym
