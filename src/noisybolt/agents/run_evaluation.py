@@ -111,11 +111,6 @@ def evaluate_run(
             f"heat-maps are drawn for worlds with grid positions (the gridworld), not "
             f"{config.world!r}"
         )
-    if gif is not None and not display.records_gifs:
-        raise ConfigError(
-            f"GIFs are not yet drawn for {config.world!r}: the recorder reads the shipped "
-            "worlds' camera methods; evaluate without --gif"
-        )
     setup = prepare_bolt(config, seed=seed)
     dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)

@@ -89,17 +89,12 @@ class WorldDisplay:
             their numbers).
         grid_positions: the world's single env has ``agent_pos`` in a square room of
             ``size`` cells (heat-maps can be drawn).
-        records_gifs: episodes can be recorded as GIFs. The recorder
-            (:func:`noisybolt.agents.visualize.record_episode`) still reads the bolt's
-            images through the shipped worlds' ``bolt_image()``, not yet from ``info``,
-            so a factory-path world has none.
     """
 
     gif_steps: int | None = 1000
     gif_fps: float = 4.0
     action_names: tuple[str, ...] | None = None
     grid_positions: bool = False
-    records_gifs: bool = False
 
 
 _DISPLAY: dict[str, WorldDisplay] = {
@@ -108,14 +103,12 @@ _DISPLAY: dict[str, WorldDisplay] = {
         gif_fps=4.0,
         action_names=("left", "right", "forward", "no-op"),
         grid_positions=True,
-        records_gifs=True,
     ),
     # A Breakout game can last thousands of steps.
     "breakout": WorldDisplay(
         gif_steps=600,
         gif_fps=15.0,
         action_names=("no-op", "fire", "right", "left"),
-        records_gifs=True,
     ),
 }
 
