@@ -8,7 +8,8 @@ for noisy readings, or ``"classifier"`` to learn them from the images).
 Run: ``python examples/frozenlake.py``; or through the CLI, from this folder::
 
     noisybolt train --world frozenlake:make_lake --spec "X(G(!top_row))"
-        --reward-scale 2 --detector synthetic --frames 20k     (one line)
+        --detector synthetic --frames 20k     (one line; the compliance scale comes from
+        the declared return bounds: an episode returns 0 or 1)
 """
 
 import gymnasium as gym
@@ -20,7 +21,7 @@ import noisybolt
 def make_lake() -> noisybolt.FluentLabels:
     lake = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
     fluents = {"top_row": lambda env: env.s < 4, "at_goal": lambda env: env.s == 15}
-    return noisybolt.FluentLabels(lake, fluents=fluents, success="at_goal")
+    return noisybolt.FluentLabels(lake, fluents=fluents, success="at_goal", return_bounds=(0, 1))
 
 
 # Paid once, when the episode ends with the spec satisfied: no reward for loitering.

@@ -208,3 +208,43 @@ def test_check_command(capsys: pytest.CaptureFixture) -> None:
     assert "R^c_max 76 in 16 steps" in out and "complies and reaches the goal" in out
     assert main(["check", "--spec", "F(top_right_corner & bottom_left_corner)"]) == 1
     assert main(["check", "--spec", "F(top_right_corner) & G(!top_right_corner)"]) == 2
+
+
+def test_check_on_worlds_with_and_without_return_bounds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    (tmp_path / "unbounded_lake.py").write_text(
+        "import gymnasium as gym\n"
+        "import noisybolt\n"
+        "def make():\n"
+        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
+        "    return noisybolt.FluentLabels(lake, fluents={'at_goal': lambda e: e.s == 15})\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert main(["check", "--world", "unbounded_lake:make", "--spec", "F(at_goal)"]) == 0
+    out = capsys.readouterr().out
+    assert "declares no bounds" in out and "satisfiable" in out and "no route check" in out
+    argv = ["check", "--world", "unbounded_lake:make", "--spec", "F(at_goal)"]
+    assert main([*argv, "--reward-scale", "2"]) == 0
+    assert "compliance scale: 2" in capsys.readouterr().out
+    # The example declares FrozenLake's bounds (an episode returns 0 or 1): 1.1 x 1.
+    assert main(["check", "--world", "examples.frozenlake:make_lake", "--spec", "F(at_goal)"]) == 0
+    assert "compliance scale: 1.1" in capsys.readouterr().out
+
+
+def test_fluent_labels_declare_return_bounds() -> None:
+    import gymnasium as gym
+
+    import noisybolt
+    from noisybolt.bolt import ReturnBounds
+
+    def lake(**kwargs: object) -> noisybolt.FluentLabels:
+        env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
+        return noisybolt.FluentLabels(env, fluents={"g": lambda e: e.s == 15}, **kwargs)
+
+    assert world_return_bounds(make_world("examples.frozenlake:make_lake")) == ReturnBounds(0, 1)
+    assert lake().episode_return_bounds is None
+    assert lake(return_bounds=(-2, 3)).episode_return_bounds == ReturnBounds(-2.0, 3.0)
+    for bad in ((1, 0), (0,), (0, float("inf")), "0-1"):
+        with pytest.raises(ConfigError):
+            lake(return_bounds=bad)

@@ -2,9 +2,11 @@
 
 A world declares it with a method ``return_bounds() -> ReturnBounds`` (the
 :class:`DeclaresReturnBounds` contract): the least and the most one episode's
-(undiscounted) environment return can be, from its reward range and horizon. A world
-that does not declare it can still be trained under the ``compliance`` scheme with an
-explicit scale (``--reward-scale``), or under ``paper``.
+(undiscounted) environment return can be, from its reward range and horizon. The shipped
+worlds declare theirs; a user's Gymnasium env declares them through
+``FluentLabels(env, ..., return_bounds=(least, most))``. A world that does not can still
+be trained under the ``compliance`` scheme with an explicit scale (``--reward-scale``), or
+under ``paper``.
 
 Example:
     >>> from noisybolt.envs import make_world
@@ -25,8 +27,8 @@ __all__ = ["DeclaresReturnBounds", "episode_return_bounds", "world_return_bounds
 class DeclaresReturnBounds(Protocol):
     """A world that states the range of its episodes' returns."""
 
-    def return_bounds(self) -> ReturnBounds:
-        """Bounds on one episode's undiscounted environment return."""
+    def return_bounds(self) -> ReturnBounds | None:
+        """Bounds on one episode's undiscounted environment return (None: unknown)."""
         ...
 
 

@@ -28,6 +28,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
+from noisybolt.bolt.schemes import ReturnBounds
 from noisybolt.envs.labels import fluent_names_of
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
@@ -107,6 +108,12 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
     def _need_reset(self) -> None:
         if self._images is None:
             raise ConfigError("LabelledVectorEnv: call reset() before reading the bolt's view")
+
+    def return_bounds(self) -> ReturnBounds | None:
+        """The bounds on one episode's return that the labelled envs declare
+        (``FluentLabels(return_bounds=...)``), or None (see :mod:`noisybolt.envs.bounds`)."""
+        bounds: ReturnBounds | None = self._venv.envs[0].get_wrapper_attr("episode_return_bounds")
+        return bounds
 
     # ------------------------------------------------------------ BoltObservable
 

@@ -28,6 +28,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from noisybolt.bolt.schemes import ReturnBounds
 from noisybolt.errors import CameraError, ConfigError, FluentFunctionError, UnlabelledEnvError
 from noisybolt.logic.syntax import check_fluent_names
 from noisybolt.perception.dataset import FluentDataset
@@ -76,6 +77,9 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
             (the Gymnasium/SB3 convention read by goal rates).
         name: the world's name in the camera's :class:`CameraSpec` (default: the env's
             Gymnasium id, else its class name).
+        return_bounds: ``(least, most)`` one episode's return can be, if known: the
+            ``compliance`` reward scheme sets what complying is worth from it (see
+            :mod:`noisybolt.envs.bounds`); without it that scheme needs an explicit scale.
 
     Raises:
         ConfigError: no fluents, a malformed or repeated name, a fluent that is not
@@ -94,9 +98,16 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         noise: NoiseSpec = None,
         success: str | FluentFn | None = None,
         name: str | None = None,
+        return_bounds: tuple[float, float] | None = None,
     ) -> None:
         gym.utils.RecordConstructorArgs.__init__(
-            self, fluents=fluents, camera=camera, noise=noise, success=success, name=name
+            self,
+            fluents=fluents,
+            camera=camera,
+            noise=noise,
+            success=success,
+            name=name,
+            return_bounds=return_bounds,
         )
         super().__init__(env)
         if not isinstance(fluents, Mapping) or not fluents:
@@ -131,6 +142,15 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
             )
         if success is not None and not isinstance(success, str) and not callable(success):
             raise ConfigError(f"success must be a fluent name or a function, got {success!r}")
+        if return_bounds is not None:
+            if not isinstance(return_bounds, tuple | list) or len(return_bounds) != 2:
+                raise ConfigError(
+                    f"return_bounds must be (least, most) of an episode's return, got "
+                    f"{return_bounds!r}"
+                )
+            self._return_bounds: ReturnBounds | None = ReturnBounds(*return_bounds)
+        else:
+            self._return_bounds = None
         self._names = names
         self._fns = tuple(fluents.values())
         self._camera = camera
@@ -146,6 +166,11 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def fluent_names(self) -> tuple[str, ...]:
         """The bolt's fluents, in the column order of ``info["true_fluents"]``."""
         return self._names
+
+    @property
+    def episode_return_bounds(self) -> ReturnBounds | None:
+        """The declared bounds on one episode's return (None: not declared)."""
+        return self._return_bounds
 
     @property
     def camera_spec(self) -> CameraSpec:
