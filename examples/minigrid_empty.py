@@ -8,12 +8,22 @@ left wall) pays 1 for the one down the left wall (6 actions). The agent sees the
 as MiniGrid's symbolic grid (noisybolt's small-image convolutions); the bolt looks through a
 small camera (MiniGrid's own drawing, 4 pixels a cell).
 
-Not tuned: with these PPO settings and MiniGrid's seven actions and sparse reward, one
-seed had reached the goal by the top-wall shortcut after 30k frames and gone down the left
-wall without reaching the goal after 60k. The test suite checks the bolting (both routes,
-hand-computed rewards), not the learning; FrozenLake's example is the one trained in CI.
+Two ways to train it:
 
-Run: ``python examples/minigrid_empty.py``.
+* ``python examples/minigrid_empty.py``: the paper-style spec below (1 at the episode's
+  end) with these PPO settings, not tuned: one seed had reached the goal by the top-wall
+  shortcut after 30k frames and gone down the left wall without reaching the goal after
+  60k.
+* From this folder, the command line with the default ``compliance`` reward scheme (its
+  scale from ``return_bounds``: MiniGrid returns between 0 and 1), the gridworld's small
+  integers kept as they are, rewards normalised; measured, seed 0, 60k frames: goal 100 %,
+  compliance 100 % (first at 40k)::
+
+      noisybolt train --world minigrid_empty:make_room --spec "G(!top_row | left_col)"
+          --detector oracle --frames 60k --hp policy_kwargs.normalize_images=false
+          --hp normalize_reward=true          (one line)
+
+The test suite checks the bolting (both routes, hand-computed rewards), not the learning.
 """
 
 import gymnasium as gym
@@ -33,7 +43,9 @@ def make_room() -> noisybolt.FluentLabels:
         "at_goal": lambda env: tuple(env.agent_pos) == (3, 3),
     }
     camera = lambda env: env.unwrapped.get_frame(highlight=False, tile_size=4)  # noqa: E731
-    return noisybolt.FluentLabels(room, fluents=fluents, camera=camera, success="at_goal")
+    return noisybolt.FluentLabels(
+        room, fluents=fluents, camera=camera, success="at_goal", return_bounds=(0, 1)
+    )
 
 
 SPEC = noisybolt.Spec(
