@@ -107,6 +107,10 @@ def test_the_default_sweep_is_eight_rows_by_three_seeds_with_the_noisy_classifie
         assert trial.config.specs[0]["name"] == row.spec
         # Each seed keeps its best shaped-return model; DQN is evaluated greedily.
         assert trial.config.keep_best
+        # Algorithm 1 as the paper pays it: +1 every accepting step, 0.5 per low reading.
+        assert trial.config.reward == "paper" and trial.config.progress_gamma is None
+        (spec,) = trial.config.spec_objects()
+        assert (spec.terminal_reward, spec.reward_timing) == (1.0, "every_step")
         assert trial.config.eval_deterministic == (row.algo == "dqn")
 
 

@@ -123,6 +123,7 @@ def test_the_sweep_trains_the_exclusive_spec_under_both_cameras() -> None:
     for trial in sweep.trials:
         assert trial.config.world_kwargs == {"noise": CONDITIONS[trial.row]}
         assert trial.config.specs[0]["name"] == "one_corner_once"
+        assert trial.config.reward == "paper"  # the paper's Algorithm 1, as measured
         assert trial.config.algo == "a2c" and trial.config.eval_freq == 2_000
     assert CONDITIONS == {"regional": "regional", "control": "none"}
 
