@@ -101,6 +101,8 @@ def run_trial(
         "rc_max": spec.rc_max,
         "frames_to_comply": data["frames_to_comply"],
         "frames": data["frames"],
+        # Episodes the bolt's noisy view accepted while the true trace did not.
+        "falsely_accepted": float(next(iter((final.get("false_acceptance") or {0: 0.0}).values()))),
     }
 
 
@@ -110,20 +112,28 @@ def _family(name: str) -> str:
 
 
 def summarise(records: Sequence[dict], threshold: float) -> list[str]:
-    """The per-family tables and the summary lines."""
+    """The per-family tables and the summary lines.
+
+    "bolt fooled": specs where some seed's final evaluation had most episodes accepted by
+    the bolt's noisy view while the true trace broke the spec (the agent complied in the
+    bolt's eyes only).
+    """
     lines: list[str] = []
     groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
     for r in records:
         groups[(r["scheme"], r["algo"])].append(r)
     summary: list[str] = []
-    n_frames_of: dict[tuple[str, str], list[float]] = {}
+    by_group: dict[tuple[str, str], dict[str, list[dict]]] = {}
     for (scheme, algo), rows in sorted(groups.items()):
         by_spec: dict[str, list[dict]] = defaultdict(list)
         for r in rows:
             by_spec[r["spec"]].append(r)
+        by_group[(scheme, algo)] = by_spec
         lines.append(f"\n## {algo.upper()}, scheme {scheme}")
-        lines.append("| family | specs | followed | goal rate | return - R^c_max | N_frames |")
-        lines.append("|---|---:|---:|---:|---:|---:|")
+        lines.append(
+            "| family | specs | followed | goal rate | return - R^c_max | N_frames | bolt fooled |"
+        )
+        lines.append("|---|---:|---:|---:|---:|---:|---:|")
         fam_rows: dict[str, list[list[dict]]] = defaultdict(list)
         for spec_rows in by_spec.values():
             fam_rows[_family(spec_rows[0]["family"])].append(spec_rows)
@@ -139,6 +149,7 @@ def summarise(records: Sequence[dict], threshold: float) -> list[str]:
             frames = [
                 statistics.mean(r["frames_to_comply"] or r["frames"] for r in s) for s in specs
             ]
+            fooled = sum(any(r.get("falsely_accepted", 0) > 0.5 for r in s) for s in specs)
             total += len(specs)
             followed_total += len(followed)
             gaps += gap
@@ -146,24 +157,41 @@ def summarise(records: Sequence[dict], threshold: float) -> list[str]:
             frames_all += frames
             lines.append(
                 f"| {family} | {len(specs)} | {len(followed)} | "
-                f"{_mean(goal, pct=True)} | {_mean(gap)} | {_mean(frames, k=True)} |"
+                f"{_mean(goal, pct=True)} | {_mean(gap)} | {_mean(frames, k=True)} | {fooled} |"
             )
-        n_frames_of[(scheme, algo)] = frames_all
         summary.append(
             f"suite [{scheme}] {algo.upper()}: {followed_total}/{total} specs followed in every "
             f"seed ({followed_total / max(total, 1):.0%}); goal rate on those "
             f"{_mean(goals, pct=True)}; return - R^c_max {_mean(gaps)}; "
             f"N_frames {_mean(frames_all, k=True)}"
         )
-    for algo in sorted({a for _, a in groups}):
-        with_s, without = (
-            n_frames_of.get(("compliance", algo)),
-            n_frames_of.get(("no-shaping", algo)),
+    # Schemes side by side on the specs both ran (the same seeds).
+    for (scheme, algo), specs in sorted(by_group.items()):
+        base = by_group.get(("compliance", algo))
+        if scheme == "compliance" or base is None:
+            continue
+        common = sorted(set(specs) & set(base))
+        if not common:
+            continue
+        ours, theirs = (_followed_and_frames(g, common, threshold) for g in (base, specs))
+        summary.append(
+            f"{algo.upper()} on the same {len(common)} specs: compliance {ours[0]}/"
+            f"{len(common)} followed, N_frames {ours[1] / 1000:.1f}k; {scheme} "
+            f"{theirs[0]}/{len(common)}, N_frames {theirs[1] / 1000:.1f}k; "
+            f"N_frames ratio (compliance / {scheme}): {ours[1] / theirs[1]:.2f}"
         )
-        if with_s and without:
-            ratio = statistics.mean(with_s) / statistics.mean(without)
-            summary.append(f"shaping N_frames ratio {algo.upper()} (with / without): {ratio:.2f}")
     return [*lines, "", *summary]
+
+
+def _followed_and_frames(
+    group: dict[str, list[dict]], names: Sequence[str], threshold: float
+) -> tuple[int, float]:
+    """Specs of ``names`` followed in every seed, and their mean N_frames (budget if never)."""
+    followed = sum(all(r["compliance"] >= threshold for r in group[n]) for n in names)
+    frames = statistics.mean(
+        statistics.mean(r["frames_to_comply"] or r["frames"] for r in group[n]) for n in names
+    )
+    return followed, frames
 
 
 def _mean(values: Sequence[float], *, pct: bool = False, k: bool = False) -> str:
