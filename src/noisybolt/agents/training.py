@@ -520,7 +520,6 @@ def build_bolted_env(
         progress_gamma=config.progress_gamma,
         shaping=config.shaping,
         world_letters=letters,
-        pay_at_truncation=config.reward == "paper",
     )
 
 

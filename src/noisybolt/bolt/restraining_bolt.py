@@ -79,9 +79,12 @@ class RestrainingBolt:
             bolt's, in order); None for none (Algorithm 1 as the paper states it).
         pay_at_truncation: whether an episode cut by a time limit (``truncated`` in
             :meth:`step`) is paid as ended (``episode_end`` rewards, the progress terms'
-            end charge). True by default (plain LTLf on the trace so far); the
-            ``compliance`` scheme sets False: a learner that bootstraps at a time limit
-            (SB3 does) already counts what would follow, outcome included.
+            end charge). True by default (plain LTLf on the trace so far), and what
+            training uses under both schemes. False suits a learner that bootstraps at a
+            time limit (SB3 does), which then counts the outcome twice; measured on
+            ``F(top_right_corner) & F(bottom_left_corner)`` (PPO, 60k frames) paying
+            there taught the 9-step detour in 2 of 3 seeds, not paying in 0 of 3: early
+            on, episodes that visit both corners mostly end by the time limit.
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
