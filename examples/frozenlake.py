@@ -3,7 +3,9 @@
 Both shortest routes to the goal take six steps, one along the top row, one down the left
 column; the bolt's spec ``X(G(!top_row))`` picks the second. The bolt sees the lake through
 the env's own render (256x256 RGB); here an oracle reads the fluents (use ``"synthetic"``
-for noisy readings, or ``"classifier"`` to learn them from the images).
+for noisy readings, or ``"classifier"`` to learn them from the images). The lake's 4x4
+cells are declared as a grid, so ``noisybolt evaluate RUN --heatmap map.png`` draws
+where the agent goes.
 
 Run: ``python examples/frozenlake.py``; or through the CLI, from this folder::
 
@@ -21,7 +23,10 @@ import noisybolt
 def make_lake() -> noisybolt.FluentLabels:
     lake = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
     fluents = {"top_row": lambda env: env.s < 4, "at_goal": lambda env: env.s == 15}
-    return noisybolt.FluentLabels(lake, fluents=fluents, success="at_goal", return_bounds=(0, 1))
+    grid = noisybolt.GridLayout(width=4, height=4, position=lambda env: (env.s % 4, env.s // 4))
+    return noisybolt.FluentLabels(
+        lake, fluents=fluents, success="at_goal", return_bounds=(0, 1), grid=grid
+    )
 
 
 # Paid once, when the episode ends with the spec satisfied: no reward for loitering.

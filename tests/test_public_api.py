@@ -15,6 +15,7 @@ PUBLIC = {
     "BoltVecEnv",
     "FluentDetector",
     "FluentLabels",
+    "GridLayout",
     "RestrainingBoltWrapper",
     "Spec",
     "__version__",

@@ -33,6 +33,7 @@ _EXPORTS: dict[str, str] = {
     "BoltVecEnv": "noisybolt.wrappers.bolt_vec_env",
     "FluentDetector": "noisybolt.perception.protocols",
     "FluentLabels": "noisybolt.envs.labels",
+    "GridLayout": "noisybolt.envs.layout",
     "RestrainingBoltWrapper": "noisybolt.wrappers.bolt_wrapper",
     "Spec": "noisybolt.bolt.spec",
     "compile_ltlf": "noisybolt.logic.compiler",
@@ -44,6 +45,7 @@ __all__ = ["__version__", *sorted(_EXPORTS)]
 if TYPE_CHECKING:
     from noisybolt.bolt.spec import Spec as Spec
     from noisybolt.envs.labels import FluentLabels as FluentLabels
+    from noisybolt.envs.layout import GridLayout as GridLayout
     from noisybolt.logic.compiler import compile_ltlf as compile_ltlf
     from noisybolt.perception.protocols import FluentDetector as FluentDetector
     from noisybolt.wrappers.bolt_vec_env import BoltVecEnv as BoltVecEnv

@@ -151,5 +151,34 @@ def test_train_then_evaluate_in_a_new_process(
     assert main(["evaluate", str(out), "--episodes", "1", "--gif", str(gif)]) == 0
     assert gif.stat().st_size > 0  # the env's render beside the bolt's camera
     heatmap = tmp_path / "heatmap.png"
+    assert main(["evaluate", str(out), "--episodes", "2", "--heatmap", str(heatmap)]) == 0
+    assert heatmap.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the lake's 4x4 cells, drawn
+
+
+UNGRIDDED = """
+import gymnasium as gym
+import noisybolt
+
+def lake():
+    env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
+    return noisybolt.FluentLabels(env, fluents={"top_row": lambda e: e.s < 4})
+"""
+
+
+def test_heatmap_of_a_world_without_a_grid_is_refused_with_how_to_declare_one(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "ungridded.py").write_text(UNGRIDDED)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delitem(sys.modules, "ungridded", raising=False)
+    out = tmp_path / "run"
+    argv = ["train", "--world", "ungridded:lake", "--spec", "G(!top_row)", "--frames", "128"]
+    argv += ["--detector", "oracle", "--n-envs", "2", "--hp", "n_steps=64"]
+    argv += ["--hp", "batch_size=64", "--eval-freq", "0", "--no-progress", "--out", str(out)]
+    assert main([*argv, *_reward_args()]) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    heatmap = tmp_path / "heatmap.png"
     assert main(["evaluate", str(out), "--episodes", "1", "--heatmap", str(heatmap)]) == 2
-    assert "heat-maps are drawn for worlds with grid positions" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "declares no grid" in err and "GridLayout" in err
+    assert not heatmap.exists()

@@ -22,6 +22,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.hyperparams import algorithm_class
 from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
+from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import make_single_world, world_display
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
@@ -53,6 +54,28 @@ def load_run_model(run: RunDirectory, config: TrainConfig) -> BaseAlgorithm:
 def _single_env(config: TrainConfig) -> Any:
     """One (non-vectorised) labelled environment of the run's world, for recordings."""
     return make_single_world(config.world, **config.world_settings)
+
+
+def _grid_layout(config: TrainConfig) -> GridLayout:
+    """The world's declared grid (its single env's ``grid_layout``), for heat-maps.
+
+    Raises:
+        ConfigError: the world declares none (say how a world declares one).
+    """
+    env = _single_env(config)
+    try:
+        layout = env.get_wrapper_attr("grid_layout")
+    except AttributeError:
+        layout = None
+    finally:
+        env.close()
+    if not isinstance(layout, GridLayout):
+        raise ConfigError(
+            f"world {config.world!r} declares no grid, so no heat-map can be drawn: a world on "
+            "a grid of cells declares one with FluentLabels(..., grid=noisybolt.GridLayout("
+            "width=, height=, position=fn(env) -> (x, y)))"
+        )
+    return layout
 
 
 def _recordings(
@@ -106,11 +129,9 @@ def evaluate_run(
     if deterministic is None:
         deterministic = config.eval_deterministic
     display = world_display(config.world)
-    if heatmap is not None and not display.grid_positions:
-        raise ConfigError(
-            f"heat-maps are drawn for worlds with grid positions (the gridworld), not "
-            f"{config.world!r}"
-        )
+    layout = None
+    if heatmap is not None:
+        layout = _grid_layout(config)
     setup = prepare_bolt(config, seed=seed)
     dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
@@ -150,11 +171,10 @@ def evaluate_run(
                 action_names=display.action_names,
             )
         if heatmap is not None:
-            size = int(config.world_kwargs.get("size", 6))
             names = [s.name for s in config.spec_objects()]
             files["heatmap"] = trajectory_heatmap(
                 [r.positions.tolist() for r in recordings if r.positions is not None],
-                size=size,
+                layout=layout,
                 path=heatmap,
                 title=f"{config.algo.upper()} under {', '.join(names)}",
             )

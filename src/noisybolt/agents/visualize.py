@@ -43,9 +43,10 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Rectangle
 
 from noisybolt.bolt import Band, confidence_bands
+from noisybolt.envs.layout import GridLayout
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_bytes
-from noisybolt.perception.protocols import BOLT_IMAGE_KEY
+from noisybolt.perception.protocols import BOLT_IMAGE_KEY, GRID_POSITION_KEY
 from noisybolt.wrappers.bolt_wrapper import RestrainingBoltWrapper
 
 __all__ = [
@@ -53,6 +54,7 @@ __all__ = [
     "EpisodeRecording",
     "compare_heatmaps",
     "default_frame",
+    "gridworld_room",
     "policy_from_model",
     "record_episode",
     "render_episode_frames",
@@ -65,6 +67,9 @@ Policy = Callable[[Any], Any]
 FrameFn = Callable[[Any], np.ndarray]
 PathLike = str | os.PathLike[str]
 Cell = tuple[int, int]
+#: A room for :func:`trajectory_heatmap`: the gridworld's side in cells, or any world's
+#: declared :class:`~noisybolt.envs.layout.GridLayout`.
+Room = int | GridLayout
 
 #: Bar colour of each confidence band (Okabe-Ito: readable by colour-blind viewers).
 BAND_COLOURS: dict[Band, str] = {
@@ -275,7 +280,8 @@ def record_episode(
     env_rewards: list[float] = []
     bolt_rewards: list[float] = []
     actions: list[Any] = []
-    has_position = hasattr(world, "agent_pos")
+    # The contract's cell when the world declares its grid; MiniGrid's agent_pos otherwise.
+    has_position: bool | None = None
 
     def keep(info: dict[str, Any]) -> None:
         # Copies throughout: a world or the bolt may hand out views of buffers it reuses.
@@ -293,9 +299,18 @@ def record_episode(
         states.append(np.array(info["dfa_states"], dtype=np.int64))
         true_states.append(np.array(info["true_dfa_states"], dtype=np.int64))
         frames.append(np.array(frame_of(world), dtype=np.uint8))
+        nonlocal has_position
+        cell = info.get(GRID_POSITION_KEY)
+        if cell is None and hasattr(world, "agent_pos"):
+            cell = world.agent_pos
+        if has_position is None:
+            has_position = cell is not None
         if has_position:
-            x, y = world.agent_pos
-            positions.append((int(x), int(y)))
+            if cell is None:
+                raise ConfigError(
+                    f"the env's info lost its {GRID_POSITION_KEY!r} in the middle of an episode"
+                )
+            positions.append((int(cell[0]), int(cell[1])))
 
     terminated = truncated = False
     obs, info = env.reset(seed=seed)
@@ -577,24 +592,60 @@ def save_episode_gif(
 # ------------------------------------------------------------------------ trajectory heat-map
 
 
+def _no_position(world: Any) -> Cell:
+    raise ConfigError("this layout describes a room for drawing only; it reads no positions")
+
+
+def gridworld_room(
+    size: int, *, goal: Cell | None = None, start: Cell | None = (1, 1), corners: bool = True
+) -> GridLayout:
+    """The gridworld's room as a :class:`GridLayout` to draw: walls around ``size`` cells.
+
+    Args:
+        size: room side in cells, walls included (the outer ring is wall).
+        goal: the goal cell (None: ``(size-2, size-2)``, the gridworld's).
+        start: the start cell to mark, or None.
+        corners: outline the top-right ``(size-2, 1)`` and bottom-left ``(1, size-2)``
+            cells (the paper's ``top_right_corner`` and ``bottom_left_corner``).
+    """
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
+        raise ConfigError(f"size must be a positive integer, got {size!r}")
+    size = int(size)
+    marks = {"top-right": (size - 2, 1), "bottom-left": (1, size - 2)} if corners else {}
+    return GridLayout(
+        width=size,
+        height=size,
+        position=_no_position,
+        walls=True,
+        goal=(size - 2, size - 2) if goal is None else goal,
+        start=start,
+        marks=marks,
+    )
+
+
+def _room(room: Room) -> GridLayout:
+    return room if isinstance(room, GridLayout) else gridworld_room(room)
+
+
 def visit_counts(
-    positions_per_episode: Sequence[Sequence[Cell]], *, size: int, per_episode: bool = False
+    positions_per_episode: Sequence[Sequence[Cell]], *, size: Room, per_episode: bool = False
 ) -> np.ndarray:
-    """How often each cell was visited, int64 ``[size, size]`` indexed ``[y, x]`` (as pictured).
+    """How often each cell was visited, int64 ``[height, width]`` indexed ``[y, x]`` (as pictured).
 
     Args:
         positions_per_episode: per episode, the agent's ``(x, y)`` cell at every time step
             (e.g. :attr:`EpisodeRecording.positions`).
-        size: room side in cells, walls included.
+        size: the gridworld's room side in cells (walls included), or a world's
+            :class:`~noisybolt.envs.layout.GridLayout`.
         per_episode: count each episode at most once per cell (how many episodes went
             through it) instead of once per time step (turning in place counts again).
 
     Raises:
         ConfigError: for a cell outside the room or a malformed position.
     """
-    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
-        raise ConfigError(f"size must be a positive integer, got {size!r}")
-    counts = np.zeros((size, size), dtype=np.int64)
+    room = _room(size)
+    width, height = room.width, room.height
+    counts = np.zeros((height, width), dtype=np.int64)
     for e, episode in enumerate(positions_per_episode):
         cells = np.asarray(episode)
         if cells.size == 0:
@@ -602,12 +653,12 @@ def visit_counts(
         if cells.ndim != 2 or cells.shape[1] != 2 or not np.all(np.mod(cells, 1) == 0):
             raise ConfigError(f"episode {e}: positions must be integer (x, y) pairs")
         cells = cells.astype(np.int64)
-        outside = np.flatnonzero(((cells < 0) | (cells >= size)).any(axis=1))
+        outside = np.flatnonzero(((cells < 0) | (cells >= np.array([width, height]))).any(axis=1))
         if outside.size:
             t = int(outside[0])
             raise ConfigError(
                 f"episode {e}, step {t}: cell {tuple(cells[t].tolist())} is outside a "
-                f"{size}x{size} room"
+                f"{width}x{height} room"
             )
         if per_episode:
             cells = np.unique(cells, axis=0)
@@ -654,11 +705,8 @@ def _draw_heatmap(
     ax: Any,
     positions_per_episode: Sequence[Sequence[Cell]],
     *,
-    size: int,
+    room: GridLayout,
     vmax: float | None,
-    goal: Cell | None,
-    start: Cell | None,
-    corners: bool,
     per_episode: bool,
     draw_paths: bool,
     max_paths: int,
@@ -666,51 +714,49 @@ def _draw_heatmap(
     """Draws one room's visit frequencies on ``ax``; returns the image (for a colour bar)."""
     if len(positions_per_episode) == 0:
         raise ConfigError("a trajectory heat-map needs at least one episode's positions")
-    counts = visit_counts(positions_per_episode, size=size, per_episode=per_episode)
+    counts = visit_counts(positions_per_episode, size=room, per_episode=per_episode)
     values = counts / len(positions_per_episode)
-    goal = (size - 2, size - 2) if goal is None else goal
-    wall = np.zeros((size, size), dtype=bool)
-    wall[0, :] = wall[-1, :] = wall[:, 0] = wall[:, -1] = True
+    width, height = room.width, room.height
+    wall = np.zeros((height, width), dtype=bool)
+    if room.walls:
+        wall[0, :] = wall[-1, :] = wall[:, 0] = wall[:, -1] = True
     shown = np.ma.masked_array(values, mask=wall)
     if vmax is None:
         vmax = 1.0 if per_episode else max(float(values.max()), 1e-9)
+    extent = (-0.5, width - 0.5, height - 0.5, -0.5)
     image = ax.imshow(
-        shown,
-        cmap="YlOrRd",
-        vmin=0.0,
-        vmax=vmax,
-        extent=(-0.5, size - 0.5, size - 0.5, -0.5),
-        interpolation="nearest",
+        shown, cmap="YlOrRd", vmin=0.0, vmax=vmax, extent=extent, interpolation="nearest"
     )
     ax.imshow(
         np.where(wall, 1.0, np.nan),
         cmap="Greys",
         vmin=0.0,
         vmax=2.0,
-        extent=(-0.5, size - 0.5, size - 0.5, -0.5),
+        extent=extent,
         interpolation="nearest",
     )
-    ax.set_xticks(np.arange(size) - 0.5, minor=True)
-    ax.set_yticks(np.arange(size) - 0.5, minor=True)
+    ax.set_xticks(np.arange(width) - 0.5, minor=True)
+    ax.set_yticks(np.arange(height) - 0.5, minor=True)
     ax.grid(which="minor", color="white", lw=1.0)
     ax.tick_params(which="both", length=0, labelbottom=False, labelleft=False)
     # With paths drawn the numbers move to a cell's top-right corner, off the routes.
     dx, dy, ha, va = (0.42, -0.42, "right", "top") if draw_paths else (0.0, 0.0, "center", "center")
-    for y in range(1, size - 1):
-        for x in range(1, size - 1):
-            v = values[y, x]
-            colour = "#9a9a9a" if v == 0 else "white" if v > 0.6 * vmax else "black"
-            text = f"{v:.0%}" if per_episode else f"{v:.1f}"
-            ax.text(x + dx, y + dy, text, ha=ha, va=va, fontsize=8, color=colour)
+    for y, x in zip(*np.nonzero(~wall), strict=True):
+        v = values[y, x]
+        colour = "#9a9a9a" if v == 0 else "white" if v > 0.6 * vmax else "black"
+        text = f"{v:.0%}" if per_episode else f"{v:.1f}"
+        ax.text(x + dx, y + dy, text, ha=ha, va=va, fontsize=8, color=colour)
     tag: dict[str, Any] = {"fontsize": 6, "ha": "center", "va": "bottom", "bbox": _TAG_BOX}
-    _outline(ax, goal, "#009e73", lw=2.5)
-    ax.text(goal[0], goal[1] + 0.42, "goal", **tag)
-    if start is not None:
-        ax.text(start[0] - 0.42, start[1] - 0.42, "S", **{**tag, "ha": "left", "va": "top"})
-    if corners:
-        for cell, name in (((size - 2, 1), "top-right"), ((1, size - 2), "bottom-left")):
-            _outline(ax, cell, "#0072b2", lw=1.6, ls="--")
-            ax.text(cell[0], cell[1] + 0.42, name, **tag)
+    if room.goal is not None:
+        _outline(ax, room.goal, "#009e73", lw=2.5)
+        ax.text(room.goal[0], room.goal[1] + 0.42, "goal", **tag)
+    if room.start is not None:
+        ax.text(
+            room.start[0] - 0.42, room.start[1] - 0.42, "S", **{**tag, "ha": "left", "va": "top"}
+        )
+    for name, cell in room.marks.items():
+        _outline(ax, cell, "#0072b2", lw=1.6, ls="--")
+        ax.text(cell[0], cell[1] + 0.42, name, **tag)
     if draw_paths:
         _draw_routes(ax, positions_per_episode, max_routes=max_paths)
     return image
@@ -736,11 +782,32 @@ def _episodes(n: int) -> str:
     return f"{n} episode{'s' if n != 1 else ''}"
 
 
+def _resolve_room(
+    size: int | None,
+    layout: GridLayout | None,
+    goal: Cell | None,
+    start: Cell | None,
+    corners: bool,
+) -> GridLayout:
+    if (size is None) == (layout is None):
+        raise ConfigError(
+            "give the room either as size= (the gridworld's side) or as layout= (a world's "
+            "GridLayout), exactly one of them"
+        )
+    if layout is not None:
+        if not isinstance(layout, GridLayout):
+            raise ConfigError(f"layout must be a noisybolt.GridLayout, got {layout!r}")
+        return layout
+    assert size is not None
+    return gridworld_room(size, goal=goal, start=start, corners=corners)
+
+
 def trajectory_heatmap(
     positions_per_episode: Sequence[Sequence[Cell]],
     *,
-    size: int,
     path: PathLike,
+    size: int | None = None,
+    layout: GridLayout | None = None,
     title: str = "Where the policy goes",
     goal: Cell | None = None,
     start: Cell | None = (1, 1),
@@ -751,21 +818,26 @@ def trajectory_heatmap(
     figsize: tuple[float, float] = (5.0, 4.4),
     dpi: int = _DPI,
 ) -> Path:
-    """Draws cell visit frequencies over the room (the paper's Fig. 3, over many episodes).
+    """Draws cell visit frequencies over a grid (the paper's Fig. 3, over many episodes).
 
-    Walls are grey; each floor cell is coloured and labelled by the share of episodes
-    that went through it (``per_episode``) or by its mean visits per episode. The goal is
-    outlined in green, the start marked S, and the top-right and bottom-left corners (the
-    paper's ``top_right_corner`` and ``bottom_left_corner``) outlined dashed.
+    Each cell is coloured and labelled by the share of episodes that went through it
+    (``per_episode``) or by its mean visits per episode; walls are grey, the goal outlined
+    in green, the start marked S, and named cells outlined dashed. The room is either the
+    gridworld's (``size``: walls around, the goal in the far corner, the paper's two
+    corners outlined) or any world's declared :class:`~noisybolt.envs.layout.GridLayout`
+    (``layout``: its own walls, goal, start and marks; ``goal``, ``start`` and
+    ``corners`` are then not used).
 
     Args:
         positions_per_episode: per episode, the ``(x, y)`` cell at every time step.
-        size: room side in cells, walls included (the outer ring is wall).
         path: the PNG to write (atomically; folders are created).
+        size: the gridworld's room side in cells, walls included.
+        layout: a world's grid, instead of ``size``.
         title: the figure's title.
-        goal: the goal cell (None: ``(size-2, size-2)``, the gridworld's).
-        start: the start cell to mark, or None.
-        corners: outline the top-right ``(size-2, 1)`` and bottom-left ``(1, size-2)``.
+        goal: (with ``size``) the goal cell (None: ``(size-2, size-2)``, the gridworld's).
+        start: (with ``size``) the start cell to mark, or None.
+        corners: (with ``size``) outline the top-right ``(size-2, 1)`` and bottom-left
+            ``(1, size-2)``.
         per_episode: colour by the share of episodes visiting a cell, else by mean visits
             per episode (time spent).
         draw_paths: also draw the episodes' routes as lines, each distinct route once, as
@@ -779,8 +851,10 @@ def trajectory_heatmap(
         ``path`` as a :class:`~pathlib.Path`.
 
     Raises:
-        ConfigError: for no episodes, or a cell outside the room.
+        ConfigError: for no episodes, a cell outside the room, or not exactly one of
+            ``size`` and ``layout``.
     """
+    room = _resolve_room(size, layout, goal, start, corners)
     if len(positions_per_episode) == 0:
         raise ConfigError("trajectory_heatmap needs at least one episode's positions")
     fig = Figure(figsize=figsize, dpi=dpi)
@@ -790,11 +864,8 @@ def trajectory_heatmap(
     image = _draw_heatmap(
         ax,
         positions_per_episode,
-        size=size,
+        room=room,
         vmax=None,
-        goal=goal,
-        start=start,
-        corners=corners,
         per_episode=per_episode,
         draw_paths=draw_paths,
         max_paths=max_paths,
@@ -808,9 +879,10 @@ def trajectory_heatmap(
 def compare_heatmaps(
     panels: Mapping[str, Sequence[Sequence[Cell]]],
     *,
-    size: int,
     path: PathLike,
     title: str,
+    size: int | None = None,
+    layout: GridLayout | None = None,
     goal: Cell | None = None,
     start: Cell | None = (1, 1),
     corners: bool = True,
@@ -828,12 +900,12 @@ def compare_heatmaps(
     Args:
         panels: panel title (may span lines) → per episode, the ``(x, y)`` cells visited;
             drawn left to right in the mapping's order.
-        size: room side in cells, walls included.
         path: the PNG to write (atomically; folders are created).
         title: the figure's title (may span lines), e.g. the spec.
+        size, layout: the room, as for :func:`trajectory_heatmap` (exactly one).
         goal, start, corners, per_episode, draw_paths, max_paths: as for
             :func:`trajectory_heatmap`.
-        panel_inches: each room's side in inches.
+        panel_inches: each room's longer side in inches.
         dpi: pixels per inch.
 
     Returns:
@@ -851,6 +923,7 @@ def compare_heatmaps(
         ...     size=6, path=out, title="two routes").name
         'compare.png'
     """
+    room = _resolve_room(size, layout, goal, start, corners)
     if not panels:
         raise ConfigError("compare_heatmaps needs at least one panel")
     for label, episodes in panels.items():
@@ -861,32 +934,30 @@ def compare_heatmaps(
     label_lines = max(label.count("\n") + 1 for label in panels)
     # Inches: a margin, the rooms with a gap between them, then the colour bar on the right;
     # the title and the panels' titles above the rooms.
+    longer = max(room.width, room.height)
+    panel_w = panel_inches * room.width / longer
+    panel_h = panel_inches * room.height / longer
     margin, gap, bar_w = 0.15, 0.35, 0.9
     head = 0.25 + 0.22 * title_lines + 0.2 * label_lines
-    width = margin + n * panel_inches + (n - 1) * gap + bar_w
-    height = margin + panel_inches + head
+    width = margin + n * panel_w + (n - 1) * gap + bar_w
+    height = margin + panel_h + head
     fig = Figure(figsize=(width, height), dpi=dpi)
     FigureCanvasAgg(fig)
     # One colour scale for every panel, so that equal colours mean equal numbers.
     vmax: float | None = 1.0 if per_episode else None
     if vmax is None:
         vmax = (
-            max(float(visit_counts(e, size=size).max()) / len(e) for e in panels.values()) or 1e-9
+            max(float(visit_counts(e, size=room).max()) / len(e) for e in panels.values()) or 1e-9
         )
     image = None
     for i, (label, episodes) in enumerate(panels.items()):
-        left = margin + i * (panel_inches + gap)
-        ax = fig.add_axes(
-            (left / width, margin / height, panel_inches / width, panel_inches / height)
-        )
+        left = margin + i * (panel_w + gap)
+        ax = fig.add_axes((left / width, margin / height, panel_w / width, panel_h / height))
         image = _draw_heatmap(
             ax,
             episodes,
-            size=size,
+            room=room,
             vmax=vmax,
-            goal=goal,
-            start=start,
-            corners=corners,
             per_episode=per_episode,
             draw_paths=draw_paths,
             max_paths=max_paths,
@@ -895,9 +966,9 @@ def compare_heatmaps(
     cax = fig.add_axes(
         (
             (width - bar_w + 0.15) / width,
-            (margin + 0.1 * panel_inches) / height,
+            (margin + 0.1 * panel_h) / height,
             0.14 / width,
-            0.8 * panel_inches / height,
+            0.8 * panel_h / height,
         )
     )
     _colour_bar(fig, image, cax, per_episode=per_episode)

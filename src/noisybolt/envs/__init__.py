@@ -20,6 +20,7 @@ import gymnasium as gym
 from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS, GridAction, GridworldEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.envs.labels import FluentLabels
+from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import (
     DEFAULT_WORLD,
     check_world,
@@ -36,6 +37,7 @@ __all__ = [
     "GYM_IDS",
     "FluentLabels",
     "GridAction",
+    "GridLayout",
     "GridworldEnv",
     "SB3VecEnv",
     "VectorGridworld",

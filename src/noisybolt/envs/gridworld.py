@@ -69,6 +69,7 @@ from minigrid.core.world_object import Goal
 from minigrid.minigrid_env import MiniGridEnv
 
 from noisybolt.envs.fluents import select_fluents
+from noisybolt.envs.layout import GridLayout
 from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.perception.cameras import TileCompositor
 from noisybolt.perception.noise import (
@@ -79,7 +80,12 @@ from noisybolt.perception.noise import (
     RegionalDegradation,
     make_noise,
 )
-from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    GRID_POSITION_KEY,
+    TRUE_FLUENTS_KEY,
+    CameraSpec,
+)
 
 __all__ = [
     "DIRECTION_VECTORS",
@@ -432,6 +438,11 @@ class GridworldCamera:
         return self._noise.apply(self.render(x, y, direction), rng)
 
 
+def _agent_cell(world: Any) -> tuple[int, int]:
+    x, y = world.agent_pos
+    return (int(x), int(y))
+
+
 class GridworldEnv(MiniGridEnv):
     """The gridworld as a MiniGrid environment (the reference form; see the module docs).
 
@@ -543,6 +554,7 @@ class GridworldEnv(MiniGridEnv):
             info = dict(info)
             info[TRUE_FLUENTS_KEY] = self.true_fluents()
             info[BOLT_IMAGE_KEY] = self.bolt_image()
+            info[GRID_POSITION_KEY] = _agent_cell(self)
         return info
 
     def observation(self) -> np.ndarray:
@@ -561,6 +573,20 @@ class GridworldEnv(MiniGridEnv):
     def fluent_names(self) -> tuple[str, ...]:
         """The bolt's fluents, in the order of :meth:`true_fluents`."""
         return self._fluent_names
+
+    @property
+    def grid_layout(self) -> GridLayout:
+        """The room as a grid: walls around it, the goal, the start and the spec corners."""
+        size = self.config.size
+        return GridLayout(
+            width=size,
+            height=size,
+            position=_agent_cell,
+            walls=True,
+            goal=self.config.goal,
+            start=self.config.start[:2],
+            marks={"top-right": (size - 2, 1), "bottom-left": (1, size - 2)},
+        )
 
     @property
     def camera_spec(self) -> CameraSpec:

@@ -29,11 +29,17 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt.schemes import ReturnBounds
+from noisybolt.envs.layout import GridLayout
 from noisybolt.errors import CameraError, ConfigError, FluentFunctionError, UnlabelledEnvError
 from noisybolt.logic.syntax import check_fluent_names
 from noisybolt.perception.dataset import FluentDataset
 from noisybolt.perception.noise import NoiseSpec, make_noise
-from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    GRID_POSITION_KEY,
+    TRUE_FLUENTS_KEY,
+    CameraSpec,
+)
 
 __all__ = [
     "Camera",
@@ -80,10 +86,15 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         return_bounds: ``(least, most)`` one episode's return can be, if known: the
             ``compliance`` reward scheme sets what complying is worth from it (see
             :mod:`noisybolt.envs.bounds`); without it that scheme needs an explicit scale.
+        grid: for a world on a grid of cells, its :class:`~noisybolt.envs.layout.GridLayout`
+            (size, and how to read the agent's cell): the cell goes to
+            ``info["grid_position"]`` at reset and step, and ``noisybolt evaluate
+            --heatmap`` can draw where a policy goes.
 
     Raises:
         ConfigError: no fluents, a malformed or repeated name, a fluent that is not
-            callable, or an unknown ``success`` fluent.
+            callable, an unknown ``success`` fluent, or a ``grid`` that is not a
+            ``GridLayout`` (and, at reset or step, an agent's cell outside it).
         CameraError: no camera given and the env does not render ``"rgb_array"``.
         FluentFunctionError: (at reset or step) a fluent function raised or returned a
             non-bool; the message names the fluent.
@@ -99,6 +110,7 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         success: str | FluentFn | None = None,
         name: str | None = None,
         return_bounds: tuple[float, float] | None = None,
+        grid: GridLayout | None = None,
     ) -> None:
         gym.utils.RecordConstructorArgs.__init__(
             self,
@@ -108,6 +120,7 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
             success=success,
             name=name,
             return_bounds=return_bounds,
+            grid=grid,
         )
         super().__init__(env)
         if not isinstance(fluents, Mapping) or not fluents:
@@ -151,6 +164,11 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
             self._return_bounds: ReturnBounds | None = ReturnBounds(*return_bounds)
         else:
             self._return_bounds = None
+        if grid is not None and not isinstance(grid, GridLayout):
+            raise ConfigError(
+                f"grid must be a noisybolt.GridLayout(width=, height=, position=...), got {grid!r}"
+            )
+        self._grid = grid
         self._names = names
         self._fns = tuple(fluents.values())
         self._camera = camera
@@ -171,6 +189,11 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def episode_return_bounds(self) -> ReturnBounds | None:
         """The declared bounds on one episode's return (None: not declared)."""
         return self._return_bounds
+
+    @property
+    def grid_layout(self) -> GridLayout | None:
+        """The declared grid (None: the world declared none, so no heat-maps)."""
+        return self._grid
 
     @property
     def camera_spec(self) -> CameraSpec:
@@ -211,6 +234,8 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         info = dict(info)
         info[TRUE_FLUENTS_KEY] = self._true_fluents()
         info[BOLT_IMAGE_KEY] = self._bolt_image()
+        if self._grid is not None:
+            info[GRID_POSITION_KEY] = self._grid.cell_of(self.env.unwrapped)
         return info
 
     def _true_fluents(self) -> np.ndarray:

@@ -68,6 +68,8 @@ _WORLDS: dict[str, str | WorldFactory] = {
     "gridworld": "noisybolt.envs.gridworld_vec:VectorGridworld",
     # Written separately (envs/breakout.py); the factory takes the same keywords.
     "breakout": "noisybolt.envs.breakout:make_breakout_world",
+    # The same game and bolt; the agent reads the console's RAM (its own hyperparameters).
+    "breakout-ram": "noisybolt.envs.breakout:make_breakout_ram_world",
 }
 
 
@@ -75,6 +77,7 @@ _WORLDS: dict[str, str | WorldFactory] = {
 _SINGLE: dict[str, str] = {
     "gridworld": "noisybolt.envs.gridworld:GridworldEnv",
     "breakout": "noisybolt.envs.breakout:BreakoutEnv",
+    "breakout-ram": "noisybolt.envs.breakout:make_breakout_ram_env",
 }
 
 
@@ -87,14 +90,11 @@ class WorldDisplay:
         gif_fps: GIF frame rate.
         action_names: names drawn for the actions, in the world's action order (None:
             their numbers).
-        grid_positions: the world's single env has ``agent_pos`` in a square room of
-            ``size`` cells (heat-maps can be drawn).
     """
 
     gif_steps: int | None = 1000
     gif_fps: float = 4.0
     action_names: tuple[str, ...] | None = None
-    grid_positions: bool = False
 
 
 _DISPLAY: dict[str, WorldDisplay] = {
@@ -102,7 +102,6 @@ _DISPLAY: dict[str, WorldDisplay] = {
         gif_steps=None,
         gif_fps=4.0,
         action_names=("left", "right", "forward", "no-op"),
-        grid_positions=True,
     ),
     # A Breakout game can last thousands of steps.
     "breakout": WorldDisplay(
@@ -111,6 +110,7 @@ _DISPLAY: dict[str, WorldDisplay] = {
         action_names=("no-op", "fire", "right", "left"),
     ),
 }
+_DISPLAY["breakout-ram"] = _DISPLAY["breakout"]
 
 
 def world_display(name: str) -> WorldDisplay:

@@ -13,6 +13,10 @@ and at every step, for the state just reached:
 - ``info["true_fluents"]`` (:data:`TRUE_FLUENTS_KEY`): bool ``[n_fluents]``, the ground
   truth in the order of ``fluent_names`` (labels and metrics only, never the agent's).
 
+A world on a grid may also declare a ``grid_layout`` attribute
+(:class:`noisybolt.envs.layout.GridLayout`) and put the agent's cell ``(x, y)`` in
+``info["grid_position"]`` (:data:`GRID_POSITION_KEY`), for pictures of where a policy goes.
+
 A vector env with same-step autoreset reports the ended episodes' last views in
 ``info["final_info"]`` under the same keys (Gymnasium's convention).
 """
@@ -26,6 +30,7 @@ import numpy as np
 
 __all__ = [
     "BOLT_IMAGE_KEY",
+    "GRID_POSITION_KEY",
     "TRUE_FLUENTS_KEY",
     "AutoresetBoltObservable",
     "BoltObservable",
@@ -37,6 +42,8 @@ __all__ = [
 BOLT_IMAGE_KEY = "bolt_image"
 #: ``info`` key of the true fluents of the state just reached (see the module docs).
 TRUE_FLUENTS_KEY = "true_fluents"
+#: ``info`` key of the agent's grid cell ``(x, y)``, for worlds that declare a grid layout.
+GRID_POSITION_KEY = "grid_position"
 
 
 @dataclass(frozen=True)
