@@ -46,6 +46,7 @@ Example:
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -71,6 +72,7 @@ __all__ = [
     "BRICK_ROWS",
     "FLUENT_NAMES",
     "LEFT_ROW_FLUENTS",
+    "OBS_MODES",
     "BreakoutEnv",
     "BreakoutWorld",
     "NoiseFn",
@@ -78,6 +80,8 @@ __all__ = [
     "brick_box",
     "bricks_present",
     "left_columns_clear",
+    "make_breakout_ram_env",
+    "make_breakout_ram_world",
     "make_breakout_world",
     "resolve_noise",
     "set_bricks",
@@ -89,6 +93,10 @@ LEFT_ROW_FLUENTS: tuple[str, ...] = tuple(f"left_gone_row{r}" for r in range(BRI
 #: Every Breakout fluent, in the column order of :func:`breakout_fluents`.
 FLUENT_NAMES: tuple[str, ...] = ("brick_clear_left", *LEFT_ROW_FLUENTS)
 BRICK_COLUMNS = 18
+#: The agent's observations: ``stack`` (the preprocessed grey frames, for the convolutions)
+#: or ``ram`` (the console's 128 RAM bytes scaled to [0, 1], for a dense network).
+OBS_MODES: tuple[str, ...] = ("stack", "ram")
+RAM_SIZE = 128
 
 #: ``(byte group base, bit mask)`` of each brick column, left to right; a brick of row
 #: ``r`` (0 = top) lives in ``ram[base + 5 - r] & mask``. Measured, see the module doc.
@@ -224,9 +232,11 @@ class BreakoutWorld(gym.vector.VectorEnv):
     episode returns the new episode's first observation, the ended one's last in
     ``infos["final_obs"]`` (object array, mask ``infos["_final_obs"]``), and
     :meth:`final_bolt_images` / :meth:`final_true_fluents` give the bolt the state each
-    game *reached* before the reset. Observations: uint8 ``[num_envs, frame_stack, 84,
-    84]``; actions: ``Discrete(4)`` per game (NOOP, FIRE, RIGHT, LEFT); rewards: the game
-    score gained.
+    game *reached* before the reset. Observations (``obs_mode="stack"``): uint8
+    ``[num_envs, frame_stack, 84, 84]``; with ``obs_mode="ram"``: float32 ``[num_envs,
+    128]``, the RAM bytes divided by 255 (SB3 scales only images, and raw bytes up to 255
+    would swamp a dense layer's initial weights). Actions: ``Discrete(4)`` per game (NOOP,
+    FIRE, RIGHT, LEFT); rewards: the game score gained.
 
     Args:
         num_envs: number of games.
@@ -249,6 +259,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
             for FIRE to serve the ball, and an agent that has not learnt to press it
             wastes its episode until truncation. Off by default (plain ALE v5); the
             Breakout training settings turn it on (``configs/hyperparams/breakout.yaml``).
+        obs_mode: the agent's observation, one of :data:`OBS_MODES`. ``ram`` skips the
+            grey frames altogether (``frame_stack`` and ``screen_size`` are then unused);
+            the bolt's camera, fluents and everything else are the same in both, so a RAM
+            agent is watched by the same noisy camera and classifier as an image agent.
     """
 
     termination_is_success = False
@@ -269,7 +283,12 @@ class BreakoutWorld(gym.vector.VectorEnv):
         screen_size: int = 84,
         max_episode_frames: int = 108_000,
         fire_on_reset: bool = False,
+        obs_mode: str = "stack",
     ) -> None:
+        if obs_mode not in OBS_MODES:
+            raise ConfigError(
+                f"breakout: obs_mode must be one of {list(OBS_MODES)}, got {obs_mode!r}"
+            )
         if num_envs < 1:
             raise ConfigError(f"num_envs must be >= 1, got {num_envs}")
         if not 1 <= left_columns <= BRICK_COLUMNS:
@@ -301,6 +320,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self.screen_size = screen_size
         self.max_episode_frames = max_episode_frames
         self.fire_on_reset = bool(fire_on_reset)
+        self.obs_mode = obs_mode
+        self._ram_obs = obs_mode == "ram"
         self._noise = noise_fn
         self._seed = seed
 
@@ -315,8 +336,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self._seed_all(seed)
         self._actions = self._ales[0].getMinimalActionSet()
 
-        self.single_observation_space = spaces.Box(
-            0, 255, (frame_stack, screen_size, screen_size), np.uint8
+        self.single_observation_space: spaces.Box = (
+            spaces.Box(0.0, 1.0, (RAM_SIZE,), np.float32)
+            if self._ram_obs
+            else spaces.Box(0, 255, (frame_stack, screen_size, screen_size), np.uint8)
         )
         self.single_action_space = spaces.Discrete(len(self._actions))
         self.observation_space = gym.vector.utils.batch_space(
@@ -379,11 +402,13 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 ale.act(self._actions[0])
                 if ale.game_over():
                     ale.reset_game()
-        ale.getScreenGrayscale(self._grey[i, 0])
-        self._grey[i, 1].fill(0)
+        if not self._ram_obs:
+            ale.getScreenGrayscale(self._grey[i, 0])
+            self._grey[i, 1].fill(0)
         if self.fire_on_reset:
             self._act(i, _FIRE)
-        self._stack[i] = self._processed(i)
+        if not self._ram_obs:
+            self._stack[i] = self._processed(i)
         self._lives[i] = ale.lives()
 
     def _act(self, i: int, action: int) -> int:
@@ -397,6 +422,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
             total += ale.act(chosen)
             if ale.game_over():  # terminal or truncated: keep the last processed frames
                 break
+            if self._ram_obs:  # the RAM is read when the observation is made
+                continue
             if t == second:
                 ale.getScreenGrayscale(self._grey[i, 1])
             elif t == last:
@@ -425,7 +452,13 @@ class BreakoutWorld(gym.vector.VectorEnv):
             self._reset_one(int(i))
         self._clear_step_state()
         self._started = True
-        return self._stack.copy(), self._info()
+        return self._observations(), self._info()
+
+    def _observations(self) -> np.ndarray:
+        """The agent's observations of every game now."""
+        if self._ram_obs:
+            return self.rams().astype(np.float32) / np.float32(255)
+        return self._stack.copy()
 
     def _info(self) -> dict[str, Any]:
         return {"lives": self._lives.copy(), "_lives": np.ones(self.num_envs, dtype=bool)}
@@ -458,14 +491,19 @@ class BreakoutWorld(gym.vector.VectorEnv):
             rewards[i] = total
             terminated[i] = ale.game_over(with_truncation=False)
             truncated[i] = ale.game_truncated()
-            self._stack[i, :-1] = self._stack[i, 1:]
-            self._stack[i, -1] = self._processed(i)
+            if not self._ram_obs:
+                self._stack[i, :-1] = self._stack[i, 1:]
+                self._stack[i, -1] = self._processed(i)
             if terminated[i] or truncated[i]:
                 if final_obs is None:
                     final_obs = np.full(self.num_envs, None, dtype=object)
-                final_obs[i] = self._stack[i].copy()
                 self._final_rgb[i] = ale.getScreenRGB()
                 self._final_ram[i] = ale.getRAM().copy()
+                final_obs[i] = (
+                    self._final_ram[i].astype(np.float32) / np.float32(255)
+                    if self._ram_obs
+                    else self._stack[i].copy()
+                )
                 self._reset_one(i)
             self._lives[i] = ale.lives()
         self._done = terminated | truncated
@@ -477,7 +515,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 final_info={},
                 _final_info=self._done.copy(),
             )
-        return self._stack.copy(), rewards, terminated, truncated, infos
+        return self._observations(), rewards, terminated, truncated, infos
 
     def _clear_step_state(self) -> None:
         self._done = np.zeros(self.num_envs, dtype=bool)
@@ -603,9 +641,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 rest.flat[rng.integers(rest.size)] = True
             set_bricks(ale, wall)
             ale.act(self._actions[0])
-            ale.getScreenGrayscale(self._grey[i, 0])
-            self._grey[i, 1].fill(0)
-            self._stack[i] = self._processed(i)
+            if not self._ram_obs:
+                ale.getScreenGrayscale(self._grey[i, 0])
+                self._grey[i, 1].fill(0)
+                self._stack[i] = self._processed(i)
             self._lives[i] = ale.lives()
 
     def close_extras(self, **kwargs: Any) -> None:
@@ -641,7 +680,8 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
             raise ConfigError(
                 f"breakout: render_mode must be 'rgb_array' or None, not {render_mode!r}"
             )
-        kwargs.pop("obs_mode", None)  # the world's factory option; the stack is the only one
+        if kwargs.get("obs_mode", "stack") is None:
+            kwargs.pop("obs_mode")  # the factory's "world default"
         self._world = BreakoutWorld(num_envs=1, **kwargs)
         self.render_mode = render_mode
         self.observation_space = self._world.single_observation_space
@@ -735,8 +775,9 @@ def make_breakout_world(
         num_envs: number of games.
         seed: seeds the games and the camera noise.
         noise: the bolt camera's noise (see :func:`resolve_noise`).
-        obs_mode: the agent's observation: None or ``"stack"`` (the only one: the
-            standard preprocessed grayscale frame stack).
+        obs_mode: the agent's observation: None or ``"stack"`` (the standard preprocessed
+            grayscale frame stack) or ``"ram"`` (the 128 RAM bytes; see
+            :func:`make_breakout_ram_world`).
         left_columns: brick columns covered by ``brick_clear_left``.
         fluents: the bolt's fluents, in order (default: all of :data:`FLUENT_NAMES`).
         camera_size: side of the bolt's square colour image.
@@ -756,9 +797,8 @@ def make_breakout_world(
         >>> world.fluent_names, world.camera_spec.shape
         (('brick_clear_left',), (84, 84, 3))
     """
-    if obs_mode not in (None, "stack"):
-        raise ConfigError(f"breakout: obs_mode must be 'stack' (or None), got {obs_mode!r}")
     return BreakoutWorld(
+        obs_mode="stack" if obs_mode is None else obs_mode,
         num_envs=num_envs,
         seed=seed,
         noise=noise,
@@ -773,3 +813,43 @@ def make_breakout_world(
         max_episode_frames=max_episode_frames,
         fire_on_reset=fire_on_reset,
     )
+
+
+def make_breakout_ram_world(*, obs_mode: str | None = "ram", **settings: Any) -> BreakoutWorld:
+    """The registry's factory for ``"breakout-ram"``: Breakout whose agent reads the RAM.
+
+    The same game, fluents and bolt camera as ``"breakout"`` (the bolt still looks through
+    its noisy camera and classifier), but the agent observes the console's 128 RAM bytes
+    (``obs_mode="ram"``), which a small dense network reads several times faster than
+    convolutions read frames. A world of its own name so that it has its own
+    hyperparameters (``configs/hyperparams/breakout-ram.yaml``).
+
+    Args:
+        obs_mode: ``"ram"`` (default) or ``"stack"``.
+        **settings: every other keyword of :func:`make_breakout_world`.
+
+    Raises:
+        ConfigError: a keyword :func:`make_breakout_world` does not take, or a bad value.
+
+    Example:
+        >>> world = make_breakout_ram_world(num_envs=2, seed=0)
+        >>> obs, _ = world.reset(seed=0)
+        >>> obs.shape, obs.dtype, world.bolt_images().shape
+        ((2, 128), dtype('float32'), (2, 84, 84, 3))
+        >>> world.close()
+    """
+    known = inspect.signature(make_breakout_world).parameters
+    unknown = sorted(set(settings) - set(known))
+    if unknown:
+        raise ConfigError(
+            f"world 'breakout-ram' takes no parameter(s) {', '.join(unknown)}; it takes: "
+            f"{', '.join(known)}"
+        )
+    return make_breakout_world(obs_mode=obs_mode or "ram", **settings)
+
+
+def make_breakout_ram_env(**settings: Any) -> BreakoutEnv:
+    """One labelled game of ``"breakout-ram"`` (for recordings): :class:`BreakoutEnv`
+    observing the RAM unless ``obs_mode`` says otherwise."""
+    settings["obs_mode"] = settings.get("obs_mode") or "ram"
+    return BreakoutEnv(**settings)
