@@ -6,7 +6,9 @@ A world declares it with a method ``return_bounds() -> ReturnBounds`` (the
 worlds declare theirs; a user's Gymnasium env declares them through
 ``FluentLabels(env, ..., return_bounds=(least, most))``. A world that does not can still
 be trained under the ``compliance`` scheme with an explicit scale (``--reward-scale``), or
-under ``paper``.
+under ``paper``; without either, :func:`estimate_return_bounds` estimates the bounds from
+random play (an estimate, said so when it is used: a trained agent may return more than
+random play showed).
 
 Example:
     >>> from noisybolt.envs import make_world
@@ -16,11 +18,27 @@ Example:
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
 
 from noisybolt.bolt.schemes import ReturnBounds
+from noisybolt.errors import ConfigError
 
-__all__ = ["DeclaresReturnBounds", "episode_return_bounds", "world_return_bounds"]
+__all__ = [
+    "DeclaresReturnBounds",
+    "EstimatedBounds",
+    "episode_return_bounds",
+    "estimate_return_bounds",
+    "world_return_bounds",
+]
+
+#: How far an estimate from random play is raised above the best return random play showed,
+#: in widths of what it showed: a trained agent returns more than random play (reaching a
+#: goal random play seldom reaches), while random play's worst episodes (long, costly, cut
+#: by the time limit) are already about as bad as a policy's get.
+ESTIMATE_MARGIN = 0.5
 
 
 @runtime_checkable
@@ -55,3 +73,98 @@ def episode_return_bounds(
     low = min(lo, lo * horizon) + min(bonus[0], 0.0)
     high = max(hi, hi * horizon) + max(bonus[1], 0.0)
     return ReturnBounds(low, high)
+
+
+@dataclass(frozen=True)
+class EstimatedBounds:
+    """Return bounds estimated from random play (see :func:`estimate_return_bounds`).
+
+    Attributes:
+        bounds: the estimate, raised by :data:`ESTIMATE_MARGIN` widths on top.
+        episodes: episodes that ended during random play.
+        steps: environment steps played (all envs together).
+        observed: ``(least, most)`` return of the episodes that ended, or of the steps
+            played when none ended.
+        longest: the longest episode seen, in steps (ended or still running at the end).
+    """
+
+    bounds: ReturnBounds
+    episodes: int
+    steps: int
+    observed: tuple[float, float]
+    longest: int
+
+    def describe(self) -> str:
+        """One line for a log: the estimate and what it rests on."""
+        lo, hi = self.observed
+        return (
+            f"estimated from {self.episodes} random-play episodes ({self.steps} steps; returns "
+            f"{lo:g} to {hi:g}, longest {self.longest} steps), raised to "
+            f"[{self.bounds.low:g}, {self.bounds.high:g}]"
+        )
+
+
+def estimate_return_bounds(world: Any, *, steps: int = 4096, seed: int = 0) -> EstimatedBounds:
+    """Bounds on an episode's return estimated from uniformly random play of ``world``.
+
+    For a world that declares none: the range of the returns of the episodes random play
+    ends (with same-step autoreset, as the vector worlds step), its top raised by
+    :data:`ESTIMATE_MARGIN` times its width, the width never less than one step's reward
+    range. A world whose rewards are dense and grow with skill (a trained agent returning
+    many times what random play does, as in CartPole) is not bounded this way: declare its
+    bounds (``return_bounds=``) or give the scale.
+    When no episode ends within the budget, the steps played stand in for an episode.
+    It is an estimate, not a bound: a trained agent may return more than random play
+    showed, so the ``compliance`` scheme built on it says so, and a world that knows its
+    bounds should declare them.
+
+    Args:
+        world: a vectorised labelled world (``num_envs``, ``action_space``, ``reset``,
+            ``step``), as :func:`noisybolt.envs.make_world` builds.
+        steps: environment steps to play, all envs together.
+        seed: seeds the world's reset and the sampled actions.
+
+    Raises:
+        ConfigError: a non-positive ``steps``, or rewards that are not finite.
+
+    Example:
+        >>> from noisybolt.envs import make_world
+        >>> estimate = estimate_return_bounds(make_world("gridworld", num_envs=4), steps=2048)
+        >>> estimate.bounds.low < -100 < estimate.bounds.high
+        True
+    """
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ConfigError(f"steps must be a positive integer, got {steps!r}")
+    n = int(world.num_envs)
+    world.reset(seed=seed)
+    world.action_space.seed(seed)
+    running = np.zeros(n)  # [n_envs] return of the episode under way
+    length = np.zeros(n, dtype=np.int64)  # [n_envs] its steps so far
+    returns: list[float] = []
+    longest = 0
+    step_lo, step_hi = np.inf, -np.inf
+    played = 0
+    for _ in range(max(1, steps // n)):
+        _, reward, terminated, truncated, _ = world.step(world.action_space.sample())
+        reward = np.asarray(reward, dtype=np.float64).reshape(n)
+        if not np.all(np.isfinite(reward)):
+            raise ConfigError(f"the world paid a non-finite reward in random play: {reward}")
+        step_lo, step_hi = min(step_lo, float(reward.min())), max(step_hi, float(reward.max()))
+        running += reward
+        length += 1
+        played += n
+        ended = np.asarray(terminated, dtype=bool) | np.asarray(truncated, dtype=bool)
+        if ended.any():
+            returns.extend(running[ended].tolist())
+            longest = max(longest, int(length[ended].max()))
+            running[ended] = 0.0
+            length[ended] = 0
+    longest = max(longest, int(length.max()))
+    # No episode ended: what the steps played returned stands in for an episode's return.
+    seen = returns if returns else running.tolist()
+    lo, hi = float(min(seen)), float(max(seen))
+    width = max(hi - lo, step_hi - step_lo)
+    if width == 0.0:
+        return EstimatedBounds(ReturnBounds(lo, hi), len(returns), played, (lo, hi), longest)
+    high = lo + width + ESTIMATE_MARGIN * width
+    return EstimatedBounds(ReturnBounds(lo, high), len(returns), played, (lo, hi), longest)
