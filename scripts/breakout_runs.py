@@ -1,0 +1,192 @@
+"""Breakout runs across sessions: keep them in results/breakout, restore them, summarise them.
+
+A long Breakout run outlives a session, and ``runs/`` and the classifier cache
+(``~/.cache/noisybolt``) may be gone on the next machine. What a resume needs is small:
+the run's ``config.json`` and ``command.txt``, its latest checkpoint (``model.zip`` with
+the optimiser, ``state.json`` with the evaluation history) and the bolt's classifier (the
+one trained on the fly, ~200 kB). ``keep`` copies exactly that into
+``results/breakout/<run>/`` and ``results/breakout/classifiers/`` (commit them);
+``restore`` puts them back under ``runs/`` and the classifier cache, after which the
+command in ``command.txt`` (it ends with ``--resume``) continues the run. ``summary``
+writes ``results/breakout/summary.json`` from every kept run's evaluations.
+
+    .venv/bin/python scripts/breakout_runs.py keep runs/breakout-ram-ppo-bolted-seed0 ...
+    .venv/bin/python scripts/breakout_runs.py restore breakout-ram-ppo-bolted-seed0 ...
+    .venv/bin/python scripts/breakout_runs.py summary
+
+``summary.json`` is a list, one entry per run (sorted by agent, algo, bolted, seed):
+``run``, ``agent`` (``image`` or ``ram``), ``algo``, ``seed``, ``bolted``, ``frames`` (of
+its last evaluation), ``column_cleared_share`` (share of that evaluation's episodes that
+cleared the left column, ground truth), ``left_bricks_gone`` (mean bricks of the left
+column gone at an episode's end; null for a run without the per-brick specs), ``score``
+(mean game score), ``bolt_false_acceptance`` (largest share of episodes over the specs whose
+DFA, run on what the bolt perceived, ended
+accepting while the true trace did not; null where not recorded), ``episodes`` and
+``reward`` (the reward scheme).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+from typing import Any
+
+from noisybolt.io import atomic_write_bytes, atomic_write_json
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "results" / "breakout"
+CLASSIFIERS = RESULTS / "classifiers"
+RUN_FILES = ("config.json", "command.txt", "metrics.json", "summary.json")
+
+
+def _copy(source: Path, target: Path) -> None:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(target, source.read_bytes())
+
+
+def classifier_file(config: dict[str, Any]) -> Path | None:
+    """The cached on-the-fly classifier a run's config uses (None: oracle, synthetic or a
+    classifier file named in the config, which is kept wherever it is)."""
+    from noisybolt.agents import TrainConfig
+    from noisybolt.agents.training import classifier_architecture, default_classifier_path
+    from noisybolt.envs import make_world
+
+    detector = config.get("detector") or {}
+    if detector.get("kind", "classifier") != "classifier" or detector.get("path"):
+        return None
+    train = TrainConfig.from_dict(config)
+    world = make_world(train.world, num_envs=1, seed=0, **train.world_settings)
+    camera = world.camera_spec
+    return default_classifier_path(
+        train.world, train.detector, camera, classifier_architecture(camera)
+    )
+
+
+def keep(run: Path) -> None:
+    """Copies what a resume of ``run`` needs into ``results/breakout/<run name>/``."""
+    target = RESULTS / run.name
+    for name in RUN_FILES:
+        if (run / name).exists():
+            _copy(run / name, target / name)
+    # A training that is still going replaces its checkpoint folder every checkpoint:
+    # read the pointer, copy the folder, and try again if it went meanwhile.
+    for _ in range(5):
+        pointer = run / "checkpoints" / "latest.json"
+        if not pointer.exists():
+            print(f"{run}: no checkpoint yet")
+            break
+        latest = json.loads(pointer.read_text())
+        folder = run / "checkpoints" / latest["folder"]
+        try:
+            files = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+        except FileNotFoundError:
+            continue
+        kept = target / "checkpoints"
+        for name, data in files.items():
+            atomic_write_bytes(kept / latest["folder"] / name, data)
+        atomic_write_json(kept / "latest.json", latest)
+        for old in kept.glob("step_*"):
+            if old.name != latest["folder"]:
+                shutil.rmtree(old)
+        print(f"{run} -> {target}: checkpoint at {latest['frames']:,} frames")
+        break
+    classifier = classifier_file(json.loads((run / "config.json").read_text()))
+    if classifier is not None:
+        if classifier.exists():
+            _copy(classifier, CLASSIFIERS / classifier.name)
+        else:
+            print(f"{run}: its classifier {classifier} is not in the cache", file=sys.stderr)
+
+
+def restore(name: str, runs: Path) -> None:
+    """Puts a kept run back into ``runs/<name>`` and its classifier into the cache."""
+    source = RESULTS / name
+    target = runs / name
+    if (target / "checkpoints" / "latest.json").exists():
+        here = json.loads((target / "checkpoints" / "latest.json").read_text())["frames"]
+        kept = json.loads((source / "checkpoints" / "latest.json").read_text())["frames"]
+        if here >= kept:
+            print(f"{target} already holds {here:,} frames (kept: {kept:,}); left alone")
+            return
+    for path in sorted(source.rglob("*")):
+        if path.is_file():
+            _copy(path, target / path.relative_to(source))
+    classifier = classifier_file(json.loads((source / "config.json").read_text()))
+    if classifier is not None and not classifier.exists():
+        _copy(CLASSIFIERS / classifier.name, classifier)
+    print(f"{source} -> {target}; continue with: {(target / 'command.txt').read_text().strip()}")
+
+
+def _agent(config: dict[str, Any]) -> str:
+    world = str(config.get("world", ""))
+    obs_mode = (config.get("world_kwargs") or {}).get("obs_mode")
+    return "ram" if obs_mode == "ram" or (world.endswith("-ram") and obs_mode is None) else "image"
+
+
+def summary_entry(run: Path) -> dict[str, Any] | None:
+    """One run's entry of ``summary.json`` (None for a run with no evaluation yet)."""
+    config = json.loads((run / "config.json").read_text())
+    metrics = (
+        json.loads((run / "metrics.json").read_text()) if (run / "metrics.json").exists() else []
+    )
+    if not metrics:
+        return None
+    last = max(metrics, key=lambda record: int(record["frames"]))
+    rates = last.get("compliance", {})
+    false = last.get("false_acceptance")
+    rows = {k: v for k, v in rates.items() if k.startswith("left_row")}  # one spec per brick
+    return {
+        "run": run.name,
+        "agent": _agent(config),
+        "algo": config["algo"],
+        "seed": int(config["seed"]),
+        "bolted": bool(config.get("bolted", True)),
+        "frames": int(last["frames"]),
+        "column_cleared_share": float(rates.get("clear_left_column", 0.0)),
+        "left_bricks_gone": float(sum(rows.values())) if rows else None,
+        "score": float(last["env_return_mean"]),
+        "bolt_false_acceptance": max(false.values()) if false else None,
+        "episodes": int(last["n_episodes"]),
+        "reward": config.get("reward", "paper"),
+    }
+
+
+def summary(results: Path) -> list[dict[str, Any]]:
+    """Every kept run's entry, written to ``results/summary.json``."""
+    entries = [
+        entry
+        for run in sorted(results.iterdir())
+        if (run / "config.json").exists() and (entry := summary_entry(run)) is not None
+    ]
+    entries.sort(key=lambda e: (e["agent"], e["algo"], not e["bolted"], e["seed"], e["run"]))
+    atomic_write_json(results / "summary.json", entries)
+    return entries
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    keep_parser = sub.add_parser("keep", help="copy runs' resume files into results/breakout")
+    keep_parser.add_argument("runs", nargs="+", type=Path)
+    restore_parser = sub.add_parser("restore", help="put kept runs back under runs/")
+    restore_parser.add_argument("names", nargs="+")
+    restore_parser.add_argument("--runs", type=Path, default=Path("runs"))
+    sub.add_parser("summary", help="write results/breakout/summary.json")
+    args = parser.parse_args(argv)
+    if args.command == "keep":
+        for run in args.runs:
+            keep(run)
+        summary(RESULTS)
+    elif args.command == "restore":
+        for name in args.names:
+            restore(name, args.runs)
+    else:
+        for entry in summary(RESULTS):
+            print(json.dumps(entry))
+
+
+if __name__ == "__main__":
+    main()

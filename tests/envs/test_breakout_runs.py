@@ -1,0 +1,130 @@
+"""scripts/breakout_runs.py: Breakout runs kept across sessions and their summary."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "breakout_runs.py"
+
+
+@pytest.fixture
+def script(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> ModuleType:
+    spec = importlib.util.spec_from_file_location("breakout_runs", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(module, "RESULTS", tmp_path / "results")
+    monkeypatch.setattr(module, "CLASSIFIERS", tmp_path / "results" / "classifiers")
+    return module
+
+
+def _record(frames: int, cleared: float, rows: list[float], score: float) -> dict:
+    compliance = {"clear_left_column": cleared}
+    compliance |= {f"left_row{r}": rate for r, rate in enumerate(rows)}
+    return {
+        "frames": frames,
+        "compliance": compliance,
+        "false_acceptance": {"clear_left_column": 0.0, "left_row5": 0.25},
+        "env_return_mean": score,
+        "env_return_std": 1.0,
+        "n_episodes": 8,
+    }
+
+
+def _run(path: Path, config: dict, metrics: list[dict]) -> Path:
+    path.mkdir(parents=True)
+    (path / "config.json").write_text(json.dumps(config))
+    (path / "metrics.json").write_text(json.dumps(metrics))
+    (path / "command.txt").write_text("noisybolt train ... --resume\n")
+    return path
+
+
+def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> None:
+    results = script.RESULTS
+    ram = {"world": "breakout-ram", "algo": "ppo", "seed": 1, "bolted": True, "reward": "paper"}
+    image = {"world": "breakout", "algo": "dqn", "seed": 0, "bolted": False}
+    rows = [0.0, 0.0, 0.125, 0.25, 0.75, 0.875]
+    # evaluations out of order: the last is the one with the most frames
+    _run(
+        results / "ram-b1",
+        ram,
+        [_record(200_000, 0.5, rows, 30.0), _record(100_000, 0.0, [0.0] * 6, 3.0)],
+    )
+    _run(results / "img-u0", image, [_record(50_000, 0.0, [], 1.5)])
+    _run(results / "empty", ram, [])  # no evaluation yet: no entry
+    entries = script.summary(results)
+    assert [e["run"] for e in entries] == ["img-u0", "ram-b1"]
+    image_entry, ram_entry = entries
+    assert ram_entry == {
+        "run": "ram-b1",
+        "agent": "ram",
+        "algo": "ppo",
+        "seed": 1,
+        "bolted": True,
+        "frames": 200_000,
+        "column_cleared_share": 0.5,
+        "left_bricks_gone": 2.0,  # 0.125 + 0.25 + 0.75 + 0.875
+        "score": 30.0,
+        "bolt_false_acceptance": 0.25,
+        "episodes": 8,
+        "reward": "paper",
+    }
+    assert image_entry["agent"] == "image" and image_entry["bolted"] is False
+    assert image_entry["left_bricks_gone"] is None  # no per-brick specs
+    assert json.loads((results / "summary.json").read_text()) == entries
+
+
+def test_agent_is_read_from_the_world_and_its_obs_mode(script: ModuleType) -> None:
+    assert script._agent({"world": "breakout"}) == "image"
+    assert script._agent({"world": "breakout", "world_kwargs": {"obs_mode": "ram"}}) == "ram"
+    assert script._agent({"world": "breakout-ram"}) == "ram"
+    assert script._agent({"world": "breakout-ram", "world_kwargs": {"obs_mode": "stack"}}) == (
+        "image"
+    )
+
+
+def test_keep_then_restore_gives_back_the_checkpoint(script: ModuleType, tmp_path: Path) -> None:
+    config = {"world": "breakout-ram", "algo": "ppo", "seed": 0, "detector": {"kind": "oracle"}}
+    run = _run(tmp_path / "runs" / "ram-b0", config, [_record(100, 0.0, [0.0] * 6, 1.0)])
+    checkpoints = run / "checkpoints"
+    (checkpoints / "step_000000000100").mkdir(parents=True)
+    (checkpoints / "step_000000000100" / "model.zip").write_bytes(b"model at 100")
+    (checkpoints / "step_000000000100" / "state.json").write_text("{}")
+    (checkpoints / "latest.json").write_text(
+        json.dumps({"folder": "step_000000000100", "frames": 100})
+    )
+    script.keep(run)
+    kept = script.RESULTS / "ram-b0"
+    assert (kept / "checkpoints" / "step_000000000100" / "model.zip").read_bytes() == (
+        b"model at 100"
+    )
+    assert json.loads((kept / "config.json").read_text()) == config
+    # a newer checkpoint replaces the kept one
+    (checkpoints / "step_000000000100").rename(checkpoints / "step_000000000200")
+    (checkpoints / "step_000000000200" / "model.zip").write_bytes(b"model at 200")
+    (checkpoints / "latest.json").write_text(
+        json.dumps({"folder": "step_000000000200", "frames": 200})
+    )
+    script.keep(run)
+    assert sorted(p.name for p in (kept / "checkpoints").iterdir()) == [
+        "latest.json",
+        "step_000000000200",
+    ]
+    fresh = tmp_path / "elsewhere"
+    script.restore("ram-b0", fresh)
+    restored = fresh / "ram-b0"
+    assert (restored / "checkpoints" / "step_000000000200" / "model.zip").read_bytes() == (
+        b"model at 200"
+    )
+    assert json.loads((restored / "checkpoints" / "latest.json").read_text())["frames"] == 200
+    # a run directory further on than what was kept is left alone
+    (restored / "checkpoints" / "latest.json").write_text(
+        json.dumps({"folder": "step_000000000300", "frames": 300})
+    )
+    script.restore("ram-b0", fresh)
+    assert json.loads((restored / "checkpoints" / "latest.json").read_text())["frames"] == 300
