@@ -15,20 +15,19 @@ import pytest
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError
 from noisybolt.experiments import report as report_module
-from noisybolt.experiments.report import (
+from noisybolt.experiments.plotting import plot_learning_curves
+from noisybolt.experiments.report import run_report, write_report
+from noisybolt.experiments.reporting import (
     Code,
     Heading,
     Image,
     Link,
     Table,
     Text,
-    plot_learning_curves,
     render_html,
     render_markdown,
-    run_report,
-    write_report,
 )
-from noisybolt.experiments.sweep import SweepConfig, run_sweep
+from noisybolt.experiments.sweeps import SweepConfig, run_sweep
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -151,4 +150,7 @@ def test_report_command(
 
 
 def test_module_doctests_pass() -> None:
-    assert doctest.testmod(report_module).failed == 0
+    from noisybolt.experiments.reporting import numbers, render
+
+    for module in (report_module, render, numbers):
+        assert doctest.testmod(module).failed == 0

@@ -13,8 +13,8 @@ import yaml
 
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError
-from noisybolt.experiments import sweep as sweep_module
-from noisybolt.experiments.sweep import (
+from noisybolt.experiments import sweeps as sweep_module
+from noisybolt.experiments.sweeps import (
     SweepConfig,
     builtin_sweeps,
     collect_sweep,
@@ -71,7 +71,7 @@ def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ({"rows": [{"name": "a", "specs": ["edge"], "lr": 1}]}, r"row 'a': unknown setting 'lr'"),
         ({"rows": [{"name": "a", "specs": ["edge"], "seed": 1}]}, "list seeds under 'seeds'"),
         ({"rows": [{"name": "a"}]}, "no specs"),
-        ({"rows": [{"name": "a", "specs": []}]}, "specs is empty"),
+        ({"rows": [{"name": "a", "specs": []}]}, "specs must be a non-empty list"),
         ({"rows": [{"name": "a", "specs": ["edge"], "algo": "sac"}]}, "unknown algorithm 'sac'"),
         (
             {"rows": [{"name": "a", "specs": ["edge"], "hyperparams": {"n_stepz": 8}}]},
@@ -111,7 +111,7 @@ def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ({"seeds": [0, 0]}, "seeds repeat"),
         ({"seeds": [-1]}, "non-negative"),
         ({"retries": -1}, "retries must be an integer >= 0"),
-        ({"resources": {"gpus": 1}}, r"unknown key\(s\) \['gpus'\]"),
+        ({"resources": {"gpus": 1}}, r"resources: unknown key\(s\) in \{'gpus': 1\}"),
         ({"resources": {"cpus": 0}}, "cpus must be a number > 0"),
         ({"settings": {"seed": [1, 2]}}, "vary seeds with 'seeds'"),
         ({"settings": {"learning_rate": [1e-3]}}, "unknown setting 'learning_rate'"),
@@ -120,6 +120,11 @@ def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ({"settings": {"cost_mode": ["count", "count"]}}, "lists a value twice"),
         ({"settings": {"cost_mode": ["count", "sometimes"]}}, "cost_mode must be one of"),
         ({"base": {"frames": 1024, "success_threshold": 2}}, "success_threshold"),
+        # Types come from TrainConfig's own fields: no second schema to drift.
+        ({"base": {"eval_episodes": "many"}}, "base: eval_episodes must be int, got 'many'"),
+        ({"base": {"keep_best": 1}}, "base: keep_best must be bool, got 1"),
+        ({"base": {"reward_scale": "big"}}, "reward_scale must be float or NoneType"),
+        ({"base": {"world_kwargs": ["noise"]}}, "world_kwargs must be dict"),
     ],
 )
 def test_bad_sweep_configs_are_refused_before_anything_runs(
@@ -198,7 +203,7 @@ def test_experiments_package_exports_each_name_from_its_module() -> None:
         module = importlib.import_module(f"noisybolt.experiments.{experiments._SOURCES[name]}")
         assert name in module.__all__
         assert getattr(experiments, name) is getattr(module, name)
-    for module_name in ("sweep", "ray_backend", "table1", "case4", "report"):
+    for module_name in ("sweeps", "sweeps.ray_tune", "table1", "case4", "report", "reporting"):
         module = importlib.import_module(f"noisybolt.experiments.{module_name}")
         assert all(hasattr(module, name) for name in module.__all__), module_name
 
@@ -335,33 +340,3 @@ def test_process_pool_runs_trials_in_workers(tmp_path: Path) -> None:
 def test_unknown_backend_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="unknown backend 'slurm'"):
         run_sweep(_sweep(), tmp_path, backend="slurm")
-
-
-# ---------------------------------------------------------------------- Ray backend
-def test_ray_backend_runs_a_small_grid_like_the_local_one(grid_dir: Path, tmp_path: Path) -> None:
-    pytest.importorskip("ray")
-    pytest.importorskip("ray.tune")
-    # A classifier file that exists but is garbage passes validation and fails at train
-    # time, inside the Ray worker: Tune retries it once, then it is reported failed.
-    garbage = tmp_path / "garbage.safetensors"
-    garbage.write_bytes(b"not a classifier")
-    broken = {
-        "name": "broken",
-        "specs": ["edge"],
-        "algo": "a2c",
-        "detector": {"kind": "classifier", "path": str(garbage)},
-    }
-    sweep = _sweep(rows=[GRID["rows"][1], broken], seeds=1, retries=1)
-    lines: list[str] = []
-    result = run_sweep(sweep, tmp_path / "ray", backend="ray", log=lines.append)
-    status = {r.trial_id: r.status for r in result.records}
-    assert status == {"avoid-a2c/seed-0": "done", "broken/seed-0": "failed"}, lines
-    assert (tmp_path / "ray" / "ray").is_dir()  # Tune's own files stay in the sweep dir
-    failed = result.records[1]
-    assert failed.failed_attempts == 2  # the first try and Tune's one retry
-    assert "garbage.safetensors" in str(failed.error), failed.error
-    assert any(line.startswith("ray: broken/seed-0: failed") for line in lines)
-    assert "| broken | a2c | edge | 0/1 | 1 |" in (tmp_path / "ray" / "results.md").read_text()
-    # Same seed, same config: the same numbers as the local backend's trial.
-    local = {r.trial_id: r.final for r in collect_sweep(grid_dir, write=False).records}
-    assert result.records[0].final == local["avoid-a2c/seed-0"]

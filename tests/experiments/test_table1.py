@@ -12,7 +12,7 @@ import pytest
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError
 from noisybolt.experiments import table1 as table1_module
-from noisybolt.experiments.sweep import Stat, SweepResult, TrialRecord, summarise_trials
+from noisybolt.experiments.sweeps import Stat, SweepResult, TrialRecord, summarise_trials
 from noisybolt.experiments.table1 import (
     TABLE1_ROWS,
     build_table1,

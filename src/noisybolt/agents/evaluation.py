@@ -132,6 +132,7 @@ def evaluate_bolted_policy(
     n_episodes: int,
     spec_names: Sequence[str],
     on_step: Callable[[VecEnv, np.ndarray], None] | None = None,
+    on_episode: Callable[[int, EpisodeRecord], None] | None = None,
 ) -> EvalResult:
     """Runs ``n_episodes`` on a bolted ``VecEnv`` and summarises them.
 
@@ -144,7 +145,10 @@ def evaluate_bolted_policy(
         env: a :class:`~noisybolt.wrappers.BoltVecEnv` (possibly wrapped).
         n_episodes: how many episodes to record.
         spec_names: names of the bolt's specs, in order.
-        on_step: called after every step with ``(env, dones)`` (e.g. to record positions).
+        on_step: called after the reset (``dones`` all False) and after every step with
+            ``(env, dones)``: to follow what the episodes go through (e.g. positions).
+        on_episode: called with ``(env_index, record)`` for every episode recorded, in
+            the order of the result's ``episodes``.
     """
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
@@ -156,6 +160,8 @@ def evaluate_bolted_policy(
     lengths = np.zeros(n_envs, dtype=int)
     episodes: list[EpisodeRecord] = []
     obs = env.reset()
+    if on_step is not None:
+        on_step(env, np.zeros(n_envs, dtype=bool))
     while (counts < targets).any():
         actions = predict(obs)
         obs, _, dones, infos = env.step(actions)
@@ -180,6 +186,8 @@ def evaluate_bolted_policy(
                         bolt_accepting=tuple(bool(a) for a in info["dfa_accepting"]),
                     )
                 )
+                if on_episode is not None:
+                    on_episode(i, episodes[-1])
                 counts[i] += 1
             env_ret[i] = bolt_ret[i] = lengths[i] = 0
     return summarise(episodes, spec_names)

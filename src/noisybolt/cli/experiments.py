@@ -103,7 +103,7 @@ def register(subparsers: Any) -> None:
     sweep = subparsers.add_parser(
         "sweep",
         help="run a grid of training runs (rows x settings x seeds) from a YAML file",
-        description="Run a sweep config (see noisybolt.experiments.sweep for its format). "
+        description="Run a sweep config (see noisybolt.experiments.sweeps for its format). "
         "Running it again resumes: finished trials are reused, interrupted ones resume "
         "from their checkpoints, failed ones are retried.",
     )
@@ -231,7 +231,7 @@ def _sweep(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from noisybolt.experiments.report import sweep_report
-    from noisybolt.experiments.sweep import load_sweep, run_sweep
+    from noisybolt.experiments.sweeps import load_sweep, run_sweep
 
     config = load_sweep(args.config)
     if args.retries is not None:
@@ -250,9 +250,12 @@ def _sweep(args: argparse.Namespace) -> int:
         config, out, backend=args.backend, workers=_workers(args), address=args.address, argv=argv
     )
     print(result.files["markdown"].read_text())
+    unfinished = len(result.records) - result.n_done - result.n_failed
+    if unfinished:
+        print(f"{unfinished} trials unfinished (interrupted): run the same command to resume")
     if args.report:
         print(f"report: {sweep_report(out).html}")
-    return 1 if result.n_failed else 0
+    return 1 if result.n_failed or unfinished else 0
 
 
 def _table1(args: argparse.Namespace) -> int:
@@ -341,6 +344,9 @@ def _case4(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
+    # The experiments register their report sections when imported; report imports none.
+    import noisybolt.experiments.case4
+    import noisybolt.experiments.table1  # noqa: F401
     from noisybolt.experiments.report import write_report
 
     files = write_report(args.path, html_page=not args.no_html)

@@ -5,15 +5,17 @@
   (``python -m noisybolt.experiments.optimal`` prints it for the paper's specs).
 * :mod:`noisybolt.experiments.spec_families`: specs nobody tuned for, generated from
   Dwyer et al.'s specification patterns (the spec-family suite).
-* :mod:`noisybolt.experiments.sweep`: grids of training runs from YAML (rows x settings x
-  seeds), resumable, with retries, on a local process pool or Ray Tune
-  (:mod:`noisybolt.experiments.ray_backend`); results as mean ± std tables.
+* :mod:`noisybolt.experiments.sweeps`: grids of training runs from YAML (rows x settings x
+  seeds: overrides of the run's ``TrainConfig``), resumable, on local processes or Ray
+  Tune (which then owns retries, resume and results); mean ± std tables.
 * :mod:`noisybolt.experiments.table1`: the paper's gridworld Table 1, reproduced over
   seeds through a sweep, beside the paper's numbers.
 * :mod:`noisybolt.experiments.case4`: the paper's case 4 (corner preference under the
   regional noise) against a clean-camera control, from ground truth.
 * :mod:`noisybolt.experiments.report`: Markdown and self-contained HTML reports of runs
-  and sweeps, with learning curves.
+  and sweeps; experiments register their sections with it. Below it,
+  :mod:`noisybolt.experiments.reporting` (blocks and renderers: Markdown, HTML, CSV,
+  text) and :mod:`noisybolt.experiments.plotting` (every figure).
 
 Names are loaded on first use (PEP 562), so importing the package stays cheap and
 ``python -m noisybolt.experiments.<module>`` runs a module that was not imported yet.
@@ -46,14 +48,10 @@ if TYPE_CHECKING:
         scheme_q_values,
         tabular_gridworld_settings,
     )
-    from noisybolt.experiments.report import (
-        plot_learning_curves,
-        run_report,
-        sweep_report,
-        write_report,
-    )
+    from noisybolt.experiments.plotting import plot_learning_curves
+    from noisybolt.experiments.report import run_report, sweep_report, write_report
     from noisybolt.experiments.spec_families import GeneratedSpec, generate_spec_suite
-    from noisybolt.experiments.sweep import (
+    from noisybolt.experiments.sweeps import (
         GroupSummary,
         Stat,
         SweepConfig,
@@ -97,20 +95,20 @@ _SOURCES: dict[str, str] = {
     "case4_sweep": "case4",
     "measure_corners": "case4",
     "reproduce_case4": "case4",
-    "plot_learning_curves": "report",
+    "plot_learning_curves": "plotting",
     "run_report": "report",
     "sweep_report": "report",
     "write_report": "report",
-    "GroupSummary": "sweep",
-    "Stat": "sweep",
-    "SweepConfig": "sweep",
-    "SweepResult": "sweep",
-    "Trial": "sweep",
-    "TrialRecord": "sweep",
-    "builtin_sweeps": "sweep",
-    "collect_sweep": "sweep",
-    "load_sweep": "sweep",
-    "run_sweep": "sweep",
+    "GroupSummary": "sweeps",
+    "Stat": "sweeps",
+    "SweepConfig": "sweeps",
+    "SweepResult": "sweeps",
+    "Trial": "sweeps",
+    "TrialRecord": "sweeps",
+    "builtin_sweeps": "sweeps",
+    "collect_sweep": "sweeps",
+    "load_sweep": "sweeps",
+    "run_sweep": "sweeps",
     "TABLE1_ROWS": "table1",
     "PaperNumbers": "table1",
     "Table1Entry": "table1",

@@ -28,7 +28,7 @@ which is what the control separates.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -36,12 +36,24 @@ from typing import Any
 import numpy as np
 
 from noisybolt.errors import ConfigError
+from noisybolt.experiments.plotting import plot_shares
+from noisybolt.experiments.report import ReportSection, register_section
+from noisybolt.experiments.reporting import (
+    Block,
+    Heading,
+    Image,
+    Table,
+    Text,
+    percent,
+    render_markdown,
+)
+from noisybolt.experiments.sweeps.trials import read_json
 
 __all__ = [
     "CONDITIONS",
     "CornerVisits",
-    "case4_report_blocks",
     "case4_sweep",
+    "case4_table",
     "measure_corners",
     "reproduce_case4",
 ]
@@ -50,6 +62,13 @@ __all__ = [
 CONDITIONS: dict[str, str] = {"regional": "regional", "control": "none"}
 _TOP_RIGHT, _BOTTOM_LEFT = "top_right_corner", "bottom_left_corner"
 _CATEGORIES = ("top_right_only", "bottom_left_only", "both", "neither")
+#: (visited the top-right corner, visited the bottom-left one) -> the episode's category.
+_CATEGORY = {
+    (True, False): "top_right_only",
+    (False, True): "bottom_left_only",
+    (True, True): "both",
+    (False, False): "neither",
+}
 
 
 @dataclass(frozen=True)
@@ -111,6 +130,7 @@ def measure_corners(
     """
     import torch
 
+    from noisybolt.agents.evaluation import EpisodeRecord, evaluate_bolted_policy
     from noisybolt.agents.run_evaluation import load_run_model
     from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
     from noisybolt.rundir import RunDirectory
@@ -140,53 +160,46 @@ def measure_corners(
     if not hasattr(world, "agent_state"):
         raise ConfigError(f"{config.world} does not report agent positions (agent_state)")
     size = int(config.world_kwargs.get("size", 6))
-    goal_cell = (size - 2, size - 2)
+    visited = np.zeros((n_envs, 2), dtype=bool)  # [n_envs, (top-right, bottom-left)]
+    paths: list[list[tuple[int, int]]] = [[] for _ in range(n_envs)]
+    ended: dict[int, tuple[str, list[tuple[int, int]]]] = {}
+    recorded: list[tuple[str, tuple[tuple[int, int], ...]]] = []
 
-    # Episodes are spread evenly over the environments, as evaluate_bolted_policy does.
-    targets = np.array([(episodes + i) // n_envs for i in range(n_envs)], dtype=int)
-    counts = np.zeros(n_envs, dtype=int)
-    obs: Any = env.reset()
-    truth = world.true_fluents()
-    visited = np.stack([truth[:, tr], truth[:, bl]], axis=1).astype(bool)
-    x, y, _ = world.agent_state
-    paths: list[list[tuple[int, int]]] = [[(int(x[i]), int(y[i]))] for i in range(n_envs)]
-    tally = dict.fromkeys((*_CATEGORIES, "goal", "compliant"), 0)
-    positions: list[tuple[tuple[int, int], ...]] = []
-    while (counts < targets).any():
-        actions = model.predict(obs, deterministic=deterministic)[0]
-        obs, _, dones, infos = env.step(actions)
-        reached = world.final_true_fluents()  # the states this step reached, before reset
-        visited |= np.stack([reached[:, tr], reached[:, bl]], axis=1).astype(bool)
-        x, y, _ = world.agent_state
+    def on_step(_: Any, dones: np.ndarray) -> None:
+        # Every state an episode reached counts, its last one too (read before the
+        # reset); the first call comes right after the reset, before any step.
+        reached = world.final_true_fluents() if paths[0] else world.true_fluents()
+        visited[:] |= reached[:, [tr, bl]].astype(bool)
+        x, y, _heading = world.agent_state
         now = world.true_fluents()
-        for i, info in enumerate(infos):
-            if not dones[i]:
-                paths[i].append((int(x[i]), int(y[i])))
-                continue
-            truncated = bool(info.get("TimeLimit.truncated", False))
-            goal = bool(info.get("is_success", not truncated))
-            if goal:
-                paths[i].append(goal_cell)
-            if counts[i] < targets[i]:
-                top, bottom = bool(visited[i, 0]), bool(visited[i, 1])
-                category = (
-                    "both"
-                    if top and bottom
-                    else "top_right_only"
-                    if top
-                    else "bottom_left_only"
-                    if bottom
-                    else "neither"
-                )
-                tally[category] += 1
-                tally["goal"] += int(goal)
-                tally["compliant"] += int(all(bool(a) for a in info["true_accepting"]))
-                positions.append(tuple(paths[i]))
-                counts[i] += 1
-            visited[i] = (bool(now[i, tr]), bool(now[i, bl]))
-            paths[i] = [(int(x[i]), int(y[i]))]
+        for i in range(n_envs):
+            if dones[i]:
+                ended[i] = (_CATEGORY[bool(visited[i, 0]), bool(visited[i, 1])], paths[i])
+                visited[i] = now[i, [tr, bl]].astype(bool)
+                paths[i] = []
+            paths[i].append((int(x[i]), int(y[i])))
+
+    def on_episode(i: int, record: EpisodeRecord) -> None:
+        category, path = ended[i]
+        recorded.append((category, (*path, *([(size - 2, size - 2)] if record.goal else []))))
+
+    result = evaluate_bolted_policy(
+        lambda obs: model.predict(obs, deterministic=deterministic)[0],
+        env,
+        n_episodes=episodes,
+        spec_names=[s.name for s in config.spec_objects()],
+        on_step=on_step,
+        on_episode=on_episode,
+    )
     env.close()
-    return CornerVisits(episodes=int(counts.sum()), positions=tuple(positions), **tally)
+    tally = {name: sum(c == name for c, _ in recorded) for name in _CATEGORIES}
+    return CornerVisits(
+        episodes=result.n_episodes,
+        goal=sum(e.goal for e in result.episodes),
+        compliant=sum(all(e.compliant) for e in result.episodes),
+        positions=tuple(p for _, p in recorded),
+        **tally,
+    )
 
 
 def _world_kwargs(noise: str, start_heading: str) -> dict[str, Any]:
@@ -210,7 +223,7 @@ def case4_sweep(
     start_heading: str = "east",
     low_confidence_cost: float | None = None,
 ) -> Any:
-    """The two-condition sweep (a :class:`~noisybolt.experiments.sweep.SweepConfig`).
+    """The two-condition sweep (a :class:`~noisybolt.experiments.sweeps.SweepConfig`).
 
     Rows ``regional`` and ``control`` train the exclusive corner spec
     (``one_corner_once``) with ``algo`` under each camera. Evaluations come every
@@ -222,7 +235,7 @@ def case4_sweep(
     spec's charge for a low-confidence fluent on the edge taken (None: the built-in 0.5).
     """
     from noisybolt.envs.registry import DEFAULT_WORLD
-    from noisybolt.experiments.sweep import SweepConfig
+    from noisybolt.experiments.sweeps import SweepConfig
 
     every = eval_freq if eval_freq is not None else max(1, min(10_000, frames // 30))
     return SweepConfig.from_dict(
@@ -254,59 +267,18 @@ def case4_sweep(
 
 
 def _plot(per_seed: dict[str, dict[int, CornerVisits]], path: Path) -> Path:
-    import io
-
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from noisybolt.io import atomic_write_bytes
-
-    labels = {
-        "top_right_only": "top-right only",
-        "bottom_left_only": "bottom-left only",
-        "both": "both",
-        "neither": "neither",
+    shares = {
+        condition: [{**v.shares(), "weight": v.episodes} for v in runs.values()]
+        for condition, runs in per_seed.items()
     }
-    fig = Figure(figsize=(8.0, 3.8), dpi=100)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    conditions = list(per_seed)
-    width = 0.8 / max(1, len(conditions))
-    colours = ("#d55e00", "#0072b2", "#009e73", "#999999")
-    for c, condition in enumerate(conditions):
-        runs = list(per_seed[condition].values())
-        if not runs:
-            continue
-        total = sum(v.episodes for v in runs)
-        for k, name in enumerate(_CATEGORIES):
-            share = sum(getattr(v, name) for v in runs) / total
-            xpos = k + (c - (len(conditions) - 1) / 2) * width
-            ax.bar(
-                xpos,
-                share,
-                width * 0.95,
-                color=colours[c % len(colours)],
-                alpha=0.75,
-                label=condition if k == 0 else None,
-            )
-            ax.scatter(
-                [xpos] * len(runs),
-                [getattr(v, name) / v.episodes for v in runs],
-                color="black",
-                s=10,
-                zorder=3,
-            )
-    ax.set_xticks(range(len(_CATEGORIES)), [labels[n] for n in _CATEGORIES])
-    ax.set_ylabel("share of evaluation episodes")
-    ax.set_ylim(0, 1.05)
-    ax.set_title("Case 4: corner the trajectory went through (bars: all seeds; dots: each seed)")
-    ax.legend(title="bolt camera")
-    ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    atomic_write_bytes(path, buffer.getvalue())
-    return path
+    labels = ("top-right only", "bottom-left only", "both", "neither")
+    return plot_shares(
+        shares,
+        dict(zip(_CATEGORIES, labels, strict=True)),
+        path,
+        title="Case 4: corner the trajectory went through (bars: all seeds; dots: each seed)",
+        legend="bolt camera",
+    )
 
 
 def reproduce_case4(
@@ -330,7 +302,7 @@ def reproduce_case4(
     """Trains both conditions over seeds (or resumes), measures corner visits, writes files.
 
     Arguments are those of :func:`case4_sweep` and
-    :func:`~noisybolt.experiments.sweep.run_sweep`; ``episodes`` per finished seed are
+    :func:`~noisybolt.experiments.sweeps.run_sweep`; ``episodes`` per finished seed are
     evaluated by :func:`measure_corners`.
 
     Returns:
@@ -338,7 +310,7 @@ def reproduce_case4(
         pooled shares per condition, and the files written.
     """
     from noisybolt.agents.visualize import trajectory_heatmap
-    from noisybolt.experiments.sweep import run_sweep
+    from noisybolt.experiments.sweeps import run_sweep
     from noisybolt.io import atomic_write_json, atomic_write_text
 
     sweep = case4_sweep(
@@ -407,34 +379,22 @@ def reproduce_case4(
     return data
 
 
-def _share(value: float | None) -> str:
-    return "—" if value is None else f"{value:.0%}"
-
-
-def _table(data: dict[str, Any]) -> tuple[tuple[str, ...], list[tuple[str, ...]]]:
+def case4_table(data: Mapping[str, Any]) -> Table:
+    """The corner shares per condition, pooled over seeds (from ``case4.json``'s data)."""
     header = (
-        "bolt camera",
-        "seeds",
-        "episodes",
-        "top-right only",
-        "bottom-left only",
-        "both",
-        "neither",
-        "goal",
-        "compliant",
-    )
-    rows = []
-    for condition, pooled in data["pooled"].items():
-        shares = pooled["shares"]
-        rows.append(
-            (
-                f"{condition} (noise `{data['conditions'][condition]}`)",
-                str(len(pooled["seeds"])),
-                str(pooled["episodes"]),
-                *[_share(shares[k]) for k in (*_CATEGORIES, "goal", "compliant")],
-            )
+        "bolt camera", "seeds", "episodes", "top-right only", "bottom-left only", "both",
+        "neither", "goal", "compliant",
+    )  # fmt: skip
+    rows = tuple(
+        (
+            f"{condition} (noise `{data['conditions'][condition]}`)",
+            str(len(pooled["seeds"])),
+            str(pooled["episodes"]),
+            *[percent(pooled["shares"][k]) for k in (*_CATEGORIES, "goal", "compliant")],
         )
-    return header, rows
+        for condition, pooled in data["pooled"].items()
+    )
+    return Table(header, rows)
 
 
 #: What the start heading does to the two routes (the others: see the heat-maps).
@@ -447,60 +407,50 @@ _SHORTER_ROUTE = {
 def _markdown(data: dict[str, Any]) -> str:
     from noisybolt.agents.specs import DEFAULT_COST
 
-    header, rows = _table(data)
     cost = data.get("low_confidence_cost")
     cost = DEFAULT_COST if cost is None else cost
     heading = data.get("start_heading", "east")
-    lines = [
-        "# Case 4: which corner does the agent detour through?",
-        "",
-        f"Command: `{data['command']}`",
-        "",
-        f"Spec `one_corner_once` (low-confidence cost {cost}), {data['algo'].upper()}, "
-        f"detector `{data['detector']}`, "
-        f"{data['frames']:,} frames per seed, {data['episodes_per_seed']} evaluation episodes "
-        "per seed; corners, goal and compliance from ground truth. The agent starts top-left "
-        f"facing {heading}: {_SHORTER_ROUTE.get(heading, 'see the heat-maps for the routes.')}",
-        "",
-        "| " + " | ".join(header) + " |",
-        "|" + "---|" * len(header),
-        *["| " + " | ".join(r) + " |" for r in rows],
-        "",
-        "Per seed (top-right only / bottom-left only / both / neither):",
-        "",
+    per_seed = [
+        f"- {condition}, seed {seed}: " + " / ".join(percent(v["shares"][k]) for k in _CATEGORIES)
+        for condition, runs in data["per_seed"].items()
+        for seed, v in runs.items()
     ]
-    for condition, runs in data["per_seed"].items():
-        for seed, v in runs.items():
-            s = v["shares"]
-            lines.append(
-                f"- {condition}, seed {seed}: {_share(s['top_right_only'])} / "
-                f"{_share(s['bottom_left_only'])} / {_share(s['both'])} / {_share(s['neither'])}"
-            )
+    blocks: list[Block] = [
+        Heading("Case 4: which corner does the agent detour through?"),
+        Text(f"Command: `{data['command']}`"),
+        Text(
+            f"Spec `one_corner_once` (low-confidence cost {cost}), {data['algo'].upper()}, "
+            f"detector `{data['detector']}`, {data['frames']:,} frames per seed, "
+            f"{data['episodes_per_seed']} evaluation episodes per seed; corners, goal and "
+            "compliance from ground truth. The agent starts top-left facing "
+            f"{heading}: {_SHORTER_ROUTE.get(heading, 'see the heat-maps for the routes.')}"
+        ),
+        case4_table(data),
+        Text("Per seed (top-right only / bottom-left only / both / neither):"),
+        Text("\n".join(per_seed)),
+    ]
     if data["failed_trials"]:
-        lines += ["", f"Failed trials: {', '.join(data['failed_trials'])}"]
-    lines += ["", "![corner shares](case4.png)", ""]
-    lines += [f"![{k}]({v})" for k, v in data["files"].items() if k.startswith("heatmap")]
-    return "\n".join(lines) + "\n"
+        blocks.append(Text(f"Failed trials: {', '.join(data['failed_trials'])}"))
+    blocks.append(Image("case4.png", "corner shares"))
+    blocks += [Image(v, k) for k, v in data["files"].items() if k.startswith("heatmap")]
+    return render_markdown(blocks)
 
 
-def case4_report_blocks(sweep_dir: str | os.PathLike[str]) -> list[Any]:
+def _report_section(root: Path) -> tuple[list[Block], dict[str, float | None]]:
     """The case-4 section of a sweep report."""
-    import json
-
-    from noisybolt.experiments.report import Heading, Image, Table, Text
-
-    root = Path(sweep_dir)
-    data = json.loads((root / "case4.json").read_text())
-    header, rows = _table(data)
-    blocks: list[Any] = [
+    data = read_json(root / "case4.json")
+    blocks: list[Block] = [
         Heading("Case 4: corner preference, regional noise vs control", 2),
         Text(
             "Share of evaluation episodes whose trajectory went through each corner (ground "
             "truth), pooled over seeds; `case4.md`, `case4.json`."
         ),
-        Table(header, tuple(rows)),
+        case4_table(data),
     ]
-    for name in data.get("files", {}).values():
-        if (root / name).exists():
-            blocks.append(Image(name, name))
-    return blocks
+    blocks += [
+        Image(name, name) for name in data.get("files", {}).values() if (root / name).exists()
+    ]
+    return blocks, {}
+
+
+register_section(ReportSection("case4", "case4.json", _report_section))

@@ -4,7 +4,7 @@ Eight rows (spec x algorithm), as in the paper: ``G(on_edge)`` with PPO, A2C and
 ``!F(top_right_corner)`` with A2C and DQN; ``F(t & X(!F(t)))`` with PPO and A2C; the
 exclusive one-visit corner spec with A2C. Each trains over several seeds (default 3)
 under the bolt with the trained noisy classifier (camera noise ``"regional"`` by
-default), through the sweep machinery (:mod:`noisybolt.experiments.sweep`), so it
+default), through the sweep machinery (:mod:`noisybolt.experiments.sweeps`), so it
 resumes when run again and runs on Ray with ``backend="ray"``.
 
 Frames per row: ``max(30k, 2 x the paper's N_frames)`` -- 30k for the DQN rows (the
@@ -36,16 +36,29 @@ The paper's numbers stand beside ours.
 
 from __future__ import annotations
 
-import csv
-import io
-import json
 import os
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from noisybolt.errors import ConfigError
+from noisybolt.experiments.report import ReportSection, group_curves, register_section
+from noisybolt.experiments.reporting import (
+    Block,
+    Heading,
+    Table,
+    Text,
+    format_frames,
+    format_number,
+    mark,
+    percent,
+    pm,
+    render_csv,
+    render_markdown,
+)
+from noisybolt.experiments.sweeps import Stat, collect_sweep
+from noisybolt.experiments.sweeps.trials import read_json
 
 __all__ = [
     "FRAMES_FACTOR",
@@ -56,10 +69,11 @@ __all__ = [
     "Table1Result",
     "Table1Row",
     "build_table1",
+    "regenerate_table1",
     "reproduce_table1",
     "select_rows",
-    "table1_report_blocks",
     "table1_sweep",
+    "table1_table",
     "write_table1",
 ]
 
@@ -165,7 +179,7 @@ def table1_sweep(
     cpus_per_trial: float = 1.0,
     keep_best: bool = True,
 ) -> Any:
-    """The sweep that reproduces Table 1 (a :class:`~noisybolt.experiments.sweep.SweepConfig`).
+    """The sweep that reproduces Table 1 (a :class:`~noisybolt.experiments.sweeps.SweepConfig`).
 
     Args:
         rows: row or spec names (None: all eight rows).
@@ -189,7 +203,7 @@ def table1_sweep(
         ConfigError: unknown rows, or impossible values.
     """
     from noisybolt.envs.registry import DEFAULT_WORLD
-    from noisybolt.experiments.sweep import SweepConfig
+    from noisybolt.experiments.sweeps import SweepConfig
 
     if not frames_scale > 0:
         raise ConfigError(f"frames_scale must be > 0, got {frames_scale}")
@@ -309,6 +323,27 @@ class Table1Entry:
             },
         }
 
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Table1Entry:
+        """Reads :meth:`to_dict`'s output back (a committed ``table1.json``'s rows)."""
+        row = Table1Row(data["row"], data["spec"], data["algo"], PaperNumbers(**data["paper"]))
+        return cls(
+            row=row,
+            rc_max=data["rc_max"],
+            r_pi=Stat.from_dict(data["r_pi"]),
+            n_steps=Stat.from_dict(data["n_steps"]),
+            n_frames=Stat.from_dict(data["n_frames"]),
+            n_reached=data["n_reached"],
+            compliance=Stat.from_dict(data["compliance"]),
+            compliance_min=data["compliance_min"],
+            goal_rate=Stat.from_dict(data["goal_rate"]),
+            followed=data["followed"],
+            n_seeds=data["n_seeds"],
+            n_done=data["n_done"],
+            n_failed=data["n_failed"],
+            frames=data["frames"],
+        )
+
 
 @dataclass(frozen=True)
 class Table1Result:
@@ -322,8 +357,12 @@ class Table1Result:
     """
 
     entries: tuple[Table1Entry, ...]
-    sweep: Any
-    files: dict[str, Path]
+    sweep: Any = None
+    files: dict[str, Path] = field(default_factory=dict)
+
+    def to_table(self) -> Table:
+        """The table (see :func:`table1_table`)."""
+        return table1_table(self.entries)
 
 
 def _rc_max(formula: str, world_kwargs: dict[str, Any]) -> float | None:
@@ -344,7 +383,7 @@ def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
         if group is None:
             continue
         members = [r for r in records.values() if r.group == row.name]
-        config = _read_json(members[0].run_dir / "config.json") or {}
+        config = read_json(members[0].run_dir / "config.json") or {}
         world_kwargs = dict(config.get("world_kwargs") or {})
         frames = int(config.get("frames") or 0)
         rates = [
@@ -379,29 +418,6 @@ def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
     return tuple(entries)
 
 
-def _pm(stat: Any, digits: int = 2) -> str:
-    return "—" if stat is None else f"{stat.mean:.{digits}f} ± {stat.std:.{digits}f}"
-
-
-def _num(value: float | None) -> str:
-    if value is None:
-        return "—"
-    return f"{value:g}"
-
-
-def _mark(value: bool | None) -> str:
-    return {True: "✓", False: "✗", None: "?"}[value]
-
-
-def _n_frames(entry: Table1Entry) -> str:
-    from noisybolt.experiments.sweep import format_frames
-
-    text = format_frames(entry.n_frames.mean if entry.n_frames is not None else None)
-    if entry.n_done and entry.n_reached == entry.n_done:
-        return text
-    return f"{text} ({entry.n_reached}/{entry.n_done})"
-
-
 TABLE1_HEADER: tuple[str, ...] = (
     "LTLf spec",
     "algo",
@@ -420,36 +436,55 @@ TABLE1_HEADER: tuple[str, ...] = (
     "frames/seed",
     "seeds",
 )
+_CSV_HEADER = (
+    "row", "formula", "algo", "rc_max", "paper_rc_max", "r_pi_mean", "r_pi_std",
+    "paper_r_pi", "n_steps_mean", "n_steps_std", "paper_n_steps", "n_frames_mean",
+    "n_frames_reached", "paper_n_frames", "compliance_mean", "compliance_min",
+    "goal_rate_mean", "followed", "paper_followed", "frames", "n_seeds", "n_done",
+    "n_failed",
+)  # fmt: skip
 
 
-def table1_rows(entries: Sequence[Table1Entry]) -> list[tuple[str, ...]]:
-    """The displayed cells of each entry (the Markdown table's rows)."""
-    from noisybolt.experiments.sweep import format_frames
+def table1_table(entries: Sequence[Table1Entry]) -> Table:
+    """The reproduced Table 1 beside the paper's numbers: the cells shown (Markdown, HTML)
+    and, for CSV, every mean and std in a column of its own."""
 
-    rows: list[tuple[str, ...]] = []
+    def n_frames(e: Table1Entry) -> str:
+        text = format_frames(e.n_frames.mean if e.n_frames is not None else None)
+        return (
+            text if e.n_done and e.n_reached == e.n_done else f"{text} ({e.n_reached}/{e.n_done})"
+        )
+
+    def num(stat: Any, part: str) -> str:
+        return "" if stat is None else f"{getattr(stat, part):.6g}"
+
+    rows, data = [], []
     for e in entries:
+        paper = e.row.paper
         seeds = f"{e.n_done}/{e.n_seeds}" + (f", {e.n_failed} failed" if e.n_failed else "")
         rows.append(
             (
-                f"`{e.row.formula}`",
-                e.row.algo.upper(),
-                _num(e.rc_max),
-                _num(e.row.paper.rc_max),
-                _pm(e.r_pi),
-                _num(e.row.paper.r_pi),
-                _pm(e.n_steps, 1),
-                _num(e.row.paper.n_steps),
-                _n_frames(e),
-                format_frames(e.row.paper.n_frames),
-                "—" if e.compliance is None else f"{e.compliance.mean:.0%}",
-                "—" if e.goal_rate is None else f"{e.goal_rate.mean:.0%}",
-                _mark(e.followed),
-                _mark(e.row.paper.followed),
-                format_frames(e.frames),
-                seeds,
+                f"`{e.row.formula}`", e.row.algo.upper(), format_number(e.rc_max),
+                format_number(paper.rc_max), pm(e.r_pi), format_number(paper.r_pi),
+                pm(e.n_steps, 1), format_number(paper.n_steps), n_frames(e),
+                format_frames(paper.n_frames), percent(e.compliance and e.compliance.mean),
+                percent(e.goal_rate and e.goal_rate.mean), mark(e.followed), mark(paper.followed),
+                format_frames(e.frames), seeds,
             )
-        )
-    return rows
+        )  # fmt: skip
+        data.append(
+            (
+                e.row.name, e.row.formula, e.row.algo, format_number(e.rc_max).replace("—", ""),
+                paper.rc_max, num(e.r_pi, "mean"), num(e.r_pi, "std"), paper.r_pi,
+                num(e.n_steps, "mean"), num(e.n_steps, "std"), paper.n_steps,
+                num(e.n_frames, "mean"), e.n_reached, paper.n_frames,
+                num(e.compliance, "mean"),
+                "" if e.compliance_min is None else f"{e.compliance_min:.6g}",
+                num(e.goal_rate, "mean"), "" if e.followed is None else int(e.followed),
+                int(paper.followed), e.frames, e.n_seeds, e.n_done, e.n_failed,
+            )
+        )  # fmt: skip
+    return Table(TABLE1_HEADER, tuple(rows), _CSV_HEADER, tuple(data))
 
 
 NOTES = (
@@ -467,63 +502,52 @@ NOTES = (
 )
 
 
-def _markdown(entries: Sequence[Table1Entry], settings: dict[str, Any], command: str) -> str:
-    lines = ["# Table 1 (gridworld), reproduced", ""]
-    if command:
-        lines += [f"Command: `{command}`", ""]
-    lines += [
+def _settings_text(settings: Mapping[str, Any]) -> str:
+    model = (
+        "each seed's model from its periodic evaluation with the best shaped return "
+        "(environment + bolt rewards as the bolt sees them; ground truth never chooses)."
+        if settings.get("keep_best")
+        else "each seed's last model."
+    )
+    return (
         f"Seeds: {settings['seeds']}; detector: `{settings['detector']}`; bolt camera noise: "
         f"`{settings['noise']}`; final evaluation: {settings['final_eval_episodes']} episodes "
-        "per seed, of "
-        + (
-            "each seed's model from its periodic evaluation with the best shaped return "
-            "(environment + bolt rewards as the bolt sees them; ground truth never chooses)."
-            if settings.get("keep_best")
-            else "each seed's last model."
-        ),
-        "",
-        "| " + " | ".join(TABLE1_HEADER) + " |",
-        "|" + "---|" * len(TABLE1_HEADER),
+        f"per seed, of {model}"
+    )
+
+
+def _write_tables(root: Path, data: Mapping[str, Any]) -> dict[str, Path]:
+    """Writes ``table1.md`` and ``table1.csv`` from what ``table1.json`` holds."""
+    from noisybolt.io import atomic_write_text
+
+    table = table1_table([Table1Entry.from_dict(row) for row in data["rows"]])
+    notes = [*data.get("notes", NOTES), "Learning curves per row: `curves/<row>.png`."]
+    blocks: list[Block] = [Heading("Table 1 (gridworld), reproduced")]
+    if data.get("command"):
+        blocks.append(Text(f"Command: `{data['command']}`"))
+    blocks += [
+        Text(_settings_text(data["settings"])),
+        table,
+        Text("\n".join(f"- {n}" for n in notes)),
     ]
-    for cells in table1_rows(entries):
-        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
-    lines.append("")
-    lines += [f"- {note}" for note in NOTES]
-    lines.append("- Learning curves per row: `curves/<row>.png`.")
-    return "\n".join(lines) + "\n"
+    files = {"markdown": root / "table1.md", "csv": root / "table1.csv"}
+    atomic_write_text(files["markdown"], render_markdown(blocks))
+    atomic_write_text(files["csv"], render_csv(table))
+    return files
 
 
-def _csv(entries: Sequence[Table1Entry]) -> str:
-    header = [
-        "row", "formula", "algo", "rc_max", "paper_rc_max", "r_pi_mean", "r_pi_std",
-        "paper_r_pi", "n_steps_mean", "n_steps_std", "paper_n_steps", "n_frames_mean",
-        "n_frames_reached", "paper_n_frames", "compliance_mean", "compliance_min",
-        "goal_rate_mean", "followed", "paper_followed", "frames", "n_seeds", "n_done",
-        "n_failed",
-    ]  # fmt: skip
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(header)
+def regenerate_table1(results_dir: str | os.PathLike[str]) -> dict[str, Path]:
+    """Rewrites ``table1.md`` and ``table1.csv`` from ``table1.json`` alone (no trials
+    needed: ``noisybolt report results/table1``).
 
-    def mean(stat: Any) -> str:
-        return "" if stat is None else f"{stat.mean:.6g}"
-
-    def std(stat: Any) -> str:
-        return "" if stat is None else f"{stat.std:.6g}"
-
-    for e in entries:
-        writer.writerow(
-            [
-                e.row.name, e.row.formula, e.row.algo, _num(e.rc_max).replace("—", ""),
-                e.row.paper.rc_max, mean(e.r_pi), std(e.r_pi), e.row.paper.r_pi,
-                mean(e.n_steps), std(e.n_steps), e.row.paper.n_steps, mean(e.n_frames),
-                e.n_reached, e.row.paper.n_frames, mean(e.compliance),
-                "" if e.compliance_min is None else f"{e.compliance_min:.6g}",
-                mean(e.goal_rate), "" if e.followed is None else int(e.followed),
-                int(e.row.paper.followed), e.frames, e.n_seeds, e.n_done, e.n_failed,
-            ]
-        )  # fmt: skip
-    return out.getvalue()
+    Raises:
+        ConfigError: the directory has no readable ``table1.json``.
+    """
+    root = Path(results_dir)
+    data = read_json(root / "table1.json")
+    if not isinstance(data, dict) or "rows" not in data:
+        raise ConfigError(f"{root} holds no readable table1.json (noisybolt reproduce table1)")
+    return _write_tables(root, data)
 
 
 def write_table1(
@@ -537,9 +561,7 @@ def write_table1(
             ``final_eval_episodes``); default: read back from ``table1.json`` or the
             trials.
     """
-    from noisybolt.experiments.report import group_curves
-    from noisybolt.experiments.sweep import collect_sweep
-    from noisybolt.io import atomic_write_json, atomic_write_text
+    from noisybolt.io import atomic_write_json
 
     root = Path(sweep_dir)
     result = collect_sweep(root)
@@ -547,41 +569,26 @@ def write_table1(
     if not entries:
         raise ConfigError(f"{root} holds no Table 1 rows")
     if settings is None:
-        previous = _read_json(root / "table1.json") or {}
+        previous = read_json(root / "table1.json") or {}
         settings = previous.get("settings") or _settings_from(root, result)
     command_file = root / "command.txt"
     command = command_file.read_text().strip() if command_file.exists() else ""
-    files: dict[str, Path] = {
-        "markdown": root / "table1.md",
-        "csv": root / "table1.csv",
-        "json": root / "table1.json",
+    data = {
+        "command": command,
+        "settings": settings,
+        "notes": list(NOTES),
+        "rows": [e.to_dict() for e in entries],
     }
-    atomic_write_text(files["markdown"], _markdown(entries, settings, command))
-    atomic_write_text(files["csv"], _csv(entries))
-    atomic_write_json(
-        files["json"],
-        {
-            "command": command,
-            "settings": settings,
-            "notes": list(NOTES),
-            "rows": [e.to_dict() for e in entries],
-        },
-    )
+    atomic_write_json(root / "table1.json", data)
+    files = {**_write_tables(root, data), "json": root / "table1.json"}
     references = {e.row.name: e.rc_max for e in entries}
     for group, path in group_curves(root, references=references).items():
         files[f"curves:{group}"] = path
     return Table1Result(entries=entries, sweep=result, files=files)
 
 
-def _read_json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text())
-    except (FileNotFoundError, json.JSONDecodeError):
-        return None
-
-
 def _settings_from(root: Path, result: Any) -> dict[str, Any]:
-    sweep = _read_json(root / "sweep.json") or {}
+    sweep = read_json(root / "sweep.json") or {}
     trials = sweep.get("trials") or [{}]
     config = trials[0].get("config", {})
     return {
@@ -615,9 +622,9 @@ def reproduce_table1(
     """Trains every chosen row over seeds (or resumes), then writes the table.
 
     Arguments are those of :func:`table1_sweep` and
-    :func:`~noisybolt.experiments.sweep.run_sweep`.
+    :func:`~noisybolt.experiments.sweeps.run_sweep`.
     """
-    from noisybolt.experiments.sweep import run_sweep
+    from noisybolt.experiments.sweeps import run_sweep
 
     sweep = table1_sweep(
         rows=rows,
@@ -648,51 +655,19 @@ def reproduce_table1(
     return write_table1(out_dir, settings=settings)
 
 
-def table1_report_blocks(sweep_dir: str | os.PathLike[str]) -> tuple[list[Any], dict[str, Any]]:
-    """The Table 1 section of a sweep report, and R^c_max per row for the curves."""
-    from noisybolt.experiments.report import Heading, Table, Text
-
-    data = _read_json(Path(sweep_dir) / "table1.json") or {}
-    entries = data.get("rows", [])
-    blocks: list[Any] = [Heading("Table 1, reproduced", 2)]
-    settings = data.get("settings", {})
-    blocks.append(
+def _report_section(sweep_dir: Path) -> tuple[list[Block], dict[str, float | None]]:
+    """The Table 1 section of a report, and R^c_max per row for the learning curves."""
+    data = read_json(sweep_dir / "table1.json") or {}
+    entries = [Table1Entry.from_dict(row) for row in data.get("rows", [])]
+    blocks: list[Block] = [
+        Heading("Table 1, reproduced", 2),
         Text(
-            f"Seeds {settings.get('seeds')}, detector `{settings.get('detector')}`, noise "
-            f"`{settings.get('noise')}`; `table1.md`, `table1.csv`, `table1.json`."
-        )
-    )
-    rows = []
-    for e in entries:
-        paper = e["paper"]
+            f"{_settings_text(data['settings'])} Files: `table1.md`, `table1.csv`, `table1.json`."
+        ),
+        table1_table(entries),
+        Text("\n".join(f"- {note}" for note in data.get("notes", NOTES))),
+    ]
+    return blocks, {e.row.name: e.rc_max for e in entries}
 
-        def pm(stat: dict[str, Any] | None, digits: int = 2) -> str:
-            if stat is None:
-                return "—"
-            return f"{stat['mean']:.{digits}f} ± {stat['std']:.{digits}f}"
 
-        reached = e["n_frames"]
-        n_frames = "—" if reached is None else f"{reached['mean'] / 1000:.1f}k"
-        if e["n_reached"] != e["n_done"]:
-            n_frames += f" ({e['n_reached']}/{e['n_done']})"
-        rows.append(
-            (
-                f"`{e['formula']}`",
-                e["algo"].upper(),
-                _num(e["rc_max"]),
-                _num(paper["rc_max"]),
-                pm(e["r_pi"]),
-                _num(paper["r_pi"]),
-                pm(e["n_steps"], 1),
-                _num(paper["n_steps"]),
-                n_frames,
-                f"{paper['n_frames'] / 1000:g}k",
-                "—" if e["compliance"] is None else f"{e['compliance']['mean']:.0%}",
-                "—" if e["goal_rate"] is None else f"{e['goal_rate']['mean']:.0%}",
-                _mark(e["followed"]),
-                _mark(paper["followed"]),
-            )
-        )
-    blocks.append(Table(TABLE1_HEADER[:14], tuple(rows)))
-    blocks += [Text(f"- {note}") for note in data.get("notes", [])]
-    return blocks, {e["row"]: e["rc_max"] for e in entries}
+register_section(ReportSection("table1", "table1.json", _report_section, regenerate_table1))
