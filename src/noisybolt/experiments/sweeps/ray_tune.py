@@ -29,7 +29,7 @@ from typing import Any
 
 from noisybolt.errors import BackendUnavailableError
 from noisybolt.experiments.sweeps.results import TrialRecord
-from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, read_json
+from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, attempt, read_json
 from noisybolt.io import atomic_write_json
 
 __all__ = ["require_ray", "run_ray"]
@@ -63,12 +63,16 @@ def _trainable(
     from ray import tune
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    record = runner(tasks[config["trial"]])
+    record = attempt(tasks[config["trial"]], runner)
     tune.report({"record": json.dumps(record.to_dict())})
 
 
+def _dirname(trial_id: str) -> str:
+    return trial_id.replace("/", "__")[:120]
+
+
 def _short(trial: Any) -> str:
-    return str(trial.config["trial"]).replace("/", "__")[:120]
+    return _dirname(str(trial.config["trial"]))
 
 
 def run_ray(
@@ -144,7 +148,8 @@ def run_ray(
     records = []
     for index in range(len(grid)):
         result = grid[index]
-        task = by_id[(result.config or {})["trial"]]
+        # A trial that never started reports no config: its directory names it.
+        task = {_dirname(i): t for i, t in by_id.items()}[Path(result.path).name]
         metrics = result.metrics or {}
         if "record" in metrics and result.error is None:
             records.append(TrialRecord.from_dict(json.loads(metrics["record"])))

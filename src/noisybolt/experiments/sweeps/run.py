@@ -19,7 +19,13 @@ from noisybolt.errors import ConfigError
 from noisybolt.experiments.reporting import Block, Heading, Text, render_csv, render_markdown
 from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord, summarise_trials
-from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, read_json, run_trial
+from noisybolt.experiments.sweeps.trials import (
+    TrialDirectory,
+    TrialTask,
+    attempt,
+    read_json,
+    run_trial,
+)
 from noisybolt.io import atomic_write_json, atomic_write_text
 from noisybolt.rundir import RunDirectory, config_differences
 
@@ -35,8 +41,8 @@ def _attempts(task: TrialTask, retries: int, runner: TrialRunner) -> TrialRecord
     """The local backend's retry loop: ``retries`` more attempts after a failure."""
     for _ in range(retries + 1):
         try:
-            return runner(task)
-        except Exception:  # recorded in the trial's failure.json by run_trial
+            return attempt(task, runner)
+        except Exception:  # recorded in the trial's failure.json
             continue
     return TrialDirectory(task.run_dir).record(task.trial, task.final_eval_episodes)
 

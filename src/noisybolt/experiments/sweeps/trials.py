@@ -14,7 +14,7 @@ from noisybolt.experiments.sweeps.results import TrialRecord
 from noisybolt.io import atomic_write_json
 from noisybolt.rundir import RunDirectory
 
-__all__ = ["TrialDirectory", "TrialTask", "run_trial"]
+__all__ = ["TrialDirectory", "TrialTask", "attempt", "run_trial"]
 
 
 def read_json(path: Path) -> Any:
@@ -123,13 +123,26 @@ class TrialTask:
         return {**asdict(self), "argv": list(self.argv)}
 
 
+def attempt(task: TrialTask, runner: Callable[[TrialTask], TrialRecord]) -> TrialRecord:
+    """One attempt at a trial by ``runner`` (:func:`run_trial`): what it raises is recorded
+    in the trial's ``failure.json`` and raised again, so that whoever retries (the local
+    loop, or Ray Tune) decides what comes next."""
+    start = time.perf_counter()
+    try:
+        return runner(task)
+    except Exception as error:
+        folder = TrialDirectory(task.run_dir)
+        folder.record_failure(error)
+        folder.write_outcome("failed", time.perf_counter() - start)
+        raise
+
+
 def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> TrialRecord:
-    """Runs one attempt at a trial; safe to call again to resume; raises what it raised.
+    """Runs a trial to its end; safe to call again to resume.
 
     A finished trial is left untouched. Otherwise the run trains (resuming from its last
     checkpoint when its directory holds the run), then is evaluated when the sweep asks
-    for a final evaluation. A failed attempt is appended to ``failure.json`` and re-raised,
-    so that whoever retries (the local loop, or Ray Tune) decides what comes next.
+    for a final evaluation.
     """
     import torch
 
@@ -145,17 +158,12 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
             with open(folder.file("log.txt"), "a", encoding="utf-8") as handle:
                 handle.write(line.rstrip("\n") + "\n")
 
-        try:
-            config = training.TrainConfig.from_dict(task.trial["config"])
-            if not folder.finished(0, config.frames):
-                resume = folder.exists()
-                argv = list(task.argv) or None
-                training.train(config, folder.path, resume=resume, argv=argv, log=log or to_file)
-            if task.final_eval_episodes > 0:
-                run_evaluation.evaluate_run(folder.path, episodes=task.final_eval_episodes)
-        except Exception as error:
-            folder.record_failure(error)
-            folder.write_outcome("failed", time.perf_counter() - start)
-            raise
+        config = training.TrainConfig.from_dict(task.trial["config"])
+        if not folder.finished(0, config.frames):
+            resume = folder.exists()
+            argv = list(task.argv) or None
+            training.train(config, folder.path, resume=resume, argv=argv, log=log or to_file)
+        if task.final_eval_episodes > 0:
+            run_evaluation.evaluate_run(folder.path, episodes=task.final_eval_episodes)
         folder.write_outcome("done", time.perf_counter() - start)
     return folder.record(task.trial, task.final_eval_episodes)
