@@ -171,6 +171,15 @@ def test_small_reproduction_writes_the_table_beside_the_papers(small_table: Path
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_the_table_records_its_wall_time_and_workers(small_table: Path) -> None:
+    settings = json.loads((small_table / "table1.json").read_text())["settings"]
+    assert settings["workers"] == 1  # the CLI's default: one trial after the other
+    assert settings["cpus"] >= 1 and settings["load_average_at_start"] >= 0
+    assert 0 < settings["wall_seconds"] < 600
+    minutes = f"Wall time {settings['wall_seconds'] / 60:.1f} min with 1 worker(s)"
+    assert minutes in (small_table / "table1.md").read_text()
+
+
 def test_running_again_reuses_the_trials(small_table: Path) -> None:
     stamps = {p: p.stat().st_mtime_ns for p in (small_table / "trials").rglob("*") if p.is_file()}
     code = main(_small_table_argv(small_table))

@@ -37,6 +37,7 @@ The paper's numbers stand beside ours.
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -509,11 +510,18 @@ def _settings_text(settings: Mapping[str, Any]) -> str:
         if settings.get("keep_best")
         else "each seed's last model."
     )
-    return (
+    text = (
         f"Seeds: {settings['seeds']}; detector: `{settings['detector']}`; bolt camera noise: "
         f"`{settings['noise']}`; final evaluation: {settings['final_eval_episodes']} episodes "
         f"per seed, of {model}"
     )
+    if settings.get("wall_seconds") is not None:
+        text += (
+            f" Wall time {settings['wall_seconds'] / 60:.1f} min with "
+            f"{settings.get('workers')} worker(s) on {settings.get('cpus')} CPUs (load "
+            f"average {settings.get('load_average_at_start')} at the start)."
+        )
+    return text
 
 
 def _write_tables(root: Path, data: Mapping[str, Any]) -> dict[str, Path]:
@@ -639,6 +647,9 @@ def reproduce_table1(
         retries=retries,
         keep_best=keep_best,
     )
+    # The wall time of this invocation (a resumed sweep counts only what it ran), with the
+    # machine's CPUs and load beside it: on a shared machine the load says what it meant.
+    started, load = time.perf_counter(), os.getloadavg()[0]
     run_sweep(sweep, out_dir, backend=backend, workers=workers, address=address, argv=argv, log=log)
     settings = {
         "seeds": list(sweep.seeds),
@@ -651,6 +662,10 @@ def reproduce_table1(
         "frames": {t.row: t.config.frames for t in sweep.trials},
         "eval_freq": {t.row: t.config.eval_freq for t in sweep.trials},
         "backend": backend,
+        "workers": (1 if backend == "local" else 0) if workers is None else workers,
+        "cpus": os.cpu_count(),
+        "load_average_at_start": round(load, 2),
+        "wall_seconds": round(time.perf_counter() - started, 1),
     }
     return write_table1(out_dir, settings=settings)
 
