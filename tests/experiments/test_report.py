@@ -154,3 +154,36 @@ def test_module_doctests_pass() -> None:
 
     for module in (report_module, render, numbers):
         assert doctest.testmod(module).failed == 0
+
+
+def test_report_regenerates_the_committed_table1_byte_for_byte_from_its_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import shutil
+
+    committed = Path(__file__).resolve().parents[2] / "results" / "table1"
+    folder = tmp_path / "table1"
+    folder.mkdir()
+    shutil.copy(committed / "table1.json", folder / "table1.json")  # the JSON alone
+    assert main(["report", str(folder)]) == 0
+    assert (folder / "table1.md").read_bytes() == (committed / "table1.md").read_bytes()
+    assert (folder / "table1.csv").read_bytes() == (committed / "table1.csv").read_bytes()
+    report = (folder / "report.md").read_text()
+    assert "## Table 1, reproduced" in report and "| `G(on_edge)` | PPO | 89.5 | 94 |" in report
+    assert "html:" in capsys.readouterr().out
+
+
+def test_a_result_table_renders_the_same_cells_in_every_format(tmp_path: Path) -> None:
+    from noisybolt.experiments.reporting import render_csv, render_text
+
+    table = Table(
+        ("group", "R_π"),
+        (("a|b", "1.00 ± 0.50"),),
+        data_header=("group", "r_pi_mean", "r_pi_std"),
+        data_rows=(("a|b", 1.0, 0.5),),
+    )
+    assert render_markdown([table]) == "| group | R_π |\n|---|---|\n| a\\|b | 1.00 ± 0.50 |\n"
+    assert render_csv(table) == "group,r_pi_mean,r_pi_std\na|b,1.0,0.5\n"
+    assert render_text([table]) == "a|b  1.00 ± 0.50"
+    assert "<td>1.00 ± 0.50</td>" in render_html([table], base_dir=tmp_path, title="t")
+    assert render_csv(Table(("x",), (("1",),))) == "x\n1\n"
