@@ -343,33 +343,13 @@ def describe_scheme(config: Any) -> str:
 def format_eval_table(
     final: dict[str, Any], *, frames: int | None = None, frames_to_comply: int | None = None
 ) -> str:
-    """A plain-text table of an evaluation (the one ``train`` and ``evaluate`` print)."""
-    from noisybolt.agents.evaluation import describe_false_acceptance
+    """A plain-text table of an evaluation (the one ``train`` and ``evaluate`` print): the
+    run report's evaluation table, rendered as text."""
+    from noisybolt.experiments.report import evaluation_table
+    from noisybolt.experiments.reporting import render_text
 
-    rows = [
-        ("episodes", f"{final['n_episodes']}"),
-        ("env return R_pi", f"{final['env_return_mean']:.2f} ± {final['env_return_std']:.2f}"),
-        ("bolt return (shaping, apart)", f"{final['bolt_return_mean']:.2f}"),
-        ("episode length N_steps", f"{final['length_mean']:.1f}"),
-        ("goal rate", f"{final['goal_rate']:.0%}"),
-    ]
-    for name, rate in final["compliance"].items():
-        rows.append((f"compliance [{name}]", f"{rate:.0%}"))
-    rows.append(("goal and compliant", f"{final['success_rate']:.0%}"))
-    falsely = describe_false_acceptance(final)
-    if falsely is not None:
-        rows.append(("bolt falsely accepting (episodes)", falsely))
-    if frames is not None:
-        rows.append(("frames trained", f"{frames:,}"))
-    if frames is not None or frames_to_comply is not None:
-        rows.append(
-            (
-                "N_frames (first >= 95% compliant at goal)",
-                f"{frames_to_comply:,}" if frames_to_comply is not None else "not reached",
-            )
-        )
-    width = max(len(k) for k, _ in rows)
-    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+    table = evaluation_table(final, frames=frames, frames_to_comply=frames_to_comply)
+    return render_text([table])
 
 
 def _evaluate(args: argparse.Namespace) -> int:
