@@ -9,8 +9,10 @@ from __future__ import annotations
 
 __all__ = [
     "BackendUnavailableError",
+    "BaseRateError",
     "CameraError",
     "CompilationError",
+    "ConfidenceLevelError",
     "ConfigError",
     "CorruptFileError",
     "DenseTableError",
@@ -135,3 +137,13 @@ class UnsatisfiableSpecError(ConfigError):
     def __init__(self, message: str, *, formula: str) -> None:
         super().__init__(message)
         self.formula = formula
+
+
+class ConfidenceLevelError(ConfigError):
+    """A belief-tracking bolt's confidence level is outside (0.5, 1): at 0.5 or below a
+    spec would count as accepted while its rejection is as likely; at 1 never."""
+
+
+class BaseRateError(ConfigError):
+    """A fluent's base rate (its frequency in play or in a detector's training set) is not
+    a number in [0, 1]."""

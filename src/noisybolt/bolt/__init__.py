@@ -10,6 +10,8 @@ Pure numpy; knows nothing of Gymnasium or torch.
   carried first reward, auto-reset of vectorised environments).
 * :class:`RewardScheme`: how specs are paid on top of Algorithm 1 (``paper``, or
   ``compliance``: compliance first, with :class:`ProgressShaping`).
+* :class:`BeliefSettings` and :class:`BeliefEngine`: belief tracking (``tracking=
+  "belief"``), a distribution over each spec's DFA states from evidence over time.
 * :class:`AugmentedDFA`: the explicit augmented DFA of Fig. 2a, a reference to test and
   benchmark Algorithm 1 against.
 
@@ -40,6 +42,14 @@ from noisybolt.bolt.bands import (
     proportional_weights,
     truth_mask,
 )
+from noisybolt.bolt.belief import (
+    BELIEF_OBSERVATIONS,
+    TRACKING_MODES,
+    BeliefEngine,
+    BeliefObservation,
+    BeliefSettings,
+    Tracking,
+)
 from noisybolt.bolt.engine import COST_MODES, BoltEngine, BoltStep, CostMode
 from noisybolt.bolt.restraining_bolt import RestrainingBolt
 from noisybolt.bolt.schemes import (
@@ -53,14 +63,19 @@ from noisybolt.bolt.shaping import ProgressShaping, progress_potential
 from noisybolt.bolt.spec import REWARD_TIMINGS, RewardTiming, Spec
 
 __all__ = [
+    "BELIEF_OBSERVATIONS",
     "COST_MODES",
     "DEFAULT_THRESHOLDS",
     "REWARD_SCHEMES",
     "REWARD_TIMINGS",
+    "TRACKING_MODES",
     "AugmentedDFA",
     "AugmentedEdge",
     "AugmentedStep",
     "Band",
+    "BeliefEngine",
+    "BeliefObservation",
+    "BeliefSettings",
     "BoltEngine",
     "BoltStep",
     "CostMode",
@@ -72,6 +87,7 @@ __all__ = [
     "RewardTiming",
     "Spec",
     "Thresholds",
+    "Tracking",
     "check_probs",
     "compliance_scale",
     "confidence_bands",

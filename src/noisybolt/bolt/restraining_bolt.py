@@ -35,6 +35,18 @@ episode and the first observation of the new one together. Both kinds are handle
   paid on their next step.
 
 Rows of ``probs`` outside ``env_mask`` are checked but not read.
+
+Tracking (``tracking=``): ``"threshold"`` is Algorithm 1 as above. ``"belief"`` keeps a
+distribution over each spec's DFA states (:mod:`noisybolt.bolt.belief`) with the same
+episode timing; its :class:`BoltStep` reports the decisions taken on the belief:
+``next_states`` the most likely states, ``accepting`` (``violated``) where the probability
+of an accepting state (a rejecting sink) is at least the confidence level, ``terminal``
+paid on those decisions under each spec's timing (``on_entry``: once when the belief
+becomes confident, again only after it has been as confident of the opposite, so one
+event is not paid twice), ``low_confidence`` Algorithm 1's charge averaged over the belief
+of the state the step leaves (``n_low``: the count under the most likely one), and
+``progress`` the progress terms in expectation over the belief (still potential-based:
+the potential of a belief is its expected potential).
 """
 
 from __future__ import annotations
@@ -44,6 +56,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs
+from noisybolt.bolt.belief import BeliefEngine, BeliefSettings, Tracking, check_tracking
 from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, _check_fluents, _env_flags
 from noisybolt.bolt.shaping import ProgressShaping
 from noisybolt.bolt.spec import Spec
@@ -85,12 +98,19 @@ class RestrainingBolt:
             ``F(top_right_corner) & F(bottom_left_corner)`` (PPO, 60k frames) paying
             there taught the 9-step detour in 2 of 3 seeds, not paying in 0 of 3: early
             on, episodes that visit both corners mostly end by the time limit.
+        tracking: ``"threshold"`` (Algorithm 1, the default) or ``"belief"`` (see the
+            module docstring and :mod:`noisybolt.bolt.belief`).
+        belief: the settings of belief tracking (None: :class:`BeliefSettings` defaults);
+            only with ``tracking="belief"``.
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
         SpecSyntaxError, BackendUnavailableError, CompilationError: from
             :func:`~noisybolt.logic.compile_ltlf`, when ``dfas`` is None.
-        ConfigError: see :class:`~noisybolt.bolt.engine.BoltEngine`; or a bad ``n_envs``.
+        ConfigError: see :class:`~noisybolt.bolt.engine.BoltEngine`; or a bad ``n_envs``;
+            or ``belief`` settings without ``tracking="belief"``, or belief tracking with
+            the proportional cost mode.
+        UnknownNameError: an unknown ``tracking`` mode.
 
     Example:
         >>> from noisybolt.logic import DFA
@@ -121,7 +141,14 @@ class RestrainingBolt:
         end_on_violation: bool = False,
         shaping: ProgressShaping | None = None,
         pay_at_truncation: bool = True,
+        tracking: Tracking = "threshold",
+        belief: BeliefSettings | None = None,
     ) -> None:
+        tracking = check_tracking(tracking)  # type: ignore[assignment]
+        if belief is not None and tracking != "belief":
+            raise ConfigError("belief settings were given but tracking is not 'belief'")
+        if belief is not None and not isinstance(belief, BeliefSettings):
+            raise ConfigError(f"belief must be a BeliefSettings, got {belief!r}")
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
         specs = tuple(specs)
@@ -147,6 +174,10 @@ class RestrainingBolt:
         self._states = self._engine.initial_states(self._n_envs)
         self._pending = np.zeros(self._n_envs)
         self._needs_reset = np.ones(self._n_envs, dtype=bool)
+        self._tracking: Tracking = tracking
+        self._belief: BeliefEngine | None = None
+        if tracking == "belief":
+            self._init_belief(belief if belief is not None else BeliefSettings())
 
     # ------------------------------------------------------------------ properties
     @property
@@ -215,6 +246,29 @@ class RestrainingBolt:
         return self._shaping
 
     @property
+    def tracking(self) -> Tracking:
+        """``"threshold"`` (Algorithm 1) or ``"belief"``."""
+        return self._tracking
+
+    @property
+    def belief_settings(self) -> BeliefSettings | None:
+        """The settings of belief tracking (None under threshold tracking)."""
+        return None if self._belief is None else self._belief.settings
+
+    @property
+    def beliefs(self) -> np.ndarray:
+        """float64 ``[n_envs, sum(n_states)]``: each spec's distribution over its DFA
+        states, concatenated in spec order (one-hot of :attr:`states` under threshold
+        tracking)."""
+        if self._belief is None:
+            return np.concatenate(
+                [np.eye(n)[self._states[:, s]] for s, n in enumerate(self.n_states)], axis=1
+            )
+        return np.concatenate(
+            [self._marg_states[:, s, :n] for s, n in enumerate(self.n_states)], axis=1
+        )
+
+    @property
     def end_on_violation(self) -> bool:
         """Whether a violated spec sets ``terminate``."""
         return self._end_on_violation
@@ -247,6 +301,11 @@ class RestrainingBolt:
         n_rows = self._n_envs if isinstance(rows, slice) else len(rows)
         initial = self._engine.initial_states(n_rows)
         no_end = np.zeros(n_rows, dtype=bool)
+        if self._belief is not None:
+            out = self._belief_step(rows, probs[rows], done=no_end, first=True)
+            self._pending[rows] = out.total
+            self._needs_reset[rows] = False
+            return self._expand(out, rows)
         out = self._engine._step(
             initial,
             probs[rows],
@@ -318,6 +377,13 @@ class RestrainingBolt:
             if self._pay_at_truncation
             else done & ~_env_flags(truncated, self._n_envs, "truncated")
         )
+        if self._belief is not None:
+            out = self._belief_step(rows, probs[rows], done=paid_end[rows], first=False)
+            carried = self._pending[rows].copy()
+            out = out._replace(carried=carried, total=out.total + carried)
+            self._pending[rows] = 0.0
+            self._needs_reset[rows] = done[rows] | out.terminate
+            return self._expand(out, rows)
         out = self._engine._step(
             states,
             probs[rows],
@@ -353,7 +419,11 @@ class RestrainingBolt:
         """Scatters a result over selected rows into full ``[n_envs, ...]`` arrays."""
         if isinstance(rows, slice):
             return out
-        accepting, violated = self._engine.state_flags(self._states)
+        if self._belief is None:
+            accepting, violated = self._engine.state_flags(self._states)
+        else:
+            level = self._belief.settings.confidence
+            accepting, violated = self._acc_prob >= level, self._viol_prob >= level
         full = BoltStep(
             next_states=self._states.copy(),
             terminal=np.zeros(self._states.shape),
@@ -370,3 +440,112 @@ class RestrainingBolt:
         for name, part in zip(BoltStep._fields, out, strict=True):
             getattr(full, name)[rows] = part
         return full
+
+    # ------------------------------------------------------------------ belief tracking
+    def _init_belief(self, settings: BeliefSettings) -> None:
+        if self._engine.cost_mode != "count":
+            raise ConfigError(
+                "belief tracking charges Algorithm 1's count of low-band fluents in "
+                "expectation; the proportional cost mode is not supported with it"
+            )
+        self._belief = BeliefEngine(self.dfas, self.fluents, settings)
+        n_specs, q_max = self.n_specs, max(self.n_states)
+        self._joint = np.zeros((n_specs, self._n_envs, self._belief.n_cells))
+        initial = self._engine.initial_states(1)[0]
+        self._initial_beliefs = np.zeros((n_specs, q_max))
+        self._initial_beliefs[np.arange(n_specs), initial] = 1.0
+        self._marg_states = np.tile(self._initial_beliefs, (self._n_envs, 1, 1))
+        self._acc_prob = np.zeros((self._n_envs, n_specs))
+        self._viol_prob = np.zeros((self._n_envs, n_specs))
+        self._armed = np.ones((self._n_envs, n_specs), dtype=bool)
+        self._expected_terms: np.ndarray | None = None
+        if self._shaping is not None:
+            self._expected_terms = self._shaping_tables(initial, q_max)
+
+    def _shaping_tables(self, initial: np.ndarray, q_max: int) -> np.ndarray:
+        """float64 ``[2 (done), 3, n_specs, q_max]``: the progress terms as
+        ``F(q, q') = u(q') - w(q)``, read off the shaping at ``F(q0, q')``, ``F(q, q0)`` and
+        ``F(q0, q0)`` (every term of :class:`ProgressShaping` separates so), so that their
+        expectation over a belief needs only these tables."""
+        assert self._shaping is not None
+        column = np.arange(q_max)[:, None]
+        valid = column < np.array(self.n_states)[None, :]
+        states = np.where(valid, column, initial[None, :])  # [q_max, n_specs]
+        start = np.tile(initial, (q_max, 1))
+        tables = np.zeros((2, 3, self.n_specs, q_max))
+        for d in (0, 1):
+            done = np.full(q_max, bool(d))
+            tables[d, 0] = self._shaping(start, states, done=done).T  # F(q0, q')
+            tables[d, 1] = self._shaping(states, start, done=done).T  # F(q, q0)
+            tables[d, 2] = self._shaping(start, start, done=done).T  # F(q0, q0)
+        return tables
+
+    def _belief_step(
+        self, rows: slice | np.ndarray, probs: np.ndarray, *, done: np.ndarray, first: bool
+    ) -> BoltStep:
+        """One transition on the belief of the selected rows (see the module docstring)."""
+        engine = self._belief
+        assert engine is not None
+        level = engine.settings.confidence
+        n_rows = len(probs)
+        if first:
+            joint = engine.reset_joint(probs)
+            before = np.broadcast_to(self._initial_beliefs, (n_rows, *self._initial_beliefs.shape))
+            armed = np.ones((n_rows, self.n_specs), dtype=bool)
+        else:
+            joint = engine.step_joint(self._joint[:, rows], probs)
+            before = self._marg_states[rows]
+            armed = self._armed[rows]
+        marg = engine.marginals(joint)
+        accepting = marg.accepting >= level
+        violated = marg.violated >= level
+        terminate = (
+            np.any(violated, axis=1)
+            if self._end_on_violation and not first
+            else np.zeros(n_rows, dtype=bool)
+        )
+        ended = done | terminate
+        timing = self._engine
+        entered = accepting & armed
+        paid = accepting & (
+            timing._every_step
+            | (timing._on_entry & entered)
+            | (timing._episode_end & ended[:, None])
+        )
+        terminal = np.where(paid, timing._terminal, 0.0)
+        truth = probs >= self.thresholds.truth
+        low = truth & (probs <= self.thresholds.high)
+        counts = engine.low_band_counts(truth, low)  # [n_rows, n_specs, q_max]
+        expected_low = (counts * before).sum(axis=2)
+        n_low = np.take_along_axis(counts, before.argmax(axis=2)[:, :, None], axis=2)[:, :, 0]
+        low_term = 0.0 - expected_low * timing._cost
+        progress = np.zeros(terminal.shape)
+        if self._expected_terms is not None:
+            tables = self._expected_terms[ended.astype(np.intp)]  # [n_rows, 3, n_specs, q]
+            progress = (
+                (marg.states * tables[:, 0]).sum(axis=2)
+                + (before * tables[:, 1]).sum(axis=2)
+                - tables[:, 2, :, 0]
+            )
+        reward = terminal + low_term + progress
+        next_states = marg.states.argmax(axis=2)
+        self._joint[:, rows] = joint
+        self._marg_states[rows] = marg.states
+        self._acc_prob[rows] = marg.accepting
+        self._viol_prob[rows] = marg.violated
+        # Re-armed only once the bolt is as sure that the spec is *not* accepting.
+        self._armed[rows] = np.where(entered, False, armed | (marg.accepting <= 1.0 - level))
+        self._states[rows] = next_states
+        return BoltStep(
+            next_states=next_states,
+            terminal=terminal,
+            low_confidence=low_term,
+            n_low=n_low.astype(np.int64),
+            accepting=accepting,
+            violated=violated,
+            progress=progress,
+            reward=reward,
+            carried=np.zeros(n_rows),
+            total=reward.sum(axis=1),
+            terminate=terminate,
+        )

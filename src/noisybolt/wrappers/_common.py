@@ -9,19 +9,29 @@ import numpy as np
 
 from noisybolt.bolt import (
     DEFAULT_THRESHOLDS,
+    BeliefSettings,
     BoltStep,
     CostMode,
     ProgressShaping,
     RestrainingBolt,
     Spec,
     Thresholds,
+    Tracking,
 )
 from noisybolt.errors import IncompatibleError
 from noisybolt.logic import compile_ltlf, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 
-__all__ = ["BoltParts", "TruthTracker", "bolt_info", "build_bolt", "dict_observation_space"]
+__all__ = [
+    "BoltParts",
+    "TruthTracker",
+    "bolt_info",
+    "build_bolt",
+    "dfa_view",
+    "dict_observation_space",
+    "observes_beliefs",
+]
 
 # Band codes are computed once per batch by the wrappers (``confidence_bands``).
 
@@ -87,6 +97,8 @@ def build_bolt(
     shaping: bool = True,
     world_letters: np.ndarray | None = None,
     pay_at_truncation: bool = True,
+    tracking: Tracking = "threshold",
+    belief: BeliefSettings | None = None,
 ) -> BoltParts:
     """Checks that specs, detector and world agree, and builds the bolt and its twin.
 
@@ -96,7 +108,8 @@ def build_bolt(
     scaled by its terminal reward; None for none (the ``paper`` scheme).
     ``world_letters``: true fluents the world produces (bool ``[n, n_fluents]``, e.g.
     from random play), so progress counts only steps the world can take.
-    ``pay_at_truncation``: see :class:`~noisybolt.bolt.RestrainingBolt`.
+    ``pay_at_truncation``, ``tracking``, ``belief``: see
+    :class:`~noisybolt.bolt.RestrainingBolt`.
 
     Raises:
         UnknownFluentError: a spec reads a fluent the world does not have (the message
@@ -134,18 +147,44 @@ def build_bolt(
         cost_mode=cost_mode,
         n_envs=n_envs,
         end_on_violation=end_on_violation,
+        tracking=tracking,
+        belief=belief,
     )
     return BoltParts(bolt, TruthTracker(bolt.dfas, world_fluents, n_envs=n_envs))
 
 
-def dict_observation_space(image_space: gym.Space, n_states: Sequence[int]) -> gym.spaces.Dict:
-    """``Dict{"image": the world's observation, "dfa": MultiDiscrete(n_states)}``."""
-    return gym.spaces.Dict(
-        {
-            "image": image_space,
-            "dfa": gym.spaces.MultiDiscrete(np.asarray(n_states, dtype=np.int64)),
-        }
-    )
+def dict_observation_space(
+    image_space: gym.Space, n_states: Sequence[int], *, beliefs: bool = False
+) -> gym.spaces.Dict:
+    """``Dict{"image": the world's observation, "dfa": ...}``.
+
+    ``"dfa"`` is ``MultiDiscrete(n_states)`` (the DFA states; SB3 one-hot encodes it), or
+    with ``beliefs`` a float32 ``Box(0, 1, (sum(n_states),))`` holding each spec's
+    distribution over its states, concatenated (what a one-hot becomes under doubt).
+    """
+    dfa: gym.Space
+    if beliefs:
+        dfa = gym.spaces.Box(0.0, 1.0, (int(np.sum(n_states)),), dtype=np.float32)
+    else:
+        dfa = gym.spaces.MultiDiscrete(np.asarray(n_states, dtype=np.int64))
+    return gym.spaces.Dict({"image": image_space, "dfa": dfa})
+
+
+def observes_beliefs(bolt: RestrainingBolt) -> bool:
+    """Whether the agent sees the bolt's beliefs (a Box) rather than DFA states."""
+    settings = bolt.belief_settings
+    return settings is not None and settings.observation == "belief"
+
+
+def dfa_view(bolt: RestrainingBolt) -> np.ndarray:
+    """``[n_envs, ...]``: the ``"dfa"`` entry of every environment's observation now.
+
+    int64 DFA states (threshold tracking, or belief tracking observed as its most likely
+    states), or float32 concatenated beliefs (belief tracking observed as beliefs).
+    """
+    if observes_beliefs(bolt):
+        return bolt.beliefs.astype(np.float32)
+    return bolt.states
 
 
 def bolt_info(

@@ -24,11 +24,25 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds, confidence_bands
+from noisybolt.bolt import (
+    DEFAULT_THRESHOLDS,
+    BeliefSettings,
+    CostMode,
+    Spec,
+    Thresholds,
+    Tracking,
+    confidence_bands,
+)
 from noisybolt.errors import ConfigError
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import AutoresetBoltObservable, FluentDetector
-from noisybolt.wrappers._common import bolt_info, build_bolt, dict_observation_space
+from noisybolt.wrappers._common import (
+    bolt_info,
+    build_bolt,
+    dfa_view,
+    dict_observation_space,
+    observes_beliefs,
+)
 
 __all__ = ["BoltVecEnv"]
 
@@ -48,6 +62,8 @@ class BoltVecEnv(VecEnvWrapper):
             progress terms and its ending (see
             :func:`~noisybolt.wrappers._common.build_bolt`); None for none.
         end_on_violation: must be False here (see the error it raises).
+        tracking, belief: ``"threshold"`` (Algorithm 1) or ``"belief"`` tracking and its
+            settings, as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
     """
 
     def __init__(
@@ -65,6 +81,8 @@ class BoltVecEnv(VecEnvWrapper):
         shaping: bool = True,
         world_letters: np.ndarray | None = None,
         pay_at_truncation: bool = True,
+        tracking: Tracking = "threshold",
+        belief: BeliefSettings | None = None,
     ) -> None:
         if end_on_violation:
             # Ending an episode that the world did not end needs a per-environment reset,
@@ -94,6 +112,8 @@ class BoltVecEnv(VecEnvWrapper):
             shaping=shaping,
             world_letters=world_letters,
             pay_at_truncation=pay_at_truncation,
+            tracking=tracking,
+            belief=belief,
         )
         self.bolt = parts.bolt
         self._truth = parts.truth
@@ -102,7 +122,9 @@ class BoltVecEnv(VecEnvWrapper):
         self._thresholds = thresholds
         super().__init__(
             venv,
-            observation_space=dict_observation_space(venv.observation_space, self.bolt.n_states),
+            observation_space=dict_observation_space(
+                venv.observation_space, self.bolt.n_states, beliefs=observes_beliefs(self.bolt)
+            ),
         )
 
     @property
@@ -113,8 +135,8 @@ class BoltVecEnv(VecEnvWrapper):
     def _probs(self, images: np.ndarray, truth: np.ndarray) -> np.ndarray:
         return self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
 
-    def _obs(self, image: Any, states: np.ndarray) -> dict[str, Any]:
-        return {"image": image, "dfa": states.copy()}
+    def _obs(self, image: Any, dfa: np.ndarray) -> dict[str, Any]:
+        return {"image": image, "dfa": dfa.copy()}
 
     def reset(self) -> VecEnvObs:
         """Resets every environment; every DFA reads its first observation."""
@@ -123,7 +145,7 @@ class BoltVecEnv(VecEnvWrapper):
         probs = self._probs(self._world.bolt_images(), truth)
         self.bolt.reset(probs)
         self._truth.reset(truth)
-        return self._obs(obs, self.bolt.states)
+        return self._obs(obs, dfa_view(self.bolt))
 
     def step_wait(self) -> VecEnvStepReturn:
         """Steps the world, moves the DFAs, shapes rewards, restarts ended episodes."""
@@ -150,6 +172,7 @@ class BoltVecEnv(VecEnvWrapper):
         # SB3's convention: a time limit's cut is flagged in the step's info.
         truncated = np.array([bool(info.get("TimeLimit.truncated")) for info in infos])
         out = self.bolt.step(probs, done=dones, truncated=truncated & dones)
+        final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
         self._truth.step(truth)
         true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
         rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
@@ -171,7 +194,7 @@ class BoltVecEnv(VecEnvWrapper):
             )
             if dones[i] and "terminal_observation" in info:
                 info["terminal_observation"] = self._obs(
-                    info["terminal_observation"], out.next_states[i]
+                    info["terminal_observation"], final_view[i]
                 )
         if ended.size:
             # Rows outside the mask are checked but not read: zeros will do.
@@ -179,4 +202,4 @@ class BoltVecEnv(VecEnvWrapper):
             full[ended] = first_probs
             self.bolt.reset(full, env_mask=dones)
             self._truth.reset(first_truth, env_mask=dones)
-        return self._obs(obs, self.bolt.states), rewards.astype(np.float32), dones, infos
+        return self._obs(obs, dfa_view(self.bolt)), rewards.astype(np.float32), dones, infos

@@ -8,11 +8,25 @@ from typing import Any, Protocol, SupportsFloat, runtime_checkable
 import gymnasium as gym
 import numpy as np
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds, confidence_bands
+from noisybolt.bolt import (
+    DEFAULT_THRESHOLDS,
+    BeliefSettings,
+    CostMode,
+    Spec,
+    Thresholds,
+    Tracking,
+    confidence_bands,
+)
 from noisybolt.envs.labels import collect_labelled_samples, fluent_names_of, labels_from_info
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
-from noisybolt.wrappers._common import bolt_info, build_bolt, dict_observation_space
+from noisybolt.wrappers._common import (
+    bolt_info,
+    build_bolt,
+    dfa_view,
+    dict_observation_space,
+    observes_beliefs,
+)
 from noisybolt.wrappers._inputs import DetectorName, coerce_specs, resolve_detector
 
 __all__ = ["BoltObservableEnv", "RestrainingBoltWrapper"]
@@ -42,7 +56,10 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     spec's DFA and pays its reward. The trace starts at the first observation: ``reset``
     already moves the DFAs, and that transition's reward is added to the first step's.
 
-    Observation: ``Dict{"image": the env's observation, "dfa": MultiDiscrete}``.
+    Observation: ``Dict{"image": the env's observation, "dfa": MultiDiscrete}`` (with
+    ``tracking="belief"``: ``"dfa"`` is a float32 Box of the beliefs over each spec's
+    states, or their most likely states as a MultiDiscrete, see
+    :class:`~noisybolt.bolt.BeliefSettings`).
     Reward: ``env reward + bolt reward``. ``info`` holds ``env_reward``, ``bolt_reward``,
     per spec ``bolt_terminal`` and ``bolt_low_confidence`` terms, ``fluent_probs``,
     ``confidence_bands``, ``dfa_states``, ``dfa_accepting``, ``dfa_violated``, and, from
@@ -66,6 +83,10 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             rejecting sink. Off by default, as in the paper.
         seed: seeds a detector built by name.
         classifier_samples: images to train a ``"classifier"`` detector on.
+        tracking: ``"threshold"`` (Algorithm 1, the default) or ``"belief"`` (a
+            distribution over DFA states; ``info["dfa_accepting"]`` is then whether the
+            probability of acceptance reaches the confidence level).
+        belief: the settings of belief tracking (None: the defaults).
 
     Raises:
         UnlabelledEnvError: the env declares no ``fluent_names`` (or, at reset or step,
@@ -101,6 +122,8 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         end_on_violation: bool = False,
         seed: int = 0,
         classifier_samples: int = 2000,
+        tracking: Tracking = "threshold",
+        belief: BeliefSettings | None = None,
     ) -> None:
         gym.utils.RecordConstructorArgs.__init__(
             self,
@@ -112,6 +135,8 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             end_on_violation=end_on_violation,
             seed=seed,
             classifier_samples=classifier_samples,
+            tracking=tracking,
+            belief=belief,
         )
         super().__init__(env)
         fluent_names = fluent_names_of(env)
@@ -134,10 +159,14 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             thresholds=thresholds,
             cost_mode=cost_mode,
             end_on_violation=end_on_violation,
+            tracking=tracking,
+            belief=belief,
         )
         self.bolt = parts.bolt
         self._truth = parts.truth
-        self.observation_space = dict_observation_space(env.observation_space, self.bolt.n_states)
+        self.observation_space = dict_observation_space(
+            env.observation_space, self.bolt.n_states, beliefs=observes_beliefs(self.bolt)
+        )
 
     def _look(self, info: dict[str, Any], where: str) -> tuple[np.ndarray, np.ndarray]:
         image, truth = labels_from_info(info, where=where)
@@ -146,8 +175,8 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         )
         return probs, truth[None]
 
-    def _observation(self, image: Any, states: np.ndarray) -> dict[str, Any]:
-        return {"image": image, "dfa": states.astype(np.int64)}
+    def _observation(self, image: Any) -> dict[str, Any]:
+        return {"image": image, "dfa": dfa_view(self.bolt)[0]}
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -164,7 +193,7 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             true_dfa_states=self._truth.states[0].copy(),
             true_accepting=self._truth.accepting[0],
         )
-        return self._observation(obs, self.bolt.states[0]), info
+        return self._observation(obs), info
 
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
         """Steps the env, moves the DFAs, and returns the shaped reward."""
@@ -189,4 +218,4 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             )
         )
         reward = float(env_reward) + float(out.total[0])
-        return self._observation(obs, out.next_states[0]), reward, terminated, truncated, info
+        return self._observation(obs), reward, terminated, truncated, info
