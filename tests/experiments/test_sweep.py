@@ -340,3 +340,26 @@ def test_process_pool_runs_trials_in_workers(tmp_path: Path) -> None:
 def test_unknown_backend_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="unknown backend 'slurm'"):
         run_sweep(_sweep(), tmp_path, backend="slurm")
+
+
+def test_the_readmes_sweep_example_is_a_valid_sweep() -> None:
+    import re
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme[readme.index("## Sweeps") :]
+    example = re.search(r"```yaml\n(.*?)```", section, re.S)
+    assert example is not None
+    sweep = SweepConfig.from_dict(yaml.safe_load(example.group(1)))
+    assert len(sweep.trials) == 2 * 2 * 3  # rows x cost modes x seeds
+    assert sweep.trials[-1].trial_id == "a2c/cost_mode=proportional/seed-2"
+    assert sweep.trials[-1].config.hyperparams["learning_rate"] == 0.0007
+
+
+def test_sweep_settings_are_the_run_configs_fields() -> None:
+    import dataclasses
+
+    from noisybolt.agents.training import TrainConfig
+    from noisybolt.experiments.sweeps.config import sweep_settings
+
+    fields = {f.name for f in dataclasses.fields(TrainConfig)}
+    assert set(sweep_settings()) == (fields - {"seed"}) | {"n_envs"}
