@@ -84,3 +84,20 @@ def test_auto_precision_is_bfloat16_only_on_a_cpu_that_multiplies_it_natively(
     )
     assert detector._dtype == expected
     assert classifier_module.PRECISIONS[0] == "auto" == detector.precision
+
+
+def test_auto_runs_small_calls_in_float32_and_large_ones_in_bfloat16(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(classifier_module, "fast_inference_dtype", lambda: torch.bfloat16)
+    net, names = _net(), ("a", "b", "c", "d", "e")
+    auto = ClassifierDetector(model=net, fluent_names=names, camera_spec=SPEC, config=GRID)
+    full = ClassifierDetector(model=net, fluent_names=names, camera_spec=SPEC, config=GRID,
+                              precision="float32")  # fmt: skip
+    half = ClassifierDetector(model=net, fluent_names=names, camera_spec=SPEC, config=GRID,
+                              precision="bfloat16")  # fmt: skip
+    small = _images(classifier_module.BFLOAT16_MIN_BATCH - 1)
+    large = _images(classifier_module.BFLOAT16_MIN_BATCH)
+    np.testing.assert_array_equal(auto.predict(small), full.predict(small))
+    np.testing.assert_array_equal(auto.predict(large), half.predict(large))
+    assert not np.array_equal(auto.predict(large), full.predict(large))
