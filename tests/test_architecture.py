@@ -112,12 +112,8 @@ def test_no_import_cycle_in_src() -> None:
     assert find_cycles(edges) == []
 
 
-#: Known when this test was written, in bolt/ (being reworked under another issue at the
-#: time): make these names public in bolt/engine.py and delete them here.
-KNOWN_PRIVATE_IMPORTS = {
-    ("noisybolt.bolt.restraining_bolt", "noisybolt.bolt.engine", "_check_fluents"),
-    ("noisybolt.bolt.restraining_bolt", "noisybolt.bolt.engine", "_env_flags"),
-}
+#: None left: bolt/engine.py made check_fluents and env_flags public.
+KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = set()
 
 
 def test_no_private_name_is_imported_across_modules() -> None:

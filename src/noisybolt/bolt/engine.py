@@ -33,7 +33,7 @@ from noisybolt.bolt.spec import Spec
 from noisybolt.errors import ConfigError, UnknownFluentError
 from noisybolt.logic.dfa import DENSE_TABLE_LIMIT, DFA, MAX_FLUENTS
 
-__all__ = ["COST_MODES", "BoltEngine", "BoltStep", "CostMode"]
+__all__ = ["COST_MODES", "BoltEngine", "BoltStep", "CostMode", "check_fluents", "env_flags"]
 
 #: How the low-confidence cost of a fluent is computed: ``"count"`` charges the spec's
 #: cost per low-band support fluent (the paper); ``"proportional"`` scales it by
@@ -102,8 +102,12 @@ def _dense_tables(dfa: DFA) -> tuple[np.ndarray, np.ndarray] | None:
     return next_state, support
 
 
-def _env_flags(value: object, n_envs: int, name: str) -> np.ndarray:
-    """A bool ``[n_envs]`` array from None, a Python bool or an array-like."""
+def env_flags(value: object, n_envs: int, name: str) -> np.ndarray:
+    """A bool ``[n_envs]`` array from None (all False), a Python bool or an array-like.
+
+    Raises:
+        ValueError: an array that is not bool or not of shape ``(n_envs,)`` (named ``name``).
+    """
     if value is None:
         return np.zeros(n_envs, dtype=bool)
     if isinstance(value, (bool, np.bool_)):
@@ -160,7 +164,7 @@ class BoltEngine:
     ) -> None:
         specs = tuple(specs)
         dfas = tuple(dfas)
-        self._fluents = _check_fluents(fluents)
+        self._fluents = check_fluents(fluents)
         if not specs:
             raise ConfigError("a restraining bolt needs at least one Spec")
         for spec in specs:
@@ -343,8 +347,8 @@ class BoltEngine:
         return self._step(
             self.check_states(states, n_envs=n_envs),
             probs,
-            done=_env_flags(done, n_envs, "done"),
-            first=_env_flags(first, n_envs, "first"),
+            done=env_flags(done, n_envs, "done"),
+            first=env_flags(first, n_envs, "first"),
             end_on_violation=end_on_violation,
         )
 
@@ -404,6 +408,26 @@ class BoltEngine:
             terminate=terminate,
         )
 
+    @property
+    def low_confidence_costs(self) -> np.ndarray:
+        """float64 ``[n_specs]``: each spec's ``low_confidence_cost``."""
+        return self._cost.copy()
+
+    def terminal_rewards(
+        self, accepting: np.ndarray, *, entered: np.ndarray, ended: np.ndarray
+    ) -> np.ndarray:
+        """float64 ``[n_envs, n_specs]``: the terminal rewards paid under each spec's timing.
+
+        Args:
+            accepting: bool ``[n_envs, n_specs]``, the spec counts as accepting now.
+            entered: bool ``[n_envs, n_specs]``, this is an entry (``on_entry`` pays).
+            ended: bool ``[n_envs]``, the episode ends here (``episode_end`` pays).
+        """
+        paid = accepting & (
+            self._every_step | (self._on_entry & entered) | (self._episode_end & ended[:, None])
+        )
+        return np.where(paid, self._terminal, 0.0)
+
     def state_flags(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(accepting, violated)`` bool ``[n_envs, n_specs]`` of checked int64 states."""
         cells = states + self._state_offsets
@@ -426,7 +450,13 @@ class BoltEngine:
         return next_states, support
 
 
-def _check_fluents(fluents: Sequence[str]) -> tuple[str, ...]:
+def check_fluents(fluents: Sequence[str]) -> tuple[str, ...]:
+    """The bolt's fluent vocabulary as a tuple, checked.
+
+    Raises:
+        ConfigError: a bare string, an empty vocabulary, empty or non-string names,
+            duplicates, or more than :data:`~noisybolt.logic.dfa.MAX_FLUENTS` names.
+    """
     if isinstance(fluents, str):
         raise ConfigError(f"fluents must be a sequence of names, not the string {fluents!r}")
     names = tuple(fluents)

@@ -57,7 +57,7 @@ import numpy as np
 
 from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs
 from noisybolt.bolt.belief import BeliefEngine, BeliefSettings, Tracking, check_tracking
-from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, _check_fluents, _env_flags
+from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, check_fluents, env_flags
 from noisybolt.bolt.shaping import ProgressShaping
 from noisybolt.bolt.spec import Spec
 from noisybolt.errors import ConfigError
@@ -152,7 +152,7 @@ class RestrainingBolt:
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
         specs = tuple(specs)
-        vocabulary = _check_fluents(fluents)
+        vocabulary = check_fluents(fluents)
         if dfas is None:
             for spec in specs:
                 if not isinstance(spec, Spec):
@@ -353,7 +353,7 @@ class RestrainingBolt:
         probs = check_probs(
             probs, n_envs=self._n_envs, n_fluents=self._engine.n_fluents, fluents=self.fluents
         )
-        done = _env_flags(done, self._n_envs, "done")
+        done = env_flags(done, self._n_envs, "done")
         rows = self._rows(env_mask)
         if not isinstance(rows, slice):
             outside = done.copy()
@@ -375,7 +375,7 @@ class RestrainingBolt:
         paid_end = (
             done
             if self._pay_at_truncation
-            else done & ~_env_flags(truncated, self._n_envs, "truncated")
+            else done & ~env_flags(truncated, self._n_envs, "truncated")
         )
         if self._belief is not None:
             out = self._belief_step(rows, probs[rows], done=paid_end[rows], first=False)
@@ -412,7 +412,7 @@ class RestrainingBolt:
         """The selected rows: a full slice, or the indices where ``env_mask`` is set."""
         if env_mask is None:
             return slice(None)
-        mask = _env_flags(env_mask, self._n_envs, "env_mask")
+        mask = env_flags(env_mask, self._n_envs, "env_mask")
         return slice(None) if mask.all() else np.flatnonzero(mask)
 
     def _expand(self, out: BoltStep, rows: slice | np.ndarray) -> BoltStep:
@@ -505,20 +505,14 @@ class RestrainingBolt:
             else np.zeros(n_rows, dtype=bool)
         )
         ended = done | terminate
-        timing = self._engine
         entered = accepting & armed
-        paid = accepting & (
-            timing._every_step
-            | (timing._on_entry & entered)
-            | (timing._episode_end & ended[:, None])
-        )
-        terminal = np.where(paid, timing._terminal, 0.0)
+        terminal = self._engine.terminal_rewards(accepting, entered=entered, ended=ended)
         truth = probs >= self.thresholds.truth
         low = truth & (probs <= self.thresholds.high)
         counts = engine.low_band_counts(truth, low)  # [n_rows, n_specs, q_max]
         expected_low = (counts * before).sum(axis=2)
         n_low = np.take_along_axis(counts, before.argmax(axis=2)[:, :, None], axis=2)[:, :, 0]
-        low_term = 0.0 - expected_low * timing._cost
+        low_term = 0.0 - expected_low * self._engine.low_confidence_costs
         progress = np.zeros(terminal.shape)
         if self._expected_terms is not None:
             tables = self._expected_terms[ended.astype(np.intp)]  # [n_rows, 3, n_specs, q]
