@@ -31,6 +31,7 @@ __all__ = [
     "DEFAULT_HYPERPARAMS",
     "META_KEYS",
     "algorithm_class",
+    "frame_schedules",
     "known_hyperparameters",
     "load_hyperparams",
     "parse_overrides",
@@ -52,6 +53,11 @@ META_KEYS: frozenset[str] = frozenset(
         "cnn",
         # PPO/A2C: ent_coef moves linearly to this over the run (training.EntropySchedule)
         "ent_coef_final",
+        # ... over this many frames instead of the run's budget (schedules in frames)
+        "ent_coef_frames",
+        # DQN: epsilon falls over this many frames, whatever the budget
+        # (sets SB3's exploration_fraction; see frame_schedules)
+        "exploration_frames",
         # Atari conventions (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset)
         "fire_on_reset",
         "clip_reward",
@@ -81,6 +87,40 @@ def known_hyperparameters(algo: str) -> frozenset[str]:
     """Keys accepted for ``algo``: its SB3 constructor's arguments plus :data:`META_KEYS`."""
     params = inspect.signature(algorithm_class(algo).__init__).parameters
     return frozenset(params) - _RESERVED | META_KEYS
+
+
+def frame_schedules(params: Mapping[str, Any], *, frames: int) -> dict[str, Any]:
+    """SB3 arguments for the schedules given in frames rather than fractions of the run.
+
+    SB3 sets DQN's epsilon schedule as a fraction of the run (``exploration_fraction``), so
+    when a policy first acts well would depend on the budget chosen; ``exploration_frames``
+    fixes it in frames instead, and this turns it into the fraction of a ``frames`` run.
+
+    Raises:
+        ConfigError: both ``exploration_frames`` and ``exploration_fraction`` set, or a
+            count below 1.
+
+    Example:
+        >>> frame_schedules({"exploration_frames": 3000}, frames=30_000)
+        {'exploration_fraction': 0.1}
+        >>> frame_schedules({"exploration_frames": 3000}, frames=1_000)
+        {'exploration_fraction': 1.0}
+    """
+    out: dict[str, Any] = {}
+    given = params.get("exploration_frames")
+    if given is not None:
+        if params.get("exploration_fraction") is not None:
+            raise ConfigError(
+                "exploration_frames and exploration_fraction both set; give one "
+                "(exploration_frames=null to use a fraction of the run)"
+            )
+        if isinstance(given, bool) or not isinstance(given, int) or given < 1:
+            raise ConfigError(f"exploration_frames must be an integer >= 1, got {given!r}")
+        out["exploration_fraction"] = min(1.0, given / max(1, int(frames)))
+    span = params.get("ent_coef_frames")
+    if span is not None and (isinstance(span, bool) or not isinstance(span, int) or span < 1):
+        raise ConfigError(f"ent_coef_frames must be an integer >= 1, got {span!r}")
+    return out
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
