@@ -58,6 +58,12 @@ def test_unknown_tracking_mode_is_a_named_error() -> None:
         RestrainingBolt([spec("F(x)")], ["x"], dfas=[eventually()], tracking="bayes")  # type: ignore[arg-type]
 
 
+def test_min_dwell_must_be_a_positive_integer() -> None:
+    for bad in (0, 1.5, True):
+        with pytest.raises(ConfigError, match="min_dwell"):
+            BeliefSettings(min_dwell=bad)  # type: ignore[arg-type]
+
+
 @pytest.mark.parametrize("level", [0.5, 1.0, 0.3, 1.2, math.nan, True])
 def test_confidence_level_outside_half_to_one_is_refused(level: float) -> None:
     with pytest.raises(ConfidenceLevelError, match=r"outside \(0.5, 1\)"):
@@ -119,7 +125,7 @@ def test_one_step_hand_computed_with_persistence() -> None:
     # P(x1) = 0.5, accepting 0.5. Frame 2 p = 0.8 (ratio 4): cells (q, x) before the
     # evidence: x2 on with q = 1 always; x2 off: q = 1 iff x1 on (0.5 * 0.15).
     # Unnormalised: on 0.5 * 4 = 2.0; off, accepting 0.075; off, q = 0: 0.425.
-    bolt = belief_bolt(eventually(), "F(x)")
+    bolt = belief_bolt(eventually(), "F(x)", switch_rate=0.3)
     bolt.reset(np.array([[0.5]]))
     bolt.step(np.array([[0.8]]))
     total = 2.0 + 0.075 + 0.425
@@ -129,11 +135,13 @@ def test_one_step_hand_computed_with_persistence() -> None:
 def test_doubtful_frame_is_taken_back_by_clear_frames_after_it() -> None:
     # IBU would keep the mass one doubtful frame moved into F(x)'s sink for good.
     bolt = belief_bolt(eventually(), "F(x)", base_rates=(0.1,))
-    bolt.reset(np.array([[0.7]]))
+    bolt.reset(np.array([[0.02]]))
+    bolt.step(np.array([[0.7]]))
     after_doubt = bolt.beliefs[0, 1]
     for _ in range(5):
         bolt.step(np.array([[0.02]]))
-    assert bolt.beliefs[0, 1] < after_doubt / 2
+    assert after_doubt > 0.1
+    assert bolt.beliefs[0, 1] < after_doubt / 5
 
 
 def test_frames_without_evidence_leave_the_prior_of_the_truth_chain() -> None:
@@ -159,6 +167,43 @@ def test_weak_evidence_below_the_bound_does_not_accumulate_as_ibu_does() -> None
     assert ibu > 0.95
     assert bolt.beliefs[0, 1] < 0.65
     assert not out.accepting[0, 0]
+
+
+def test_min_dwell_two_keeps_unseen_one_frame_blips_from_adding_up() -> None:
+    # G(!x) over 150 frames that all say "no" (p = 0.05): with a one-frame blip allowed,
+    # each frame leaves s * pi * 0.05 / 0.95 for "x was true unseen"; with two frames
+    # needed, that chance is squared.
+    kept = {}
+    for dwell in (1, 2):
+        bolt = RestrainingBolt(
+            [spec("G(!x)")],
+            ["x"],
+            dfas=[compile_ltlf("G(!x)", ["x"])],
+            tracking="belief",
+            belief=BeliefSettings(base_rates=(0.08,), switch_rate=0.5, min_dwell=dwell),
+        )
+        out = bolt.reset(np.array([[0.05]]))
+        for _ in range(150):
+            out = bolt.step(np.array([[0.05]]))
+        kept[dwell] = (bolt.beliefs[0, bolt.dfas[0].initial_state], bool(out.accepting[0, 0]))
+    assert kept[1][0] < 0.85 and not kept[1][1]
+    assert kept[2][0] > 0.97 and kept[2][1]
+
+
+def test_min_dwell_two_refutes_a_single_glitch_frame() -> None:
+    # Without persistence (s = 1) and one-frame truths allowed, this is IBU: the mass the
+    # glitch moved into F(x)'s sink stays. Needing two frames, the next frame refutes it.
+    accepting = {}
+    for dwell in (1, 2):
+        bolt = belief_bolt(
+            eventually(), "F(x)", base_rates=(0.08,), switch_rate=1.0, min_dwell=dwell
+        )
+        bolt.reset(np.array([[0.02]]))
+        bolt.step(np.array([[0.88]]))
+        bolt.step(np.array([[0.02]]))
+        accepting[dwell] = bolt.beliefs[0, 1]
+    assert accepting[1] > 0.3
+    assert accepting[2] < 0.05
 
 
 def test_monotone_fluent_is_refuted_by_the_frames_after_a_false_positive() -> None:
@@ -224,7 +269,8 @@ def test_every_step_is_paid_on_each_confident_step_and_episode_end_once() -> Non
 
 
 def test_decisive_frames_give_threshold_tracking_states_and_rewards() -> None:
-    # With frames far beyond any doubt the belief is one-hot on Algorithm 1's state.
+    # With frames far beyond any doubt the belief is one-hot on Algorithm 1's state
+    # (min_dwell=1: these random traces have one-frame truths).
     fluents = ["a", "b"]
     formulas = ["F(a & X(F(b)))", "G(a -> F(b))"]
     dfas = [compile_ltlf(f, fluents) for f in formulas]
@@ -239,7 +285,9 @@ def test_decisive_frames_give_threshold_tracking_states_and_rewards() -> None:
             dfas=dfas,
             n_envs=8,
             tracking=mode,  # type: ignore[arg-type]
-            belief=BeliefSettings(max_log_ratio=40.0, base_rates=0.5) if mode == "belief" else None,
+            belief=BeliefSettings(max_log_ratio=40.0, base_rates=0.5, min_dwell=1)
+            if mode == "belief"
+            else None,
         )
         for mode in ("threshold", "belief")
     }
@@ -274,7 +322,9 @@ def test_progress_shaping_in_expectation_equals_shaping_of_sure_states() -> None
             n_envs=4,
             shaping=shaping,
             tracking=mode,  # type: ignore[arg-type]
-            belief=BeliefSettings(max_log_ratio=40.0, base_rates=0.5) if mode == "belief" else None,
+            belief=BeliefSettings(max_log_ratio=40.0, base_rates=0.5, min_dwell=1)
+            if mode == "belief"
+            else None,
         )
         rows = [bolt.reset(probs[0]).progress]
         rows += [bolt.step(probs[t], done=t == 29).progress for t in range(1, 30)]

@@ -9,12 +9,13 @@ states and pays on it.
 The model (an HMM, filtered forward exactly)
 --------------------------------------------
 For each spec the hidden state is the pair ``(q, sigma)``: the DFA state and the truth of
-the fluents the DFA depends on (``sigma``, a bitmask over the spec's *relevant* fluents,
-so a spec over ``m`` of them has ``n_states * 2**m`` cells, whatever the bolt's
-vocabulary). Per step:
+the fluents the DFA depends on (``sigma``, one chain state per *relevant* fluent of the
+spec, so a spec over ``m`` of them has ``n_states * (min_dwell + 1)**m`` cells, whatever
+the bolt's vocabulary). Per step:
 
-1. every fluent's truth persists or switches (a two-state Markov chain per fluent, the
-   fluents independent a priori): ``P(on | off) = s * pi``, ``P(off | on) = s * (1 - pi)``,
+1. every fluent's truth persists or switches (a Markov chain per fluent, the fluents
+   independent a priori): ``P(on | off) = s * pi``, ``P(off | on) = s * (1 - pi)`` once it
+   has been on ``min_dwell`` steps (before that it stays on),
    where ``pi`` is the fluent's base rate in play (its chain's stationary probability) and
    ``s`` its *switch rate* in ``(0, 1]`` (``1 - s`` is the lag-one autocorrelation of the
    truth; ``s = 1`` means no persistence). A *monotone* fluent (one that can only become
@@ -52,14 +53,22 @@ learnt the temporal dependencies instead (TDM). Here the temporal dependency is 
   for as long as the agent stays there), and an HMM that multiplies their likelihoods
   counts one error many times. The truth chain bounds this: for "x stayed on" to gain on
   "x stayed off" over a run of frames, each frame's likelihood ratio must exceed
-  ``P(off -> off) / P(on -> on) = (1 - s * pi) / (1 - s * (1 - pi))`` (about 1.4 for a
-  rare fluent at the default ``s = 0.3``), so a run of doubtful frames below it never
+  ``P(off -> off) / P(on -> on) = (1 - s * pi) / (1 - s * (1 - pi))`` (about 2 for a
+  rare fluent at the default ``s = 0.5``), so a run of doubtful frames below it never
   accumulates, however long; above it, only the excess accumulates. The onset of a rare
   fluent costs ``s * pi`` once, so it takes clear frames (or several) to believe it.
   ``max_log_ratio`` bounds what any one frame can say (an oracle's p = 1 is not
   infinite evidence), and ``evidence_weight`` (``kappa`` < 1) optionally tempers every
   frame (a power likelihood: ``n`` correlated frames count as ``kappa * n``);
+* a fluent, once true, stays true at least ``min_dwell`` (2) steps: otherwise every
+  frame, however clear its "no", leaves room for "x was true just then, unseen", and
+  over a long episode those unseen blips add up (a ``G(!x)`` falsely broken, an ``F(x)``
+  falsely met: IBU's accumulation again, by another road); with two frames needed the
+  detector must miss twice in a row;
 * the base rate enters once, as the prior of the truth chain, not once per frame.
+
+With ``switch_rate=1`` and ``min_dwell=1`` (no persistence) the filter reduces to IBU on
+base-rate-corrected frames; ``benchmarks/belief_tracking.py`` measures both.
 
 Payment is then on the belief, not on a frame (see :class:`BeliefSettings`).
 
@@ -68,15 +77,16 @@ Example:
     >>> f_x = DFA.from_function(["x"], n_states=2, initial_state=0,
     ...     accepting=[False, True], delta=lambda q, m: 1 if q == 1 or m & 1 else 0)
     >>> engine = BeliefEngine([f_x], ["x"], BeliefSettings(base_rates=(0.1,)))
-    >>> joint = engine.reset_joint(np.array([[0.7]]))  # one doubtful frame
+    >>> start = engine.reset_joint(np.array([[0.02]]))  # a clear "no" on the first frame
+    >>> joint = engine.step_joint(start, np.array([[0.7]]))  # then one doubtful frame
     >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)
-    0.206
-    >>> joint = engine.step_joint(joint, np.array([[0.02]]))  # then a clear "no" takes it back
+    0.113
+    >>> joint = engine.step_joint(joint, np.array([[0.02]]))  # a clear "no" takes it back
     >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)
-    0.071
-    >>> joint = engine.step_joint(engine.reset_joint(np.array([[0.99]])), np.array([[0.99]]))
-    >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)  # two clear frames
-    0.999
+    0.006
+    >>> joint = engine.step_joint(engine.step_joint(start, np.array([[0.99]])), np.array([[0.99]]))
+    >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)  # two clear frames of x
+    0.998
     >>> joint = engine.step_joint(joint, np.array([[0.02]]))  # x over: the visit stays
     >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)
     0.996
@@ -182,10 +192,19 @@ class BeliefSettings:
             (0.5: balanced, as ``noisybolt``'s classifiers are trained).
         switch_rate: how fast each fluent's truth forgets its past, in (0, 1]: 1 means
             no persistence (each frame judged on its own), small values a truth that
-            persists for about ``1 / switch_rate`` steps. The default, 0.3, was chosen
-            on the gridworld (benchmarks/belief_tracking.py, grid-glitch): 0.2 lost
-            recall of short corner visits, 0.5 recall of ``G(!x)`` specs.
+            persists for about ``1 / switch_rate`` steps. The default, 0.5 (with
+            ``min_dwell=2``), was chosen on the gridworld (benchmarks/belief_tracking.py,
+            grid-glitch, seeds 123 and 7): 0.3 lost recall of two-frame corner visits
+            (93-97 %); with ``min_dwell=1`` no rate kept both those and ``G(!x)``.
+            :func:`~noisybolt.perception.base_rates.estimate_switch_rates` estimates
+            per-fluent rates from unlabelled play.
         monotone: fluents that can only become true (a brick gone stays gone).
+        min_dwell: once true, a fluent stays true at least this many steps (1 or more).
+            The default, 2, says that a one-frame truth is not to be believed unseen:
+            without it, every frame leaves room for "x was true just then and the
+            detector missed it", and over a long episode those unseen blips add up to
+            a false violation of ``G(!x)`` (or a false ``F(x)``); requiring two frames
+            squares the detector's miss rate. 1 is the plain two-state chain.
         evidence_weight: ``kappa`` in (0, 1], how much one frame counts (see "Why this
             does not over-accumulate false evidence").
         max_log_ratio: the most one frame's log likelihood ratio may say, per fluent.
@@ -210,8 +229,9 @@ use e.g. 0.9 (the paper's high band)
     confidence: float = 0.9
     base_rates: float | Sequence[float] | Mapping[str, float] | None = None
     training_prior: float | Sequence[float] | Mapping[str, float] = 0.5
-    switch_rate: float | Sequence[float] | Mapping[str, float] = 0.3
+    switch_rate: float | Sequence[float] | Mapping[str, float] = 0.5
     monotone: tuple[str, ...] = ()
+    min_dwell: int = 2
     evidence_weight: float = 1.0
     max_log_ratio: float = 7.0
     observation: BeliefObservation = "belief"
@@ -223,6 +243,10 @@ use e.g. 0.9 (the paper's high band)
                 f"confidence level {c!r} is outside (0.5, 1): use e.g. 0.9 (the paper's high band)"
             )
         object.__setattr__(self, "confidence", float(c))
+        if isinstance(self.min_dwell, bool) or not isinstance(self.min_dwell, int):
+            raise ConfigError(f"min_dwell must be an integer >= 1, got {self.min_dwell!r}")
+        if self.min_dwell < 1:
+            raise ConfigError(f"min_dwell must be an integer >= 1, got {self.min_dwell!r}")
         if not 0.0 < self.evidence_weight <= 1.0:
             raise ConfigError(f"evidence_weight must be in (0, 1], got {self.evidence_weight!r}")
         if not self.max_log_ratio > 0.0 or not math.isfinite(self.max_log_ratio):
@@ -247,7 +271,7 @@ use e.g. 0.9 (the paper's high band)
         rates = _per_fluent(self.base_rates, fluents, 0.5, "base_rates")
         if self.base_rates is None:
             rates = prior.copy()
-        switch = _per_fluent(self.switch_rate, fluents, 0.3, "switch_rate")
+        switch = _per_fluent(self.switch_rate, fluents, 0.5, "switch_rate")
         if not np.all((switch > 0.0) & (switch <= 1.0)):
             raise ConfigError(f"switch_rate must be in (0, 1] per fluent, got {switch.tolist()}")
         unknown = sorted(set(self.monotone) - set(fluents))
@@ -328,12 +352,16 @@ class BeliefEngine:
         dfas = tuple(dfas)
         n_specs, k = len(dfas), len(self._fluents)
         relevant = [[index[f] for f in dfa.relevant_fluents] for dfa in dfas]
-        cells = [dfa.n_states << len(cols) for dfa, cols in zip(dfas, relevant, strict=True)]
+        n_chain = settings.min_dwell + 1
+        cells = [
+            dfa.n_states * n_chain ** len(cols) for dfa, cols in zip(dfas, relevant, strict=True)
+        ]
         for dfa, n in zip(dfas, cells, strict=True):
             if n > MAX_BELIEF_CELLS:
                 raise ConfigError(
                     f"belief tracking of a DFA with {dfa.n_states} states over "
-                    f"{len(dfa.relevant_fluents)} fluents needs {n} cells, over "
+                    f"{len(dfa.relevant_fluents)} fluents (min_dwell {settings.min_dwell}) "
+                    f"needs {n} cells, over "
                     f"MAX_BELIEF_CELLS={MAX_BELIEF_CELLS}; split the spec or use "
                     "tracking='threshold'"
                 )
@@ -349,50 +377,59 @@ class BeliefEngine:
         self._readout = np.zeros((n_specs, n_cells, q_max + 2))
         self._letter_weights = np.zeros((k, n_specs), dtype=np.int64)
         self._support = np.zeros((n_specs, q_max, 1 << max(map(len, relevant))), dtype=np.uint64)
-        self._rel_letters = [1 << len(cols) for cols in relevant]
         for s, (dfa, cols) in enumerate(zip(dfas, relevant, strict=True)):
             self._build_spec(s, dfa, cols, model)
 
     def _build_spec(self, s: int, dfa: DFA, cols: list[int], model: _FluentModel) -> None:
         m, n_q = len(cols), dfa.n_states
-        letters = np.arange(1 << m, dtype=np.int64)
-        bits = (letters[:, None] >> np.arange(m)) & 1  # [R, m]
-        # The DFA's own letter of each relevant-fluent letter (irrelevant fluents false).
+        n_chain = self._settings.min_dwell + 1  # off, on for 1 .. min_dwell - 1 steps, held
+        # A truth configuration: one chain state per relevant fluent, in base n_chain.
+        configs = np.arange(n_chain**m, dtype=np.int64)
+        digits = (configs[:, None] // n_chain ** np.arange(m)) % n_chain  # [C, m]
+        on_bits = (digits > 0).astype(np.int64)
+        letters = (on_bits << np.arange(m)).sum(axis=1) if m else configs
         positions = [dfa.fluents.index(self._fluents[c]) for c in cols]
-        full = (bits << np.array(positions, dtype=np.int64)).sum(axis=1) if m else letters
-        states = np.repeat(np.arange(n_q), len(letters))
+        # The DFA's own letter of each relevant-fluent letter (irrelevant fluents false).
+        all_letters = np.arange(1 << m, dtype=np.int64)
+        all_bits = (all_letters[:, None] >> np.arange(m)) & 1
+        full = (all_bits << np.array(positions, dtype=np.int64)).sum(axis=1) if m else all_letters
+        states = np.repeat(np.arange(n_q), len(all_letters))
         nxt, support = dfa.step_batch(states, np.tile(full, n_q).astype(np.uint64))
-        nxt = nxt.reshape(n_q, len(letters))
-        support = support.reshape(n_q, len(letters))
+        nxt = nxt.reshape(n_q, len(all_letters))
+        support = support.reshape(n_q, len(all_letters))
         rel_support = np.zeros_like(support)
         for j, pos in enumerate(positions):
             rel_support |= ((support >> np.uint64(pos)) & np.uint64(1)) << np.uint64(j)
-        self._support[s, :n_q, : len(letters)] = rel_support
+        self._support[s, :n_q, : len(all_letters)] = rel_support
         self._letter_weights[cols, s] = 1 << np.arange(m, dtype=np.int64)
-        # Truth transition between relevant-fluent letters: a product over fluents.
-        on, off = model.on[cols], model.off[cols]
-        stay = np.ones((len(letters), len(letters)))
+        # Per fluent, the chain: off -> on (rate on); on for fewer than min_dwell steps ->
+        # one step longer; held -> off (rate off). A product over fluents.
+        chain = np.zeros((m, n_chain, n_chain))
+        held = n_chain - 1
+        chain[:, 0, 0], chain[:, 0, 1] = 1 - model.on[cols], model.on[cols]
+        for i in range(1, held):
+            chain[:, i, i + 1] = 1.0
+        chain[:, held, held], chain[:, held, 0] = 1 - model.off[cols], model.off[cols]
+        stay = np.ones((len(configs), len(configs)))
         for j in range(m):
-            a, b = bits[:, j][:, None], bits[:, j][None, :]
-            p = np.where(
-                a == 1, np.where(b == 1, 1 - off[j], off[j]), np.where(b == 1, on[j], 1 - on[j])
-            )
-            stay *= p
+            stay *= chain[j][digits[:, j][:, None], digits[:, j][None, :]]
+        # Before the first frame a fluent is off, or on for long enough (held).
         rates = model.rates[cols]
-        prior = np.prod(np.where(bits == 1, rates, 1 - rates), axis=1) if m else np.ones(1)
-        n_r = len(letters)
+        prior_digit = np.where(digits == held, rates, np.where(digits == 0, 1 - rates, 0.0))
+        prior = np.prod(prior_digit, axis=1) if m else np.ones(1)
+        n_c = len(configs)
         for q in range(n_q):
-            for r in range(n_r):
-                targets = nxt[q, :] * n_r + letters  # cell of (delta(q, r2), r2) for every r2
-                np.add.at(self._move[s, q * n_r + r], targets, stay[r])
-        start_targets = nxt[dfa.initial_state, :] * n_r + letters
+            for c in range(n_c):
+                targets = nxt[q, letters] * n_c + configs  # cell (delta(q, c2), c2) per c2
+                np.add.at(self._move[s, q * n_c + c], targets, stay[c])
+        start_targets = nxt[dfa.initial_state, letters] * n_c + configs
         np.add.at(self._start[s], start_targets, prior)
         for j, c in enumerate(cols):
-            self._bits[c, s, : n_q * n_r] = np.tile(bits[:, j], n_q)
-        cell_q = np.repeat(np.arange(n_q), n_r)
-        self._readout[s, np.arange(n_q * n_r), cell_q] = 1.0
-        self._readout[s, : n_q * n_r, self._q_max] = dfa.accepting[cell_q]
-        self._readout[s, : n_q * n_r, self._q_max + 1] = dfa.rejecting_sinks[cell_q]
+            self._bits[c, s, : n_q * n_c] = np.tile(on_bits[:, j], n_q)
+        cell_q = np.repeat(np.arange(n_q), n_c)
+        self._readout[s, np.arange(n_q * n_c), cell_q] = 1.0
+        self._readout[s, : n_q * n_c, self._q_max] = dfa.accepting[cell_q]
+        self._readout[s, : n_q * n_c, self._q_max + 1] = dfa.rejecting_sinks[cell_q]
 
     # ------------------------------------------------------------------ properties
     @property
