@@ -18,11 +18,14 @@ __all__ = [
     "DenseTableError",
     "FluentFunctionError",
     "IncompatibleError",
+    "NoCheckpointError",
     "NoisyboltError",
+    "RunLockedError",
     "SpecSyntaxError",
     "UnknownFluentError",
     "UnknownNameError",
     "UnlabelledEnvError",
+    "UnsafeFileError",
     "UnsatisfiableSpecError",
     "WorldFactoryError",
 ]
@@ -147,3 +150,24 @@ class ConfidenceLevelError(ConfigError):
 class BaseRateError(ConfigError):
     """A fluent's base rate (its frequency in play or in a detector's training set) is not
     a number in [0, 1]."""
+
+
+class RunLockedError(ConfigError):
+    """Another process is writing the run directory (a training holds its lock).
+
+    Attributes:
+        holder: what the lock file says of its holder (pid and command), as text.
+    """
+
+    def __init__(self, message: str, *, holder: str) -> None:
+        super().__init__(message)
+        self.holder = holder
+
+
+class NoCheckpointError(ConfigError):
+    """``resume`` was asked of a run directory without a usable checkpoint to continue from."""
+
+
+class UnsafeFileError(CorruptFileError):
+    """A file in a run directory that noisybolt will not load because loading it could run
+    code (a pickle, or a model entry it does not know); the message says what to do."""

@@ -5,23 +5,29 @@ Layout of a run directory::
     config.json     the resolved configuration (what actually ran, defaults included)
     command.txt     the exact command line, shell-quoted
     metrics.json    a list of records (rewritten atomically, never appended in place)
+    .lock           held (``flock``) by the one process writing the run; names its holder
     ...             whatever the run produces (checkpoints/, model.zip, plots)
 
-All files are written atomically (:mod:`noisybolt.io`).
+All files are written atomically (:mod:`noisybolt.io`). The directory owns its files: a
+writer holds :meth:`RunDirectory.lock` for its whole life, a second writer is refused
+with :class:`~noisybolt.errors.RunLockedError` naming the first, and every path read
+through :meth:`RunDirectory.inside` stays inside the directory.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import os
 import shlex
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from noisybolt.errors import ConfigError, CorruptFileError
-from noisybolt.io import atomic_write_json, atomic_write_text
+from noisybolt.errors import ConfigError, CorruptFileError, RunLockedError
+from noisybolt.io import atomic_write_json, atomic_write_text, read_json
 
 __all__ = ["RunDirectory", "config_differences"]
 
@@ -85,6 +91,85 @@ class RunDirectory:
         """Where the resolved config lives."""
         return self.file("config.json")
 
+    def inside(self, relative: str | os.PathLike[str], *, named_in: Path | None = None) -> Path:
+        """``relative`` under the run directory, refused if it leads outside it.
+
+        A pointer file (``checkpoints/latest.json``) or a symbolic link could otherwise send
+        a reader anywhere on the machine: a shared run directory must only ever be read
+        from inside itself.
+
+        Raises:
+            CorruptFileError: the path (after ``..`` and links) lies outside the directory;
+                ``named_in`` names the file that pointed there.
+
+        Example:
+            >>> run = RunDirectory("/tmp/run")
+            >>> run.inside("checkpoints/step_1").name
+            'step_1'
+            >>> run.inside("../elsewhere")
+            Traceback (most recent call last):
+            ...
+            noisybolt.errors.CorruptFileError: ../elsewhere lies outside the run directory ...
+        """
+        root = self.path.resolve()
+        target = (self.path / relative).resolve()
+        if target != root and root not in target.parents:
+            source = f" (named in {named_in})" if named_in is not None else ""
+            raise CorruptFileError(
+                f"{relative} lies outside the run directory {self.path}{source}: a run "
+                "directory is only read from inside itself; fix or remove the pointer"
+            )
+        return target
+
+    @contextlib.contextmanager
+    def lock(self, argv: Sequence[str] | None = None) -> Iterator[None]:
+        """Holds the run's exclusive writer lock while the block runs.
+
+        An advisory ``flock`` on ``.lock``: the kernel releases it when its holder exits,
+        however it exits (a SIGKILL included), so a stale lock never blocks a resume. The
+        file names the holder (pid and command) for whoever is refused.
+
+        Raises:
+            RunLockedError: another process holds the lock (the message names it).
+        """
+        self.path.mkdir(parents=True, exist_ok=True)
+        path = self.file(".lock")
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 4096, 0).decode("utf-8", "replace").strip() or "unknown"
+                raise RunLockedError(
+                    f"{self.path} is being written by another process ({holder}); wait for "
+                    "it to finish or stop it, or choose another directory",
+                    holder=holder,
+                ) from None
+            command = _command_text(sys.argv if argv is None else argv).strip()
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"pid {os.getpid()}: {command}\n".encode(), 0)
+            try:
+                yield
+            finally:
+                os.ftruncate(fd, 0)
+                fcntl.flock(fd, fcntl.LOCK_UN)
+        finally:
+            os.close(fd)
+
+    def remove_partial_files(self) -> list[Path]:
+        """Removes the temporary files of atomic writes that a killed writer left behind.
+
+        Call it only while holding :meth:`lock`: then no write is in progress, and every
+        ``.NAME.*.tmp`` (:func:`noisybolt.io.atomic_open`'s pattern) is a dead one.
+        Returns what it removed.
+        """
+        removed = []
+        for path in self.path.rglob(".*.tmp"):
+            if path.is_file() and not path.is_symlink():
+                path.unlink()
+                removed.append(path)
+        return removed
+
     def exists(self) -> bool:
         """Whether a run was started here (it has a config)."""
         return self.config_path.exists()
@@ -96,13 +181,9 @@ class RunDirectory:
     def read_config(self) -> dict[str, Any]:
         """Loads the resolved config, with a clear error if it is missing or corrupt."""
         try:
-            data = json.loads(self.config_path.read_text())
+            data: dict[str, Any] = read_json(self.config_path, kind=dict)
         except FileNotFoundError:
             raise ConfigError(f"{self.path} holds no run (no config.json)") from None
-        except (json.JSONDecodeError, UnicodeDecodeError) as error:
-            raise CorruptFileError(f"{self.config_path} is corrupt: {error}") from None
-        if not isinstance(data, dict):
-            raise CorruptFileError(f"{self.config_path} does not hold a JSON object")
         return data
 
     def check_same_config(
@@ -130,10 +211,7 @@ class RunDirectory:
 
     def write_command(self, argv: Sequence[str] | None = None) -> None:
         """Saves the exact command line (default: this process's, as ``noisybolt ...``)."""
-        argv = list(sys.argv if argv is None else argv)
-        if argv and Path(argv[0]).name in ("noisybolt", "__main__.py"):
-            argv[0] = "noisybolt"
-        text = shlex.join(argv) + "\n"
+        text = _command_text(sys.argv if argv is None else argv)
         atomic_write_text(self.file("command.txt"), text)
 
     def write_metrics(self, records: Sequence[Mapping[str, Any]]) -> None:
@@ -141,12 +219,26 @@ class RunDirectory:
         atomic_write_json(self.file("metrics.json"), [dict(r) for r in records])
 
     def read_metrics(self) -> list[dict[str, Any]]:
-        """Loads ``metrics.json`` (empty list when absent)."""
+        """Loads ``metrics.json`` (empty list when absent).
+
+        Raises:
+            CorruptFileError: the file is not a JSON list of records each with an integer
+                ``frames``, in increasing order.
+        """
         path = self.file("metrics.json")
-        if not path.exists():
-            return []
-        try:
-            data = json.loads(path.read_text())
-        except json.JSONDecodeError as error:
-            raise CorruptFileError(f"{path} is corrupt: {error}") from None
-        return list(data)
+        data = read_json(path, default=[], kind=list)
+        frames = [r.get("frames") if isinstance(r, dict) else None for r in data]
+        counts = [f for f in frames if isinstance(f, int)]
+        if len(counts) != len(frames) or counts != sorted(counts):
+            raise CorruptFileError(
+                f"{path} is corrupt: its records must be objects with increasing integer "
+                "'frames'; restore it from a copy, or remove it and train again"
+            )
+        return [dict(r) for r in data]
+
+
+def _command_text(argv: Sequence[str]) -> str:
+    argv = list(argv)
+    if argv and Path(argv[0]).name in ("noisybolt", "__main__.py"):
+        argv[0] = "noisybolt"
+    return shlex.join(argv) + "\n"

@@ -312,17 +312,17 @@ def test_keep_best_keeps_the_model_of_the_best_shaped_return(
     import torch
     from stable_baselines3 import PPO
 
-    from noisybolt.agents import training
+    from noisybolt.agents import callbacks
 
     evaluated: dict[int, dict[str, torch.Tensor]] = {}  # the policy each evaluation saw
-    original = training._BoltCallback.evaluate
+    original = callbacks.EvaluationCallback.evaluate
 
-    def spy(self: training._BoltCallback) -> training.EvalResult:
+    def spy(self: callbacks.EvaluationCallback) -> callbacks.EvalResult:
         state = {k: v.clone() for k, v in self.model.policy.state_dict().items()}
         evaluated[int(self.model.num_timesteps)] = state
         return original(self)
 
-    monkeypatch.setattr(training._BoltCallback, "evaluate", spy)
+    monkeypatch.setattr(callbacks.EvaluationCallback, "evaluate", spy)
     config = _config(keep_best=True, frames=3072, eval_freq=512)
     result = train(config, tmp_path / "run", log=_quiet)
     run = tmp_path / "run"
@@ -364,28 +364,28 @@ def test_the_best_model_survives_a_resume(
 
     from stable_baselines3 import PPO
 
-    from noisybolt.agents import training
+    from noisybolt.agents import callbacks
 
     original_evaluate, original_policy = (
-        training._BoltCallback.evaluate,
-        training.evaluate_bolted_policy,
+        callbacks.EvaluationCallback.evaluate,
+        callbacks.evaluate_bolted_policy,
     )
     evaluated: dict[int, dict[str, torch.Tensor]] = {}
 
-    def evaluate(self: training._BoltCallback) -> training.EvalResult:
+    def evaluate(self: callbacks.EvaluationCallback) -> callbacks.EvalResult:
         frames = int(self.model.num_timesteps)
         evaluated[frames] = {k: v.clone() for k, v in self.model.policy.state_dict().items()}
         bonus = 1000.0 if frames == best_at else 0.0
 
-        def boosted(*args: object, **kwargs: object) -> training.EvalResult:
+        def boosted(*args: object, **kwargs: object) -> callbacks.EvalResult:
             result = original_policy(*args, **kwargs)  # type: ignore[arg-type]
             return replace(result, env_return_mean=result.env_return_mean + bonus)
 
         with monkeypatch.context() as patch:
-            patch.setattr(training, "evaluate_bolted_policy", boosted)
+            patch.setattr(callbacks, "evaluate_bolted_policy", boosted)
             return original_evaluate(self)
 
-    monkeypatch.setattr(training._BoltCallback, "evaluate", evaluate)
+    monkeypatch.setattr(callbacks.EvaluationCallback, "evaluate", evaluate)
     config = {"keep_best": True, "eval_freq": 512}
     train(_config(frames=1536, **config), tmp_path / "run", log=_quiet)
     first = json.loads((tmp_path / "run" / "summary.json").read_text())["kept_model"]
@@ -431,9 +431,9 @@ def test_an_unknown_cnn_is_refused_before_anything_is_written(tmp_path: Path) ->
 
 
 def test_breakout_agents_get_the_2013_dqn_network() -> None:
-    from noisybolt.agents.training import _make_model, build_bolted_env
+    from noisybolt.agents.models import make_model
+    from noisybolt.agents.training import build_bolted_env
     from noisybolt.perception.detectors import OracleDetector
-    from noisybolt.rundir import RunDirectory
 
     for algo in ("ppo", "a2c", "dqn"):
         config = TrainConfig.create(
@@ -442,7 +442,7 @@ def test_breakout_agents_get_the_2013_dqn_network() -> None:
         assert config.hyperparams["cnn"] == "atari2013"
         detector = OracleDetector(("brick_clear_left", *(f"left_gone_row{r}" for r in range(6))))
         env = build_bolted_env(config, detector, n_envs=1, seed=0, training=True)
-        model = _make_model(config, env, RunDirectory("unused"))
+        model = make_model(config, env, trial=True)
         policy = model.q_net if algo == "dqn" else model.policy  # type: ignore[attr-defined]
         extractor = policy.features_extractor
         assert sum(isinstance(m, torch.nn.Conv2d) for m in extractor.convs.modules()) == 2
@@ -456,16 +456,16 @@ def test_an_interrupted_run_keeps_its_frames_and_resumes(
 ) -> None:
     # Interrupted at 1,280 frames (periodic checkpoints every 1,024): the checkpoint must
     # be the interrupt's own, and a resume must finish the 2,048 from there.
-    from noisybolt.agents import training
+    from noisybolt.agents import callbacks
 
-    original = training._BoltCallback._on_step
+    original = callbacks.EvaluationCallback._on_step
 
-    def interrupt_at_1280(self: training._BoltCallback) -> bool:
+    def interrupt_at_1280(self: callbacks.EvaluationCallback) -> bool:
         if self.model.num_timesteps == 1280:
             raise KeyboardInterrupt
         return original(self)
 
-    monkeypatch.setattr(training._BoltCallback, "_on_step", interrupt_at_1280)
+    monkeypatch.setattr(callbacks.EvaluationCallback, "_on_step", interrupt_at_1280)
     said: list[str] = []
     with pytest.raises(KeyboardInterrupt):
         train(_config(), tmp_path / "run", log=said.append)
@@ -473,7 +473,7 @@ def test_an_interrupted_run_keeps_its_frames_and_resumes(
     assert latest["frames"] == 1280
     assert any("interrupted at 1,280 frames" in line and "--resume" in line for line in said)
     assert not (tmp_path / "run" / "model.zip").exists()  # the run did not finish
-    monkeypatch.setattr(training._BoltCallback, "_on_step", original)
+    monkeypatch.setattr(callbacks.EvaluationCallback, "_on_step", original)
     result = train(_config(), tmp_path / "run", resume=True, log=_quiet)
     assert result.frames >= 2048
     assert result.history[0]["frames"] == 1024  # kept across the interrupt

@@ -18,9 +18,9 @@ from typing import Any
 
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
-from noisybolt.agents.hyperparams import algorithm_class
 from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
 from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import make_single_world, world_display
@@ -40,15 +40,39 @@ class RunEvaluation:
     files: dict[str, Path] = field(default_factory=dict)
 
 
-def load_run_model(run: RunDirectory, config: TrainConfig) -> BaseAlgorithm:
-    """The run's final model, or its latest checkpoint when it did not finish."""
+def load_run_model(
+    run: RunDirectory, config: TrainConfig, env: VecEnv | None = None
+) -> BaseAlgorithm:
+    """The run's final model, or its latest checkpoint when it did not finish.
+
+    Loaded without unpickling anything (:func:`noisybolt.agents.models.load_model`), from
+    inside the run directory only. ``env``: envs of the run's world to load onto (default:
+    one built here, with the oracle detector: only its spaces matter).
+
+    Raises:
+        ConfigError: the run holds neither a model nor a checkpoint.
+        CorruptFileError: a file is damaged, or a pointer or link leads outside the run.
+        UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
+    """
+    from noisybolt.agents.checkpoints import latest_checkpoint
+    from noisybolt.agents.models import load_model
+
     path = run.file("model.zip")
-    if not path.exists():
-        pointer = run.file("checkpoints") / "latest.json"
-        if not pointer.exists():
-            raise ConfigError(f"{run.path} holds neither model.zip nor a checkpoint")
-        path = run.file("checkpoints") / json.loads(pointer.read_text())["folder"] / "model.zip"
-    return algorithm_class(config.algo).load(path, device="cpu")
+    if path.exists() or path.is_symlink():
+        path = run.inside("model.zip")
+    elif (run.file("checkpoints") / "latest.json").exists():
+        path = latest_checkpoint(run).model
+    else:
+        raise ConfigError(f"{run.path} holds neither model.zip nor a checkpoint")
+    if env is None:
+        from noisybolt.agents.environments import make_env
+        from noisybolt.envs import make_world
+        from noisybolt.perception.detectors import OracleDetector
+
+        fluents = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+        detector = OracleDetector(fluents.fluent_names)
+        env = make_env(config, detector, training=False, n_envs=config.n_envs)
+    return load_model(path, config, env)
 
 
 def _single_env(config: TrainConfig) -> Any:
@@ -134,6 +158,8 @@ def evaluate_run(
         layout = _grid_layout(config)
     setup = prepare_bolt(config, seed=seed)
     dfas, detector = setup.dfas, setup.detector
+    # Loaded onto envs of its own: loading seeds the model's env with the run's seed, which
+    # must not touch the evaluation's.
     model = load_run_model(run, config)
     env = build_bolted_env(
         config, detector, n_envs=min(8, episodes), seed=seed, dfas=dfas, letters=setup.letters

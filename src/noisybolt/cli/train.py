@@ -168,7 +168,16 @@ def register(subparsers: Any) -> None:
         "not the last one (best/ holds it; ground truth never chooses)",
     )
     train.add_argument("--out", type=Path, default=None, help="run directory (default runs/...)")
-    train.add_argument("--resume", action="store_true", help="continue the run in --out")
+    train.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out from its latest checkpoint (refused without one)",
+    )
+    train.add_argument(
+        "--restart",
+        action="store_true",
+        help="start the run in --out over: its earlier results and checkpoints are removed",
+    )
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
     train.set_defaults(func=_train)
 
@@ -307,12 +316,18 @@ def _train(args: argparse.Namespace) -> int:
     print(describe_scheme(config))
     world_label = args.world.replace(":", ".")  # a factory path names no folder well
     out = args.out or Path("runs") / f"{world_label}-{args.algo}-seed{args.seed}"
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
     if args.resume and not (out / "config.json").exists():
         raise ConfigError(f"--resume: {out} holds no run to continue")
     with _sigterm_as_interrupt():
         try:
             result = train(
-                config, out, resume=args.resume, retrain_classifier=args.retrain_classifier
+                config,
+                out,
+                resume=args.resume,
+                restart=args.restart,
+                retrain_classifier=args.retrain_classifier,
             )
         except KeyboardInterrupt:
             return 130  # train() saved a checkpoint and said how to resume

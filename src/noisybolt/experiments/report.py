@@ -45,6 +45,8 @@ from noisybolt.experiments.reporting import (
 from noisybolt.experiments.sweeps import SWEEP_FILE, collect_sweep
 from noisybolt.experiments.sweeps.trials import read_json
 from noisybolt.io import atomic_write_text
+from noisybolt.io import read_json as read_json_strictly
+from noisybolt.rundir import RunDirectory
 
 __all__ = [
     "ReportFiles",
@@ -213,8 +215,9 @@ def run_report(
     ]
     if (run / "command.txt").exists():
         blocks.append(Text(f"Command: `{(run / 'command.txt').read_text().strip()}`"))
-    summary = read_json(run / "summary.json")
-    evaluation = read_json(run / "evaluation.json")
+    # A damaged result is refused by name, not reported as "not finished" (CorruptFileError).
+    summary = read_json_strictly(run / "summary.json", default=None, kind=dict)
+    evaluation = read_json_strictly(run / "evaluation.json", default=None, kind=dict)
     blocks.append(Heading("Final evaluation", 2))
     if isinstance(evaluation, dict):
         blocks.append(
@@ -239,7 +242,7 @@ def run_report(
                 f"compliant): {f'{reached:,}' if reached is not None else 'not reached'}."
             )
         )
-    metrics = read_json(run / "metrics.json") or []
+    metrics = RunDirectory(run).read_metrics()
     if metrics:
         plot_learning_curves(
             {f"seed {config.get('seed')}": metrics}, run / "curves.png", title=run.name

@@ -64,8 +64,8 @@ def parse_ltlf(formula: str) -> Formula:
 
     Raises:
         TypeError: ``formula`` is not a string.
-        SpecSyntaxError: the text is not a formula; the message shows it with a caret under
-            the offending column.
+        SpecSyntaxError: the text is not a formula (the message shows it with a caret under
+            the offending column), or it is nested beyond Python's recursion limit.
 
     Example:
         >>> str(parse_ltlf("G(a -> F b)"))
@@ -83,6 +83,12 @@ def parse_ltlf(formula: str) -> Formula:
     except (LarkError, ValueError) as error:  # ltlf2dfa's own "Parsing error."
         raise SpecSyntaxError(
             f"cannot read LTLf formula {formula!r}: {error}", formula=formula
+        ) from None
+    except RecursionError:  # the parser recurses once per nested operator
+        raise SpecSyntaxError(
+            f"LTLf formula {formula[:40]!r}... is nested too deeply to parse (Python's "
+            "recursion limit); write it with fewer nested operators",
+            formula=formula,
         ) from None
 
 

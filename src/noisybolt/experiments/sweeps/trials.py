@@ -160,9 +160,18 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
 
         config = training.TrainConfig.from_dict(task.trial["config"])
         if not folder.finished(0, config.frames):
-            resume = folder.exists()
+            # A trial stopped before its first checkpoint has nothing to resume: start over.
+            started = folder.exists()
+            resume = started and folder.file("checkpoints/latest.json").exists()
             argv = list(task.argv) or None
-            training.train(config, folder.path, resume=resume, argv=argv, log=log or to_file)
+            training.train(
+                config,
+                folder.path,
+                resume=resume,
+                restart=started and not resume,
+                argv=argv,
+                log=log or to_file,
+            )
         if task.final_eval_episodes > 0:
             run_evaluation.evaluate_run(folder.path, episodes=task.final_eval_episodes)
         folder.write_outcome("done", time.perf_counter() - start)

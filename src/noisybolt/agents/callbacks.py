@@ -1,0 +1,255 @@
+"""Training callbacks in Stable-Baselines3's style: each does one thing.
+
+* :class:`EvaluationCallback` evaluates the policy every ``eval_freq`` frames (compliance
+  from ground truth), records ``metrics.json`` and TensorBoard, and steps its children:
+  ``callback_on_new_best`` when the shaped return is the best so far, and
+  ``callback_after_eval`` after every evaluation (e.g.
+  :class:`noisybolt.agents.stopping.StopWhenSolved`), as SB3's ``EvalCallback`` does.
+* :class:`SaveBestModel`: the new-best child that keeps that model (``keep_best``).
+* :class:`CheckpointCallback` writes a complete checkpoint every ``checkpoint_freq``
+  frames with the evaluation callback's bookkeeping.
+* :class:`EntropySchedule` moves PPO's and A2C's entropy coefficient over the run.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import torch
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnv
+
+from noisybolt.agents.checkpoints import BEST_DIR, best_folder, save_checkpoint, save_model_files
+from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
+from noisybolt.errors import ConfigError
+from noisybolt.rundir import RunDirectory
+
+__all__ = [
+    "CheckpointCallback",
+    "EntropySchedule",
+    "EvaluationCallback",
+    "SaveBestModel",
+    "shaped_return",
+]
+
+
+def shaped_return(result: EvalResult) -> float:
+    """What the agent is trained to maximise, as measured: env + bolt return (means)."""
+    return float(result.env_return_mean + result.bolt_return_mean)
+
+
+def next_multiple(value: int, step: int) -> int:
+    """The first multiple of ``step`` above ``value`` (0 when ``step`` is 0: never)."""
+    return (value // step + 1) * step if step else 0
+
+
+class EvaluationCallback(BaseCallback):
+    """Periodic evaluation of the policy, from ground truth, recorded in the run.
+
+    Args:
+        config: the run.
+        run: its directory (``metrics.json``).
+        eval_env: the evaluation envs (:func:`noisybolt.agents.environments.make_env`).
+        spec_names: the specs' names, in order.
+        history: the evaluations so far (a resumed run's), appended to.
+        frames_to_comply: N_frames so far (None while not reached).
+        best: the best evaluation so far, ``{"frames", "shaped_return"}`` (None: none).
+        callback_on_new_best: stepped after an evaluation whose shaped return is at
+            least the best so far (ties go to the later, longer trained, model).
+        callback_after_eval: stepped after every evaluation; returning False ends
+            training.
+
+    Attributes:
+        last_result: the latest evaluation (None before the first).
+    """
+
+    def __init__(
+        self,
+        *,
+        config: TrainConfig,
+        run: RunDirectory,
+        eval_env: VecEnv,
+        spec_names: Sequence[str],
+        history: list[dict[str, Any]],
+        frames_to_comply: int | None = None,
+        best: dict[str, Any] | None = None,
+        callback_on_new_best: BaseCallback | None = None,
+        callback_after_eval: BaseCallback | None = None,
+    ) -> None:
+        super().__init__(verbose=0)
+        self.config = config
+        self.run = run
+        self.eval_env = eval_env
+        self.spec_names = list(spec_names)
+        self.history = history
+        self.frames_to_comply = frames_to_comply
+        self.best = best
+        self.callback_on_new_best = callback_on_new_best
+        self.callback_after_eval = callback_after_eval
+        for child in (callback_on_new_best, callback_after_eval):
+            if child is not None:
+                child.parent = self
+        self.last_result: EvalResult | None = None
+        self._next_eval = 0
+
+    def _init_callback(self) -> None:
+        self._next_eval = next_multiple(self.model.num_timesteps, self.config.eval_freq)
+        for child in (self.callback_on_new_best, self.callback_after_eval):
+            if child is not None:
+                child.init_callback(self.model)
+
+    @property
+    def success_rate(self) -> float:
+        """The latest evaluation's share of episodes at the goal and compliant (0 before)."""
+        return self.last_result.success_rate if self.last_result is not None else 0.0
+
+    def evaluate(self) -> EvalResult:
+        """Evaluates the current policy and records it (metrics.json, TensorBoard)."""
+        model = self.model
+        deterministic = self.config.eval_deterministic
+        frames = int(model.num_timesteps)
+        # Sampled evaluation actions draw from torch's and numpy's global generators (DQN's
+        # epsilon uses numpy's). Draw them from generators of their own, seeded by the
+        # frame count, so that how often a run is evaluated does not change its training.
+        numpy_state = np.random.get_state()  # noqa: NPY002 (SB3 uses the legacy global)
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(self.config.seed * 1_000_003 + frames)
+            np.random.seed((self.config.seed * 1_000_003 + frames) % 2**32)  # noqa: NPY002
+            try:
+                result = evaluate_bolted_policy(
+                    lambda obs: model.predict(obs, deterministic=deterministic)[0],
+                    self.eval_env,
+                    n_episodes=self.config.eval_episodes,
+                    spec_names=self.spec_names,
+                )
+            finally:
+                np.random.set_state(numpy_state)  # noqa: NPY002
+        self.last_result = result
+        if self.frames_to_comply is None and result.success_rate >= self.config.success_threshold:
+            self.frames_to_comply = frames
+        self.history.append({"frames": frames, **result.to_dict()})
+        self.run.write_metrics(self.history)
+        for key in ("env_return_mean", "length_mean", "goal_rate", "success_rate"):
+            model.logger.record(f"eval/{key}", getattr(result, key))
+        for name, rate in result.compliance.items():
+            model.logger.record(f"eval/compliance/{name}", rate)
+        if self.callback_on_new_best is not None:
+            score = shaped_return(result)
+            if self.best is None or score >= self.best["shaped_return"]:
+                self.best = {"frames": frames, "shaped_return": score}
+                self.callback_on_new_best.on_step()
+        return result
+
+    def _on_step(self) -> bool:
+        frames = self.model.num_timesteps
+        if not self.config.eval_freq or frames < self._next_eval:
+            return True
+        self.evaluate()
+        self._next_eval = next_multiple(frames, self.config.eval_freq)
+        if self.callback_after_eval is not None:
+            return self.callback_after_eval.on_step()
+        return True
+
+
+class SaveBestModel(BaseCallback):
+    """Child of :class:`EvaluationCallback`: saves the new best model in ``best/step_N``."""
+
+    def __init__(self, run: RunDirectory, *, algo: str) -> None:
+        super().__init__(verbose=0)
+        self.run = run
+        self.algo = algo
+
+    def _on_step(self) -> bool:
+        parent = self.parent
+        if not isinstance(parent, EvaluationCallback) or parent.best is None:
+            raise ConfigError("SaveBestModel is the callback_on_new_best of EvaluationCallback")
+        env = self.model.get_env()
+        assert env is not None
+        folder = best_folder(self.run, int(parent.best["frames"]))
+        save_model_files(self.model, env, folder, algo=self.algo)
+        return True
+
+
+class CheckpointCallback(BaseCallback):
+    """A complete checkpoint every ``checkpoint_freq`` frames (0: only when asked).
+
+    Its bookkeeping (evaluations, N_frames, the best model) is the evaluation callback's,
+    so it follows that callback in a ``CallbackList``.
+    """
+
+    def __init__(self, *, config: TrainConfig, run: RunDirectory, evaluation: EvaluationCallback):
+        super().__init__(verbose=0)
+        self.config = config
+        self.run = run
+        self.evaluation = evaluation
+        self._next_checkpoint = 0
+
+    def _init_callback(self) -> None:
+        self._next_checkpoint = next_multiple(self.model.num_timesteps, self.config.checkpoint_freq)
+
+    def checkpoint(self) -> None:
+        """Saves a complete checkpoint now."""
+        env = self.model.get_env()
+        assert env is not None
+        evaluation = self.evaluation
+        state = {
+            "frames_to_comply": evaluation.frames_to_comply,
+            "history": evaluation.history,
+            "best": evaluation.best,
+        }
+        save_checkpoint(self.model, env, self.run, state, algo=self.config.algo)
+        # Only now that the newest checkpoint names this best model may the older ones
+        # go: a run killed earlier resumes from a checkpoint naming one of them.
+        if evaluation.best is not None:
+            keep = best_folder(self.run, evaluation.best["frames"])
+            for folder in self.run.file(BEST_DIR).glob("step_*"):
+                if folder != keep:
+                    shutil.rmtree(folder, ignore_errors=True)
+
+    def _on_step(self) -> bool:
+        frames = self.model.num_timesteps
+        if self.config.checkpoint_freq and frames >= self._next_checkpoint:
+            self.checkpoint()
+            self._next_checkpoint = next_multiple(frames, self.config.checkpoint_freq)
+        return True
+
+
+class EntropySchedule(BaseCallback):
+    """PPO's and A2C's entropy coefficient moved linearly from ``start`` to ``end``.
+
+    SB3 reads ``model.ent_coef`` at every update but offers schedules only for the learning
+    rate and PPO's clip range. A high bonus early keeps the policy trying routes that pay a
+    little more (A2C settled on ``!F(t)``'s shortcut through the corner at 0.01); a low one
+    late lets it act as surely as it has learnt (at 0.05 throughout, sampled ``G(on_edge)``
+    episodes stepped off the edge in up to 6 %). The value is set before each rollout from
+    the frames done, so a resumed run continues the same schedule.
+
+    Args:
+        start: coefficient at frame 0.
+        end: coefficient from ``frames`` on.
+        frames: frames over which it moves (the run's budget).
+    """
+
+    def __init__(self, start: float, end: float, frames: int) -> None:
+        super().__init__(verbose=0)
+        if start < 0 or end < 0 or frames < 1:
+            raise ConfigError(
+                f"entropy schedule: coefficients must be >= 0 and frames >= 1, got {start}, "
+                f"{end}, {frames}"
+            )
+        self.start, self.end, self.frames = float(start), float(end), int(frames)
+
+    def value(self, frames_done: int) -> float:
+        """The coefficient after ``frames_done`` frames."""
+        progress = min(1.0, max(0, frames_done) / self.frames)
+        return self.start + (self.end - self.start) * progress
+
+    def _on_rollout_start(self) -> None:
+        self.model.ent_coef = self.value(self.model.num_timesteps)  # type: ignore[attr-defined]
+
+    def _on_step(self) -> bool:
+        return True

@@ -1,0 +1,265 @@
+"""The environments of a run: one :func:`make_env` owns the whole wrapper stack.
+
+Bottom to top::
+
+    world (natively vectorised)  ->  SB3VecEnv  ->  VecMonitor
+      -> ClipGameReward      (training, ``clip_reward``: the game's score, below the bolt)
+      -> BoltVecEnv          (the restraining bolt: DFAs, detector, rewards)
+      -> LifeLossTerminal    (training, ``life_loss_terminal``: above the bolt, which must
+                              see whole games)
+      -> VecTransposeImage   (training, ``normalize_reward``: below the normaliser, see
+                              :func:`_transposed`)
+      -> VecNormalize        (training, ``normalize_reward``: rewards only)
+
+Training, evaluation (periodic and ``noisybolt evaluate``) and case 4 build their envs
+here, so the stack is written once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
+
+from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.detectors import make_detector
+from noisybolt.bolt import Thresholds
+from noisybolt.envs import SB3VecEnv, make_world
+from noisybolt.errors import (
+    ConfigError,
+    SpecSyntaxError,
+    UnknownFluentError,
+    UnsatisfiableSpecError,
+)
+from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
+from noisybolt.perception.protocols import FluentDetector
+from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
+
+__all__ = ["BoltSetup", "build_bolted_env", "make_env", "prepare_bolt"]
+
+#: Evaluation worlds are seeded apart from the training ones.
+EVAL_SEED_OFFSET = 10_000
+
+
+def make_env(
+    config: TrainConfig,
+    detector: FluentDetector,
+    *,
+    training: bool,
+    n_envs: int | None = None,
+    seed: int | None = None,
+    dfas: Sequence[Any] | None = None,
+    letters: np.ndarray | None = None,
+) -> VecEnv:
+    """The run's environments with every wrapper, in the order the module docstring draws.
+
+    Args:
+        config: the run.
+        detector: the bolt's fluent detector.
+        training: the learner's envs (the Atari conventions and the reward normaliser on
+            top) or evaluation envs (the bolted world alone).
+        n_envs: environments (default: ``config.n_envs`` for training, else
+            ``config.eval_envs``).
+        seed: seeds the worlds (default: the run's seed; evaluation ``+ 10,000``).
+        dfas: the specs' DFAs, if compiled already (:class:`BoltSetup`).
+        letters: see :class:`BoltSetup`.
+
+    Raises:
+        ConfigError: ``life_loss_terminal`` for a world without lives.
+    """
+    if n_envs is None:
+        n_envs = config.n_envs if training else config.eval_envs
+    if seed is None:
+        seed = config.seed + (0 if training else EVAL_SEED_OFFSET)
+    bolted = build_bolted_env(
+        config, detector, n_envs=n_envs, seed=seed, dfas=dfas, training=training, letters=letters
+    )
+    if not training:
+        return bolted
+    env: VecEnv = bolted
+    if config.hyperparams.get("life_loss_terminal"):
+        lives = getattr(bolted.world, "lives", None)
+        if not callable(lives):
+            raise ConfigError(
+                f"life_loss_terminal: the {config.world!r} world has no lives (it needs a "
+                "lives() method); remove the hyperparameter"
+            )
+        env = LifeLossTerminal(env, lives)
+    if config.hyperparams.get("normalize_reward"):
+        # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
+        # top, and off-policy replay buffers, which store VecNormalize's original (here:
+        # untransposed) observations, then get the wrong shape (DQN crashed).
+        env = _transposed(env)
+        env = VecNormalize(
+            env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
+        )
+    return env
+
+
+def build_bolted_env(
+    config: TrainConfig,
+    detector: FluentDetector,
+    *,
+    n_envs: int,
+    seed: int,
+    dfas: Sequence[Any] | None = None,
+    training: bool = False,
+    letters: np.ndarray | None = None,
+) -> BoltVecEnv:
+    """The world as an SB3 ``VecEnv``, monitored, with the bolt on top.
+
+    The Atari conventions among the hyperparameters: ``fire_on_reset`` is part of the
+    world (training and evaluation alike); ``clip_reward`` (the game's score clipped to
+    its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
+    above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
+    ``letters``: the world's true fluents seen in random play (:class:`BoltSetup`), for
+    the compliance scheme's progress terms.
+    """
+    world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
+    venv: VecEnv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
+    if training and config.hyperparams.get("clip_reward"):
+        venv = ClipGameReward(venv)
+    return BoltVecEnv(
+        venv,
+        config.spec_objects(),
+        detector,
+        world=world,
+        dfas=dfas,
+        thresholds=Thresholds(**config.thresholds),
+        cost_mode=config.cost_mode,  # type: ignore[arg-type]
+        progress_gamma=config.progress_gamma,
+        shaping=config.shaping,
+        world_letters=letters,
+    )
+
+
+@dataclass(frozen=True)
+class BoltSetup:
+    """What a bolted run needs besides the environments: checked specs and the detector.
+
+    Attributes:
+        fluents: the world's fluent vocabulary.
+        dfas: every spec's DFA over it.
+        detector: the fluent detector, checked against the world's fluents and camera.
+        letters: bool ``[n, n_fluents]``, the distinct true-fluent assignments seen in
+            random play (None under the paper scheme): progress shaping counts distances
+            to acceptance over the letters the world produces.
+    """
+
+    fluents: tuple[str, ...]
+    dfas: list[Any]
+    detector: FluentDetector
+    letters: np.ndarray | None = None
+
+
+def prepare_bolt(
+    config: TrainConfig,
+    *,
+    seed: int,
+    progress: bool = False,
+    log: Callable[[str], None] = print,
+    retrain_classifier: bool = False,
+) -> BoltSetup:
+    """Compiles the specs over the world's fluents and builds the detector
+    (``retrain_classifier``: see :func:`make_detector`'s ``retrain``).
+
+    Raises:
+        UnknownFluentError: a spec names a fluent the world lacks (listing the world's).
+        IncompatibleError: the detector's fluents or camera differ from the world's.
+    """
+    probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
+    fluents = tuple(probe.fluent_names)
+    dfas = _check_specs_against_world(config, fluents, log=log)
+    detector = make_detector(
+        config.detector,
+        world=config.world,
+        world_kwargs=config.world_kwargs,
+        fluent_names=fluents,
+        camera_spec=probe.camera_spec,
+        progress=progress,
+        log=log,
+        retrain=retrain_classifier,
+    )
+    letters = None
+    if config.progress_gamma is not None:
+        letters = _random_play_letters(config)
+    return BoltSetup(fluents=fluents, dfas=dfas, detector=detector, letters=letters)
+
+
+def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 128) -> np.ndarray:
+    """The distinct true-fluent assignments a world shows in ``n_envs * steps`` random
+    steps (seeded by the run's seed, so training and evaluation see the same)."""
+    world: Any = make_world(
+        config.world, num_envs=n_envs, seed=config.seed, **config.world_settings
+    )
+    world.reset(seed=config.seed)
+    world.action_space.seed(config.seed)
+    seen = [np.asarray(world.true_fluents(), dtype=bool)]
+    for _ in range(steps):
+        world.step(world.action_space.sample())
+        seen.append(np.asarray(world.true_fluents(), dtype=bool))
+    return np.unique(np.concatenate(seen), axis=0)
+
+
+def _check_specs_against_world(
+    config: TrainConfig, fluent_names: Sequence[str], *, log: Callable[[str], None] = print
+) -> list[Any]:
+    """Compiles every spec over the world's fluents (errors list the world's fluents).
+
+    Raises:
+        UnsatisfiableSpecError: no trace satisfies a spec. A spec that every trace
+            satisfies gets a warning through ``log`` (the bolt would ask for nothing).
+    """
+    dfas = []
+    for spec in config.spec_objects():
+        try:
+            dfas.append(compile_ltlf(spec.formula, fluent_names))
+        except RecursionError:
+            raise SpecSyntaxError(
+                f"spec {spec.name!r} is nested too deeply to compile; write it with fewer "
+                "nested operators",
+                formula=spec.formula,
+            ) from None
+        except UnknownFluentError as error:
+            raise UnknownFluentError(
+                f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the "
+                f"{config.world} does not have; this world's fluents are {list(fluent_names)}",
+                unknown=error.unknown,
+                known=tuple(fluent_names),
+            ) from None
+        if not is_satisfiable(dfas[-1]):
+            raise UnsatisfiableSpecError(
+                f"spec {spec.name!r} is unsatisfiable: no trace of the {config.world}'s "
+                f"fluents satisfies {spec.formula!r}, so no agent can comply; fix the formula",
+                formula=spec.formula,
+            )
+        if is_valid(dfas[-1]):
+            log(
+                f"warning: spec {spec.name!r} holds on every trace ({spec.formula!r}): the "
+                "bolt asks for nothing"
+            )
+    return dfas
+
+
+def _transposed(env: VecEnv) -> VecEnv:
+    """``env`` with channel-last image entries moved channel-first, as SB3 would do."""
+    from stable_baselines3.common.preprocessing import (
+        is_image_space,
+        is_image_space_channels_first,
+    )
+    from stable_baselines3.common.vec_env import VecTransposeImage
+
+    spaces = getattr(env.observation_space, "spaces", {"": env.observation_space})
+    if any(
+        is_image_space(space) and not is_image_space_channels_first(space)
+        for space in spaces.values()
+    ):
+        return VecTransposeImage(env)
+    return env
+
+
+def _next_multiple(value: int, step: int) -> int:
+    return (value // step + 1) * step if step else 0

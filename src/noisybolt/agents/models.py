@@ -1,0 +1,143 @@
+"""The learner: built from a run's config, saved, and loaded without running code.
+
+SB3's ``model.zip`` holds the weights (loaded by torch with ``weights_only=True``: no code)
+and a JSON ``data`` entry in which every object that JSON cannot hold (the policy class,
+the spaces, the schedules, the last observation) is a base64 cloudpickle, ``:serialized:``,
+that ``BaseAlgorithm.load`` would unpickle. A pickle can call anything, so a shared run
+directory would be code. :func:`load_model` passes every serialized key in
+``custom_objects`` instead, with the value rebuilt from the run's own config (a trial
+construction of the same model on the same spaces), and refuses a key it cannot rebuild.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.vec_env import VecEnv
+
+from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
+from noisybolt.agents.hyperparams import META_KEYS, algorithm_class
+from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
+
+__all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
+
+#: The entry of a saved model's ``data`` naming its algorithm (plain JSON).
+ALGO_KEY = "noisybolt_algo"
+
+
+def make_model(
+    config: TrainConfig,
+    env: VecEnv,
+    *,
+    tensorboard_log: str | None = None,
+    trial: bool = False,
+) -> BaseAlgorithm:
+    """The SB3 model of ``config`` on ``env`` (seeded by the run's seed).
+
+    ``trial``: a model built only to check the hyperparameters against the env's spaces
+    or to rebuild a saved model's objects (a one-transition replay buffer, so a trial of
+    an Atari DQN does not reserve gigabytes).
+
+    Raises:
+        ConfigError: SB3 or torch refuse the hyperparameters (the message is theirs).
+    """
+    params = {k: v for k, v in config.hyperparams.items() if k not in META_KEYS}
+    policy_kwargs = dict(params.pop("policy_kwargs", {}) or {})
+    extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", {}) or {})
+    if config.hyperparams.get("image_features") is not None:
+        extractor_kwargs["image_features"] = int(config.hyperparams["image_features"])
+    if config.hyperparams.get("cnn") is not None:
+        check_cnn(config.hyperparams["cnn"])
+        extractor_kwargs["cnn"] = str(config.hyperparams["cnn"])
+    policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
+    policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
+    if trial and "buffer_size" in params:
+        params["buffer_size"] = 1
+    cls = algorithm_class(config.algo)
+    try:
+        model = cls(
+            "MultiInputPolicy",
+            env,
+            policy_kwargs=policy_kwargs,
+            seed=config.seed,
+            verbose=0,
+            device="cpu",
+            tensorboard_log=tensorboard_log,
+            **params,
+        )
+    except (TypeError, ValueError, AssertionError, RuntimeError) as error:
+        raise ConfigError(
+            f"{config.algo.upper()} cannot be built from these hyperparameters "
+            f"({type(error).__name__}: {error}); fix them (--hp KEY=VALUE)"
+        ) from None
+    return model
+
+
+def save_model(model: BaseAlgorithm, handle: Any, *, algo: str) -> None:
+    """Saves ``model`` to an open binary file, its algorithm named in plain JSON."""
+    setattr(model, ALGO_KEY, algo)
+    model.save(handle, include=[ALGO_KEY])
+
+
+def read_model_data(path: Path) -> dict[str, Any]:
+    """The JSON ``data`` entry of a saved model, read without unpickling anything.
+
+    Raises:
+        CorruptFileError: the file is not a readable SB3 model archive.
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (zipfile.BadZipFile, KeyError, ValueError, EOFError) as error:
+        raise CorruptFileError(
+            f"{path} is corrupt ({type(error).__name__}: {error}); restore it from a copy, or "
+            "train the run again"
+        ) from None
+    if not isinstance(data, dict):
+        raise CorruptFileError(f"{path} is corrupt: its data entry is not a JSON object")
+    return data
+
+
+def load_model(path: Path, config: TrainConfig, env: VecEnv) -> BaseAlgorithm:
+    """Loads a saved model of ``config``'s run onto ``env`` without unpickling anything.
+
+    Raises:
+        UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
+        CorruptFileError: the file is damaged, or saved by another algorithm than
+            ``config.algo``, or for other spaces.
+    """
+    data = read_model_data(path)
+    algo = config.algo.lower()
+    saved_algo = data.get(ALGO_KEY)
+    trial = make_model(config, env, trial=True)
+    serialized = sorted(k for k, v in data.items() if isinstance(v, dict) and ":serialized:" in v)
+    unknown = [key for key in serialized if not hasattr(trial, key)]
+    if unknown:
+        raise UnsafeFileError(
+            f"{path} holds pickled entries {unknown} that a {algo.upper()} model does not "
+            "have; noisybolt never unpickles a model's entries (a pickle can run code), so "
+            "it will not load this file: train the run again, or load it yourself with "
+            "Stable-Baselines3 if you trust its author"
+        )
+    foreign = sorted(k for k in data if k != ALGO_KEY and not hasattr(trial, k))
+    if (saved_algo is not None and saved_algo != algo) or foreign:
+        raise CorruptFileError(
+            f"{path} was saved by another algorithm ({saved_algo or 'unknown'}) than the run's "
+            f"{algo}{f' (entries {foreign} are not {algo.upper()}’s)' if foreign else ''}: "
+            "the run directory mixes two runs; start it over (--restart) or use another one"
+        )
+    custom_objects = {key: getattr(trial, key) for key in serialized}
+    try:
+        return algorithm_class(algo).load(
+            path, env=env, device="cpu", custom_objects=custom_objects
+        )
+    except (zipfile.BadZipFile, KeyError, ValueError, RuntimeError, EOFError) as error:
+        raise CorruptFileError(
+            f"{path} is corrupt or was saved for another world ({type(error).__name__}: "
+            f"{str(error)[:300]}); restore it from a copy, or train the run again"
+        ) from None
