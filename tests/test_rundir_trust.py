@@ -26,7 +26,7 @@ import pytest
 
 from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 from noisybolt.cli import main
-from noisybolt.errors import CorruptFileError
+from noisybolt.errors import ConfigError, CorruptFileError
 
 
 def _quiet(_: str) -> None:
@@ -347,3 +347,21 @@ def test_docstring_examples_run(name: str) -> None:
 
     result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0 and result.failed == 0
+
+
+@pytest.mark.parametrize(
+    ("change", "path"),
+    [
+        ({"frames": "many"}, "frames"),
+        ({"detector": {"kind": "oracle", "sampels": 10}}, "detector.sampels"),
+        ({"detector": {"kind": "oracle", "samples": 1.5}}, "detector.samples"),
+        ({"keep_best": 1}, "keep_best"),
+        ({"colour": "red"}, "colour"),
+    ],
+)
+def test_a_saved_config_is_read_strictly_naming_the_key(
+    change: dict[str, object], path: str
+) -> None:
+    data = {**_config().to_dict(), **change}
+    with pytest.raises(ConfigError, match=path.replace(".", r"\.")):
+        TrainConfig.from_dict(data)

@@ -13,6 +13,7 @@ import copy
 import inspect
 import json
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, NoReturn
@@ -21,8 +22,13 @@ from noisybolt.agents.hyperparams import algorithm_class, load_hyperparams
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, RewardScheme, Spec, Thresholds, compliance_scale
 from noisybolt.envs import DEFAULT_WORLD, check_world, make_world
-from noisybolt.envs.bounds import world_return_bounds
-from noisybolt.errors import ConfigError, SpecSyntaxError, UnknownNameError
+from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
+from noisybolt.errors import (
+    ConfigError,
+    EstimatedBoundsWarning,
+    SpecSyntaxError,
+    UnknownNameError,
+)
 
 __all__ = [
     "DETECTORS",
@@ -397,13 +403,27 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TrainConfig:
-        """Reads :meth:`to_dict`'s output back; unknown keys are an error."""
+        """Reads :meth:`to_dict`'s output back, strictly.
+
+        Raises:
+            ConfigError: an unknown key, or a value of the wrong JSON type; the message
+                names the key's path (``detector.samples``).
+
+        Example:
+            >>> TrainConfig.from_dict({"specs": ["edge"], "detector": {"samples": "many"}})
+            Traceback (most recent call last):
+            ...
+            noisybolt.errors.ConfigError: config key detector.samples must be an integer, got 'many'
+        """
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"a training config is a mapping, got {type(data).__name__}")
         data = {**LEGACY_DEFAULTS, **data}
-        known = set(cls.__dataclass_fields__)
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ConfigError(f"unknown training config key(s) {unknown}; known: {sorted(known)}")
-        detector = DetectorConfig(**data.pop("detector", {}))
+        _check_keys(data, _FIELD_TYPES, "")
+        detector_data = data.pop("detector", {})
+        if not isinstance(detector_data, Mapping):
+            raise ConfigError(f"config key detector must be a mapping, got {detector_data!r}")
+        _check_keys(detector_data, _DETECTOR_TYPES, "detector.")
+        detector = DetectorConfig(**detector_data)
         data["specs"] = tuple(data.get("specs", ()))
         return cls(detector=detector, **data)
 
@@ -422,16 +442,94 @@ def _parsed_spec(fields: str | Mapping[str, Any]) -> Spec:
         ) from None
 
 
+#: Random-play steps (8 envs together) behind a world's estimated return bounds.
+ESTIMATE_STEPS = 4096
+
+
 def _scale_from_world(config: TrainConfig) -> float:
-    """The ``compliance`` scale from the world's declared return bounds."""
-    bounds = world_return_bounds(
-        make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-    )
+    """The ``compliance`` scale from the world's declared return bounds, or, for a world
+    that declares none, from bounds estimated by seeded random play (with a warning)."""
+    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    bounds = world_return_bounds(world)
     if bounds is None:
-        raise ConfigError(
-            f"the {config.world!r} world declares no bounds on its episodes' returns, from "
-            "which the compliance reward scheme sets what complying is worth: pass "
-            "--reward-scale S (S above the widest gap between two episodes' returns), or "
-            "--reward paper"
+        # A user's env rarely knows its bounds; refusing to train would send every new
+        # user to a flag. Random play's returns are an estimate, said so, not a bound.
+        world = make_world(config.world, num_envs=8, seed=0, **config.world_settings)
+        estimate = estimate_return_bounds(world, steps=ESTIMATE_STEPS, seed=0)
+        bounds = estimate.bounds
+        warnings.warn(
+            f"the {config.world!r} world declares no bounds on its episodes' returns; the "
+            f"compliance scale {compliance_scale(bounds):g} rests on bounds "
+            f"{estimate.describe()}. A trained agent may return more than random play: "
+            "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or pass "
+            "--reward-scale S (S above the widest gap between two episodes' returns)",
+            EstimatedBoundsWarning,
+            stacklevel=2,
         )
     return compliance_scale(bounds)
+
+
+#: JSON types of each config field (what ``config.json`` may hold there); None allowed
+#: where the field's default is None.
+_FIELD_TYPES: dict[str, tuple[type, ...]] = {
+    "world": (str,),
+    "world_kwargs": (dict,),
+    "specs": (list, tuple),
+    "algo": (str,),
+    "hyperparams": (dict,),
+    "detector": (dict,),
+    "frames": (int,),
+    "seed": (int,),
+    "eval_freq": (int,),
+    "eval_episodes": (int,),
+    "eval_envs": (int,),
+    "eval_deterministic": (bool,),
+    "success_threshold": (int, float),
+    "checkpoint_freq": (int,),
+    "thresholds": (dict,),
+    "cost_mode": (str,),
+    "reward": (str,),
+    "reward_scale": (int, float, type(None)),
+    "shaping": (bool,),
+    "bolted": (bool,),
+    "keep_best": (bool,),
+    "progress_bar": (bool,),
+}
+_DETECTOR_TYPES: dict[str, tuple[type, ...]] = {
+    "kind": (str,),
+    "path": (str, type(None)),
+    "low_confidence": (list, tuple),
+    "samples": (int,),
+    "epochs": (int,),
+    "seed": (int,),
+}
+_TYPE_NAMES = {
+    str: "a string",
+    dict: "a mapping",
+    list: "a list",
+    int: "an integer",
+    float: "a number",
+    bool: "true or false",
+}
+
+
+def _check_keys(data: Mapping[str, Any], types: Mapping[str, tuple[type, ...]], path: str) -> None:
+    """Refuses unknown keys and values of the wrong JSON type, naming the key's path.
+
+    Fields that a newer config adds and this table lacks are checked by their own
+    constructor only (the table types what ``config.json`` holds today).
+    """
+    unknown = sorted(
+        set(data) - set(types) - set(TrainConfig.__dataclass_fields__ if not path else ())
+    )
+    if unknown:
+        known = sorted(set(types) | (set(TrainConfig.__dataclass_fields__) if not path else set()))
+        raise ConfigError(f"unknown config key(s) {[path + k for k in unknown]}; known: {known}")
+    for key, value in data.items():
+        allowed = types.get(key)
+        if allowed is None:
+            continue
+        wrong = not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed)
+        if wrong:
+            wanted = " or ".join(_TYPE_NAMES.get(t, "null") for t in allowed if t is not tuple)
+            raise ConfigError(f"config key {path}{key} must be {wanted}, got {value!r}")

@@ -21,7 +21,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
-from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
+from noisybolt.agents.training import TrainConfig, make_env, prepare_bolt
 from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import make_single_world, world_display
 from noisybolt.errors import ConfigError
@@ -65,7 +65,6 @@ def load_run_model(
     else:
         raise ConfigError(f"{run.path} holds neither model.zip nor a checkpoint")
     if env is None:
-        from noisybolt.agents.environments import make_env
         from noisybolt.envs import make_world
         from noisybolt.perception.detectors import OracleDetector
 
@@ -161,8 +160,14 @@ def evaluate_run(
     # Loaded onto envs of its own: loading seeds the model's env with the run's seed, which
     # must not touch the evaluation's.
     model = load_run_model(run, config)
-    env = build_bolted_env(
-        config, detector, n_envs=min(8, episodes), seed=seed, dfas=dfas, letters=setup.letters
+    env = make_env(
+        config,
+        detector,
+        training=False,
+        n_envs=min(8, episodes),
+        seed=seed,
+        dfas=dfas,
+        letters=setup.letters,
     )
     result = evaluate_bolted_policy(
         lambda obs: model.predict(obs, deterministic=deterministic)[0],
