@@ -16,6 +16,7 @@ __all__ = [
     "ConfigError",
     "CorruptFileError",
     "DenseTableError",
+    "EstimatedBoundsWarning",
     "FluentFunctionError",
     "IncompatibleError",
     "NoCheckpointError",
@@ -171,3 +172,9 @@ class NoCheckpointError(ConfigError):
 class UnsafeFileError(CorruptFileError):
     """A file in a run directory that noisybolt will not load because loading it could run
     code (a pickle, or a model entry it does not know); the message says what to do."""
+
+
+class EstimatedBoundsWarning(UserWarning):
+    """The world declares no bounds on its episodes' returns, so the ``compliance`` scale
+    was set from bounds estimated by random play; declare them (``return_bounds=``) or give
+    the scale to be sure compliance comes first."""

@@ -224,6 +224,9 @@ def test_check_on_worlds_with_and_without_return_bounds(
     assert main(["check", "--world", "unbounded_lake:make", "--spec", "F(at_goal)"]) == 0
     out = capsys.readouterr().out
     assert "declares no bounds" in out and "satisfiable" in out and "no route check" in out
+    # FrozenLake without declared bounds: random play returns 0 or 1 (the goal is reached
+    # in some of ~500 random episodes), raised by half that width: 1.1 x 1.5.
+    assert "estimated from" in out and "compliance scale: 1.65" in out
     argv = ["check", "--world", "unbounded_lake:make", "--spec", "F(at_goal)"]
     assert main([*argv, "--reward-scale", "2"]) == 0
     assert "compliance scale: 2" in capsys.readouterr().out
@@ -248,3 +251,29 @@ def test_fluent_labels_declare_return_bounds() -> None:
     for bad in ((1, 0), (0,), (0, float("inf")), "0-1"):
         with pytest.raises(ConfigError):
             lake(return_bounds=bad)
+
+
+def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from noisybolt.agents.training import DetectorConfig, TrainConfig
+    from noisybolt.errors import EstimatedBoundsWarning
+
+    (tmp_path / "bare_lake.py").write_text(
+        "import gymnasium as gym\n"
+        "import noisybolt\n"
+        "def make():\n"
+        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
+        "    return noisybolt.FluentLabels(lake, fluents={'at_goal': lambda e: e.s == 15})\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    common = {"world": "bare_lake:make", "specs": ["F(at_goal)"]}
+    with pytest.warns(EstimatedBoundsWarning, match=r"declare the bounds.*--reward-scale"):
+        config = TrainConfig.create(**common, detector=DetectorConfig(kind="oracle"))
+    assert config.reward == "compliance" and config.reward_scale == pytest.approx(1.65)
+    # The estimate is seeded: the same scale again; a given scale is taken as it is.
+    with pytest.warns(EstimatedBoundsWarning):
+        again = TrainConfig.create(**common, detector=DetectorConfig(kind="oracle"))
+    assert again.reward_scale == config.reward_scale
+    given = TrainConfig.create(**common, reward_scale=3.0, detector=DetectorConfig(kind="oracle"))
+    assert given.reward_scale == 3.0

@@ -11,6 +11,7 @@ the product, and whether the optimal policy of that scheme complies.
 from __future__ import annotations
 
 import argparse
+import warnings
 from typing import Any
 
 __all__ = ["register"]
@@ -43,7 +44,7 @@ def _check(args: argparse.Namespace) -> int:
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
     from noisybolt.envs.registry import DEFAULT_WORLD
-    from noisybolt.errors import ConfigError
+    from noisybolt.errors import ConfigError, EstimatedBoundsWarning
     from noisybolt.experiments.checks import exact_scale, goal_feasibility, tabular_settings
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
@@ -61,15 +62,17 @@ def _check(args: argparse.Namespace) -> int:
         "detector": DetectorConfig(kind="oracle"),
         "world_kwargs": {} if args.noise is None else {"noise": args.noise},
     }
-    # The specs are checked whatever the scheme; the compliance scheme needs a scale, which
-    # a world that declares no return bounds does not give.
-    try:
+    # A world that declares no return bounds gets a scale from random play: say so.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", EstimatedBoundsWarning)
         config = TrainConfig.create(**common, reward_scale=args.reward_scale)
-    except ConfigError as error:
-        if "declares no bounds" not in str(error):
-            raise
-        config = TrainConfig.create(**common, reward="paper")
-        print(f"note: {error}")
+    for warning in caught:
+        if issubclass(warning.category, EstimatedBoundsWarning):
+            print(f"note: {warning.message}")
+        else:
+            warnings.warn_explicit(
+                warning.message, warning.category, warning.filename, warning.lineno
+            )
     lines: list[str] = []
     setup = prepare_bolt(config, seed=0, log=lines.append)  # refuses unsatisfiable specs
     for spec, dfa in zip(config.spec_objects(), setup.dfas, strict=True):
