@@ -160,3 +160,27 @@ def test_batched_belief_bolt_equals_single_wrappers() -> None:
                 sobs, _ = single.reset()
             single_obs[i] = sobs
     assert n_done >= n
+
+
+def test_single_wrapper_with_explicit_threshold_is_bit_identical_to_the_default() -> None:
+    envs = [GridworldEnv(max_steps=30), GridworldEnv(max_steps=30)]
+    default = RestrainingBoltWrapper(
+        envs[0], SPECS, SyntheticDetector(envs[0].fluent_names, seed=3)
+    )
+    threshold = RestrainingBoltWrapper(
+        envs[1], SPECS, SyntheticDetector(envs[1].fluent_names, seed=3), tracking="threshold"
+    )
+    obs_a, _ = default.reset(seed=2)
+    obs_b, _ = threshold.reset(seed=2)
+    rng = np.random.default_rng(0)
+    for _ in range(120):
+        np.testing.assert_array_equal(obs_a["dfa"], obs_b["dfa"])
+        assert obs_a["dfa"].dtype == obs_b["dfa"].dtype == np.int64
+        action = int(rng.integers(4))
+        obs_a, rew_a, term_a, trunc_a, info_a = default.step(action)
+        obs_b, rew_b, term_b, trunc_b, info_b = threshold.step(action)
+        assert rew_a == rew_b and (term_a, trunc_a) == (term_b, trunc_b)
+        np.testing.assert_array_equal(info_a["bolt_terminal"], info_b["bolt_terminal"])
+        if term_a or trunc_a:
+            obs_a, _ = default.reset()
+            obs_b, _ = threshold.reset()
