@@ -1,0 +1,69 @@
+"""benchmarks/belief_tracking.py: its replay and rates on hand-made episodes, and a tiny run."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from noisybolt.bolt import Spec
+
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "belief_tracking.py"
+
+
+def _module() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("belief_tracking_benchmark", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_replay_counts_a_glitch_as_a_false_acceptance_only_under_threshold() -> None:
+    bench = _module()
+    no, yes, glitch = 0.02, 0.99, 0.8
+    episodes = [
+        # x never true; one glitch frame: threshold accepts F(x), belief does not.
+        bench.Episode(np.array([[no], [no], [glitch], [no], [no]]), np.zeros((5, 1), bool)),
+        # x true for three frames: both accept.
+        bench.Episode(
+            np.array([[no], [yes], [yes], [yes], [no], [no]]),
+            np.array([[0], [1], [1], [1], [0], [0]], dtype=bool),
+        ),
+        # nothing at all, a shorter episode.
+        bench.Episode(np.array([[no], [no]]), np.zeros((2, 1), bool)),
+    ]
+    specs = [Spec("F(x)", terminal_reward=1.0, low_confidence_cost=0.5)]
+    threshold = bench.replay(episodes, specs, ["x"], tracking="threshold")
+    belief = bench.replay(
+        episodes, specs, ["x"], tracking="belief", belief=bench.BeliefSettings(base_rates=0.1)
+    )
+    np.testing.assert_array_equal(threshold[1], [[False], [True], [False]])  # the truth
+    np.testing.assert_array_equal(threshold[0], [[True], [True], [False]])
+    np.testing.assert_array_equal(belief[0], [[False], [True], [False]])
+    false, recall, positives = bench.rates(*threshold)
+    assert false.tolist() == pytest.approx([1 / 3]) and recall.tolist() == [1.0]
+    assert positives.tolist() == [1]
+    false, recall, _ = bench.rates(*belief)
+    assert false.tolist() == [0.0] and recall.tolist() == [1.0]
+
+
+def test_glitch_detector_is_sure_except_on_its_share_of_frames() -> None:
+    bench = _module()
+    detector = bench.GlitchDetector(["a", "b", "c"], rate=0.03, seed=0)
+    truth = np.zeros((20_000, 3), dtype=bool)
+    truth[:, 0] = True
+    probs = detector.predict(np.zeros((20_000, 1, 1, 3), np.uint8), truth=truth)
+    assert probs[:, 0].min() >= 0.95
+    glitched = (probs[:, 1:] >= 0.5).any(axis=1)
+    assert glitched.mean() == pytest.approx(0.03, abs=0.005)
+    assert probs[:, 1:].max() <= 0.9
+
+
+def test_cost_table_runs_on_tiny_sizes(capsys: pytest.CaptureFixture[str]) -> None:
+    _module().cost(n_envs=4, fluent_counts=(1, 2), repeats=3)
+    out = capsys.readouterr().out
+    assert "| 1 |" in out and "| 2 |" in out
