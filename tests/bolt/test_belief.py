@@ -284,7 +284,7 @@ def test_decisive_frames_give_threshold_tracking_states_and_rewards() -> None:
             fluents,
             dfas=dfas,
             n_envs=8,
-            tracking=mode,  # type: ignore[arg-type]
+            tracking=mode,
             belief=BeliefSettings(max_log_ratio=40.0, base_rates=0.5, min_dwell=1)
             if mode == "belief"
             else None,
@@ -321,7 +321,7 @@ def test_progress_shaping_in_expectation_equals_shaping_of_sure_states() -> None
             dfas=dfas,
             n_envs=4,
             shaping=shaping,
-            tracking=mode,  # type: ignore[arg-type]
+            tracking=mode,
             belief=BeliefSettings(max_log_ratio=40.0, base_rates=0.5, min_dwell=1)
             if mode == "belief"
             else None,

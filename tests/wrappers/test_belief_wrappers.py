@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any, cast
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -30,7 +32,8 @@ def _vec(tracking: str | None, *, seed: int = 0, **kwargs: object) -> BoltVecEnv
 
 def test_explicit_threshold_tracking_is_bit_identical_to_the_default() -> None:
     default, threshold = _vec(None), _vec("threshold")
-    obs_a, obs_b = default.reset(), threshold.reset()
+    obs_a: Any = default.reset()
+    obs_b: Any = threshold.reset()
     rng = np.random.default_rng(0)
     for _ in range(80):
         for key in ("image", "dfa"):
@@ -48,10 +51,10 @@ def test_explicit_threshold_tracking_is_bit_identical_to_the_default() -> None:
 
 def test_belief_observation_is_a_box_of_distributions_sb3_can_read() -> None:
     env = _vec("belief")
-    space = env.observation_space["dfa"]
+    space = cast(gym.spaces.Dict, env.observation_space)["dfa"]
     assert isinstance(space, gym.spaces.Box)
     assert space.shape == (sum(env.bolt.n_states),)
-    obs = env.reset()
+    obs: Any = env.reset()
     rng = np.random.default_rng(1)
     offsets = np.cumsum((0, *env.bolt.n_states))[:-1]
     for _ in range(30):
@@ -75,8 +78,8 @@ def test_belief_observation_is_a_box_of_distributions_sb3_can_read() -> None:
 
 def test_argmax_observation_is_multidiscrete_of_the_most_likely_states() -> None:
     env = _vec("belief", belief=BeliefSettings(observation="argmax"))
-    assert isinstance(env.observation_space["dfa"], gym.spaces.MultiDiscrete)
-    obs = env.reset()
+    assert isinstance(cast(gym.spaces.Dict, env.observation_space)["dfa"], gym.spaces.MultiDiscrete)
+    obs: Any = env.reset()
     for _ in range(10):
         np.testing.assert_array_equal(obs["dfa"], env.bolt.states)
         obs, *_ = env.step(np.zeros(4, dtype=int))
@@ -117,7 +120,7 @@ def test_belief_wrapped_reward_is_env_reward_plus_an_independent_belief_bolt() -
         out = reference.step(info["fluent_probs"][None].astype(np.float64), done=term or trunc)
         assert info["env_reward"] == reward
         assert info["bolt_reward"] == pytest.approx(float(out.total[0]))
-        assert wreward == pytest.approx(reward + float(out.total[0]))
+        assert wreward == pytest.approx(float(reward) + float(out.total[0]))
         np.testing.assert_array_equal(info["dfa_accepting"], out.accepting[0])
         np.testing.assert_allclose(wobs["dfa"], reference.beliefs[0], atol=1e-6)
         if term or trunc:
@@ -138,7 +141,7 @@ def test_batched_belief_bolt_equals_single_wrappers() -> None:
         singles.append(
             RestrainingBoltWrapper(env, SPECS, OracleDetector(env.fluent_names), tracking="belief")
         )
-    obs = batched.reset()
+    obs: Any = batched.reset()
     single_obs = [s.reset(seed=0)[0] for s in singles]
     rng = np.random.default_rng(0)
     n_done = 0
