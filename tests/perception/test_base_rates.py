@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from noisybolt.errors import BaseRateError
 from noisybolt.perception.base_rates import (
     adjust_probs,
+    belief_settings_from_play,
     estimate_base_rates,
     estimate_switch_rates,
 )
@@ -88,3 +89,12 @@ def test_module_examples_run() -> None:
 
     result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_belief_settings_from_play_carry_the_em_estimate() -> None:
+    probs = calibrated_frames(0.1, 0.9, 20_000, seed=4)
+    settings = belief_settings_from_play([probs[:10_000], probs[10_000:]], monotone=("x",))
+    assert settings.base_rates == pytest.approx((estimate_base_rates(probs).rates[0],))
+    assert settings.monotone == ("x",) and settings.switch_rate == 0.5
+    with_rates = belief_settings_from_play([probs], switch_rates=True)
+    assert with_rates.switch_rate == pytest.approx(tuple(estimate_switch_rates([probs])))

@@ -39,13 +39,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from noisybolt.bolt.belief import BeliefSettings
 from noisybolt.errors import BaseRateError
 
-__all__ = ["BaseRateEstimate", "adjust_probs", "estimate_base_rates", "estimate_switch_rates"]
+__all__ = [
+    "BaseRateEstimate",
+    "adjust_probs",
+    "belief_settings_from_play",
+    "estimate_base_rates",
+    "estimate_switch_rates",
+]
 
 _EPS = 1e-9
 
@@ -183,3 +190,42 @@ def estimate_switch_rates(episodes: Sequence[np.ndarray], *, floor: float = 0.01
     with np.errstate(invalid="ignore", divide="ignore"):
         correlation = np.where(spread > 0, lagged / spread, 1.0)
     return np.clip(1.0 - correlation, floor, 1.0)
+
+
+def belief_settings_from_play(
+    episodes: Sequence[np.ndarray],
+    *,
+    training_prior: float | Sequence[float] | np.ndarray = 0.5,
+    switch_rates: bool = False,
+    **settings: Any,
+) -> BeliefSettings:
+    """:class:`~noisybolt.bolt.BeliefSettings` with base rates estimated from play.
+
+    Args:
+        episodes: the detector's probabilities over unlabelled episodes of play, each
+            float ``[T, n_fluents]`` in the bolt's fluent order.
+        training_prior: each fluent's frequency in the detector's training set.
+        switch_rates: estimate the switch rates too (:func:`estimate_switch_rates`);
+            False keeps the settings' (measured on the gridworld, the estimated rates
+            cost recall of short visits, see ``benchmarks/README.md``).
+        settings: any other :class:`~noisybolt.bolt.BeliefSettings` field.
+
+    Raises:
+        ValueError: no frames; BaseRateError, ConfigError: bad settings.
+
+    Example:
+        >>> frames = [np.array([[0.9], [0.1], [0.1], [0.1]])]
+        >>> belief_settings_from_play(frames, monotone=("x",)).monotone
+        ('x',)
+    """
+    frames = np.concatenate([_probs(e) for e in episodes])
+    prior = np.broadcast_to(np.asarray(training_prior, dtype=np.float64), (frames.shape[1],))
+    estimate = estimate_base_rates(frames, training_prior=prior)
+    extra: dict[str, Any] = {}
+    if switch_rates:
+        extra["switch_rate"] = tuple(float(r) for r in estimate_switch_rates(episodes))
+    return BeliefSettings(
+        base_rates=tuple(float(r) for r in estimate.rates),
+        training_prior=tuple(float(p) for p in prior),
+        **{**extra, **settings},
+    )
