@@ -403,3 +403,12 @@ def test_env_mask_moves_only_the_masked_rows() -> None:
     np.testing.assert_array_equal(bolt.beliefs[1], before[1])
     assert out.total[1] == 0.0
     assert bolt.beliefs[0, 1] > 0.8 and bolt.beliefs[2, 1] > 0.8
+
+
+def test_a_spec_too_large_to_track_is_refused_with_what_to_do() -> None:
+    fluents = [f"a{i}" for i in range(7)]
+    formula = f"F({' & '.join(fluents)})"  # 2 states * 3**7 cells at min_dwell 2
+    with pytest.raises(ConfigError, match="split the spec"):
+        RestrainingBolt(
+            [spec(formula)], fluents, dfas=[compile_ltlf(formula, fluents)], tracking="belief"
+        )

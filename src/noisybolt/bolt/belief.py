@@ -362,8 +362,8 @@ class BeliefEngine:
                     f"belief tracking of a DFA with {dfa.n_states} states over "
                     f"{len(dfa.relevant_fluents)} fluents (min_dwell {settings.min_dwell}) "
                     f"needs {n} cells, over "
-                    f"MAX_BELIEF_CELLS={MAX_BELIEF_CELLS}; split the spec or use "
-                    "tracking='threshold'"
+                    f"MAX_BELIEF_CELLS={MAX_BELIEF_CELLS}; split the spec, lower min_dwell "
+                    "to 1, or use tracking='threshold'"
                 )
         n_cells = max(cells)
         q_max = max(dfa.n_states for dfa in dfas)
