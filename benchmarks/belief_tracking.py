@@ -200,7 +200,7 @@ def rates(bolt_end: np.ndarray, truth_end: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def setting_parts(
-    name: str, seed: int, n_envs: int
+    name: str, seed: int, n_envs: int, breakout_world: str = "breakout-ram"
 ) -> tuple[Any, Any, tuple[Spec, ...], int, tuple[str, ...]]:
     """``(world, detector, specs, n_actions, monotone fluents)`` of a setting."""
     from noisybolt.agents.training import DetectorConfig, make_detector
@@ -229,10 +229,10 @@ def setting_parts(
         "breakout-sigma50": "gaussian:sigma=50",
     }[name]
     kwargs: dict[str, Any] = {"noise": noise, "fire_on_reset": True}
-    world = make_world("breakout", num_envs=n_envs, seed=seed, **kwargs)
+    world = make_world(breakout_world, num_envs=n_envs, seed=seed, **kwargs)
     detector = make_detector(
         DetectorConfig(kind="classifier"),
-        world="breakout",
+        world=breakout_world,
         world_kwargs=kwargs,
         fluent_names=world.fluent_names,
         camera_spec=world.camera_spec,
@@ -244,10 +244,15 @@ def setting_parts(
 
 
 def measure(
-    name: str, episodes: int, n_envs: int, seed: int, belief_kwargs: dict[str, Any]
+    name: str,
+    episodes: int,
+    n_envs: int,
+    seed: int,
+    belief_kwargs: dict[str, Any],
+    breakout_world: str = "breakout-ram",
 ) -> None:
     """Records a setting's episodes once and prints the side-by-side table."""
-    world, detector, specs, n_actions, monotone = setting_parts(name, seed, n_envs)
+    world, detector, specs, n_actions, monotone = setting_parts(name, seed, n_envs, breakout_world)
     fluents = tuple(world.fluent_names)
     calibration = record(world, detector, max(episodes // 4, 8), seed + 1, n_actions)
     estimate = estimate_base_rates(np.concatenate([e.probs for e in calibration]))
@@ -344,6 +349,12 @@ def main() -> None:
     parser.add_argument("--n-envs", type=int, default=16)
     parser.add_argument("--seed", type=int, default=123)
     parser.add_argument("--cost", action="store_true", help="also time both modes")
+    parser.add_argument(
+        "--breakout-world",
+        default="breakout-ram",
+        help="breakout or breakout-ram: the same game and bolt camera, the agent's view "
+        "differs (irrelevant to random play); each has its own cached classifiers",
+    )
     parser.add_argument("--switch-rate", type=float, default=None)
     parser.add_argument("--evidence-weight", type=float, default=None)
     args = parser.parse_args()
@@ -356,7 +367,7 @@ def main() -> None:
     if args.evidence_weight is not None:
         belief_kwargs["evidence_weight"] = args.evidence_weight
     for name in args.setting or ("grid-glitch", "grid-smudge"):
-        measure(name, args.episodes, args.n_envs, args.seed, belief_kwargs)
+        measure(name, args.episodes, args.n_envs, args.seed, belief_kwargs, args.breakout_world)
     if args.cost:
         cost()
 
