@@ -7,7 +7,7 @@ the optimiser, ``state.json`` with the evaluation history) and the bolt's classi
 one trained on the fly, ~200 kB). ``keep`` copies exactly that into
 ``results/breakout/<run>/`` and ``results/breakout/classifiers/`` (commit them);
 ``restore`` puts them back under ``runs/`` and the classifier cache, after which the
-command in ``command.txt`` (it ends with ``--resume``) continues the run. ``summary``
+command in ``command.txt`` with ``--resume`` (``restore`` prints it) continues the run. ``summary``
 writes ``results/breakout/summary.json`` from every kept run's evaluations.
 
     .venv/bin/python scripts/breakout_runs.py keep runs/breakout-ram-ppo-bolted-seed0 ...
@@ -117,7 +117,10 @@ def restore(name: str, runs: Path) -> None:
     classifier = classifier_file(json.loads((source / "config.json").read_text()))
     if classifier is not None and not classifier.exists():
         _copy(CLASSIFIERS / classifier.name, classifier)
-    print(f"{source} -> {target}; continue with: {(target / 'command.txt').read_text().strip()}")
+    command = (target / "command.txt").read_text().strip()
+    if "--resume" not in command.split():
+        command += " --resume"
+    print(f"{source} -> {target}; continue with: {command}")
 
 
 def _agent(config: dict[str, Any]) -> str:
