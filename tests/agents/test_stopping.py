@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -133,3 +134,79 @@ def test_docstring_examples_run() -> None:
 
     result = doctest.testmod(stopping)
     assert result.attempted > 0 and result.failed == 0
+
+
+# ---------------------------------------------------------------------- train(stop_after=k)
+def _scripted_success(monkeypatch: pytest.MonkeyPatch, rates: list[float]) -> list[int]:
+    """Makes every periodic evaluation of ``train`` report the next scripted success rate
+    (the episodes themselves still run); returns the list of evaluated frame counts."""
+    import dataclasses
+
+    from noisybolt.agents import callbacks
+
+    real = callbacks.evaluate_bolted_policy
+    seen: list[int] = []
+
+    def scripted(*args: Any, **kwargs: Any) -> Any:
+        result = real(*args, **kwargs)
+        rate = rates[len(seen)] if len(seen) < len(rates) else 0.0
+        seen.append(len(seen))
+        return dataclasses.replace(result, success_rate=rate)
+
+    monkeypatch.setattr(callbacks, "evaluate_bolted_policy", scripted)
+    return seen
+
+
+def _stopping_config(**kwargs: Any) -> Any:
+    from noisybolt.agents.training import DetectorConfig, TrainConfig
+
+    settings: dict[str, Any] = {
+        "specs": ["edge"],
+        "detector": DetectorConfig(kind="oracle"),
+        "frames": 20 * 512,
+        "eval_freq": 512,
+        "eval_episodes": 2,
+        "checkpoint_freq": 0,
+        "progress_bar": False,
+        "overrides": {"n_steps": 64},  # 8 envs x 64 = one update per evaluation
+        "stop_after": 3,
+    }
+    settings.update(kwargs)
+    return TrainConfig.create(**settings)
+
+
+def test_train_stops_after_exactly_k_solved_evaluations(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import json
+
+    from noisybolt.agents.training import train
+
+    seen = _scripted_success(monkeypatch, [0.0, 1.0, 0.95, 0.5, 1.0, 0.96, 1.0, 1.0])
+    result = train(_stopping_config(), tmp_path / "run", log=lambda _: None)
+    # Evaluations 5, 6 and 7 (at 2560, 3072, 3584 frames) are the first three in a row.
+    assert len(seen) == 7
+    assert result.frames == 7 * 512
+    assert [r["frames"] for r in result.history] == [512 * i for i in range(1, 8)]
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["stopped_at"] == 7 * 512 and summary["frames"] == 7 * 512
+    assert summary["frames_to_comply"] == 2 * 512  # N_frames: the first solved evaluation
+
+
+def test_train_without_the_rule_trains_its_whole_budget(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from noisybolt.agents.training import train
+
+    seen = _scripted_success(monkeypatch, [1.0] * 10)
+    result = train(
+        _stopping_config(stop_after=0, frames=4 * 512), tmp_path / "run", log=lambda _: None
+    )
+    assert result.frames == 4 * 512 and len(seen) == 4
+
+
+def test_stop_after_needs_periodic_evaluations() -> None:
+    with pytest.raises(ConfigError, match="eval_freq > 0"):
+        _stopping_config(eval_freq=0)
+    with pytest.raises(ConfigError, match="give stop_after >= 0"):
+        _stopping_config(stop_after=-1)

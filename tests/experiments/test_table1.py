@@ -114,6 +114,21 @@ def test_the_default_sweep_is_eight_rows_by_three_seeds_with_the_noisy_classifie
         assert trial.config.eval_deterministic == (row.algo == "dqn")
 
 
+def test_n_frames_does_not_depend_on_the_budget() -> None:
+    # Stop when solved, and every schedule that decides when a policy first acts surely
+    # fixed in frames: the same for any budget (frames_scale 1 or 3).
+    for scale in (1.0, 3.0):
+        for trial in table1_sweep(frames_scale=scale).trials:
+            config = trial.config
+            assert config.stop_after == 3 and config.success_threshold == 0.95
+            if config.algo == "a2c":
+                assert config.hyperparams["ent_coef_frames"] == 50_000
+            if config.algo == "dqn":
+                assert config.hyperparams["exploration_frames"] == 3_000
+                assert "exploration_fraction" not in config.hyperparams
+    assert {t.config.stop_after for t in table1_sweep(stop_after=0).trials} == {0}
+
+
 def test_rows_are_chosen_by_row_or_spec_name() -> None:
     assert [r.name for r in select_rows(["edge"])] == ["edge-ppo", "edge-a2c", "edge-dqn"]
     assert select_rows(None) == TABLE1_ROWS

@@ -18,7 +18,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, NoReturn
 
-from noisybolt.agents.hyperparams import algorithm_class, load_hyperparams
+from noisybolt.agents.hyperparams import (
+    META_KEYS,
+    algorithm_class,
+    frame_schedules,
+    load_hyperparams,
+)
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import COST_MODES, RewardScheme, Spec, Thresholds, compliance_scale
 from noisybolt.envs import DEFAULT_WORLD, check_world, make_world
@@ -42,9 +47,14 @@ __all__ = [
 
 DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
 #: Settings that may change when a run is resumed.
-RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar")
+RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar", "stop_after")
 #: What a config saved before a setting existed meant by it (read on resume).
-LEGACY_DEFAULTS: dict[str, Any] = {"reward": "paper", "reward_scale": None, "shaping": False}
+LEGACY_DEFAULTS: dict[str, Any] = {
+    "reward": "paper",
+    "reward_scale": None,
+    "shaping": False,
+    "stop_after": 0,
+}
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
 
@@ -111,6 +121,8 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "tau": (0.0, 1.0, True, False),
     "ent_coef": (0.0, float("inf"), False, True),
     "ent_coef_final": (0.0, float("inf"), False, True),
+    "ent_coef_frames": (1, float("inf"), False, True),
+    "exploration_frames": (1, float("inf"), False, True),
     "vf_coef": (0.0, float("inf"), False, True),
     "max_grad_norm": (0.0, float("inf"), True, True),
     "clip_range": (0.0, float("inf"), True, True),
@@ -120,7 +132,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "n_envs": (1, float("inf"), False, True),
     "image_features": (1, float("inf"), False, True),
 }
-_INTEGERS = frozenset({"n_envs", "image_features"})
+_INTEGERS = frozenset({"n_envs", "image_features", "ent_coef_frames", "exploration_frames"})
 
 
 def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
@@ -147,6 +159,8 @@ def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
         default = defaults.get(key, inspect.Parameter.empty)
         numeric_default = isinstance(default, (int, float)) and not isinstance(default, bool)
         if key == "train_freq" and isinstance(value, (list, tuple)):
+            continue
+        if value is None and key in META_KEYS:  # noisybolt's own settings: null is unset
             continue
         if key in _RANGES or numeric_default:
             wants_int = key in _INTEGERS or (isinstance(default, int) and numeric_default)
@@ -223,6 +237,10 @@ class TrainConfig:
             on a grid often loops (turning on the spot) where its sampled one does not.
         success_threshold: the share of evaluation episodes that must reach the goal and
             comply with every spec for the run to count as compliant (N_frames).
+        stop_after: stop when solved: end training once this many periodic evaluations
+            in a row reach ``success_threshold``
+            (:class:`~noisybolt.agents.stopping.StopWhenSolved`); 0 trains the whole
+            ``frames`` budget.
         checkpoint_freq: frames between checkpoints (0: none).
         thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
         cost_mode: ``"count"`` or ``"proportional"``.
@@ -259,6 +277,7 @@ class TrainConfig:
     eval_envs: int = 4
     eval_deterministic: bool = False
     success_threshold: float = 0.95
+    stop_after: int = 0
     checkpoint_freq: int = 20_000
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
@@ -277,6 +296,7 @@ class TrainConfig:
         check_hyperparameter_values(
             self.algo, {k: v for k, v in self.hyperparams.items() if k != "policy_kwargs"}
         )
+        frame_schedules(self.hyperparams, frames=int(self.frames))  # validates them
         if isinstance(self.seed, bool) or not isinstance(self.seed, int):
             raise ConfigError(f"seed must be an integer, got {self.seed!r}")
         if not SEED_RANGE[0] <= self.seed <= SEED_RANGE[1]:
@@ -294,6 +314,13 @@ class TrainConfig:
                 raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 < self.success_threshold <= 1.0:
             raise ConfigError(f"success_threshold must be in (0, 1], got {self.success_threshold}")
+        if isinstance(self.stop_after, bool) or not isinstance(self.stop_after, int):
+            raise ConfigError(f"stop_after must be an integer >= 0, got {self.stop_after!r}")
+        if self.stop_after < 0 or (self.stop_after and not self.eval_freq):
+            raise ConfigError(
+                f"stop_after={self.stop_after}: stopping when solved counts periodic "
+                "evaluations; give stop_after >= 0 and, for stop_after > 0, eval_freq > 0"
+            )
         if self.cost_mode not in COST_MODES:
             raise ConfigError(
                 f"cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"

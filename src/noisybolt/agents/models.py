@@ -21,7 +21,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
-from noisybolt.agents.hyperparams import META_KEYS, algorithm_class
+from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, frame_schedules
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
 __all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
@@ -47,6 +47,8 @@ def make_model(
         ConfigError: SB3 or torch refuse the hyperparameters (the message is theirs).
     """
     params = {k: v for k, v in config.hyperparams.items() if k not in META_KEYS}
+    # Schedules given in frames (DQN's exploration_frames) as SB3's fractions of this run.
+    params.update(frame_schedules(config.hyperparams, frames=config.frames))
     policy_kwargs = dict(params.pop("policy_kwargs", {}) or {})
     extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", {}) or {})
     if config.hyperparams.get("image_features") is not None:

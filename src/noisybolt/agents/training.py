@@ -78,6 +78,7 @@ from noisybolt.agents.environments import BoltSetup, build_bolted_env, make_env,
 from noisybolt.agents.evaluation import EvalResult
 from noisybolt.agents.models import load_model
 from noisybolt.agents.models import make_model as _make_model
+from noisybolt.agents.stopping import StopWhenSolved, trailing_streak
 from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError
 from noisybolt.io import atomic_write_json
 from noisybolt.rundir import RunDirectory
@@ -299,6 +300,16 @@ def _learn(
     log: Callable[[str], None],
 ) -> TrainResult:
     spec_names = [s.name for s in config.spec_objects()]
+    stop = None
+    if config.stop_after:
+        # A resumed run continues the streak its saved evaluations ended on.
+        streak = trailing_streak([r["success_rate"] for r in history], config.success_threshold)
+        stop = StopWhenSolved(
+            threshold=config.success_threshold,
+            consecutive=config.stop_after,
+            score=lambda parent: parent.success_rate,
+            streak=streak,
+        )
     evaluation = EvaluationCallback(
         config=config,
         run=run,
@@ -308,6 +319,7 @@ def _learn(
         frames_to_comply=frames_to_comply,
         best=best,
         callback_on_new_best=SaveBestModel(run, algo=config.algo) if config.keep_best else None,
+        callback_after_eval=stop,
     )
     checkpoints = CheckpointCallback(config=config, run=run, evaluation=evaluation)
     callbacks: list[BaseCallback] = [evaluation, checkpoints]
@@ -316,11 +328,12 @@ def _learn(
             EntropySchedule(
                 float(config.hyperparams.get("ent_coef", 0.0)),
                 float(config.hyperparams["ent_coef_final"]),
-                config.frames,
+                # Fixed in frames (ent_coef_frames) or over the whole budget.
+                int(config.hyperparams.get("ent_coef_frames") or config.frames),
             )
         )
     remaining = config.frames - model.num_timesteps
-    if remaining > 0:
+    if remaining > 0 and not (stop is not None and stop.solved):
         try:
             model.learn(
                 total_timesteps=remaining,
@@ -364,6 +377,8 @@ def _learn(
     summary = {
         "frames": int(model.num_timesteps),
         "frames_to_comply": evaluation.frames_to_comply,
+        # Where stop-when-solved ended the run (None: it trained its budget, or no rule).
+        "stopped_at": None if stop is None or not stop.solved else int(model.num_timesteps),
         "kept_model": kept,
         "final": final.to_dict(),
     }
