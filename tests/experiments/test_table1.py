@@ -129,6 +129,15 @@ def test_n_frames_does_not_depend_on_the_budget() -> None:
     assert {t.config.stop_after for t in table1_sweep(stop_after=0).trials} == {0}
 
 
+def test_the_command_line_sets_the_stopping_rule(small_table: Path) -> None:
+    data = json.loads((small_table / "table1.json").read_text())
+    assert "--stop-after 3" in data["command"] and data["settings"]["stop_after"] == 3
+    config = json.loads(
+        (small_table / "trials" / "edge-ppo" / "seed-0" / "config.json").read_text()
+    )
+    assert config["stop_after"] == 3
+
+
 def test_rows_are_chosen_by_row_or_spec_name() -> None:
     assert [r.name for r in select_rows(["edge"])] == ["edge-ppo", "edge-a2c", "edge-dqn"]
     assert select_rows(None) == TABLE1_ROWS

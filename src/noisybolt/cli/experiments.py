@@ -163,6 +163,13 @@ def register(subparsers: Any) -> None:
     )
     table1.add_argument("--retries", type=_count, default=1)
     table1.add_argument(
+        "--stop-after",
+        type=_count,
+        default=3,
+        help="stop a seed once this many evaluations in a row have >= 95%% of episodes at "
+        "the goal and complying (default 3; 0: every seed trains its whole budget)",
+    )
+    table1.add_argument(
         "--last-model",
         action="store_true",
         help="report each seed's last model, not the one of its evaluation with the best "
@@ -275,6 +282,7 @@ def _table1(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         final_episodes=args.final_episodes,
         retries=args.retries,
+        stop_after=args.stop_after,
         last_model=args.last_model,
         out=args.out,
         backend=args.backend,
@@ -294,6 +302,7 @@ def _table1(args: argparse.Namespace) -> int:
         final_eval_episodes=args.final_episodes,
         retries=args.retries,
         keep_best=not args.last_model,
+        stop_after=args.stop_after,
         backend=args.backend,
         workers=_workers(args),
         address=args.address,
