@@ -231,7 +231,8 @@ class EntropySchedule(BaseCallback):
     Args:
         start: coefficient at frame 0.
         end: coefficient from ``frames`` on.
-        frames: frames over which it moves (the run's budget).
+        frames: frames over which it moves (the hyperparameter ``ent_coef_frames``, or
+            the run's budget without it).
     """
 
     def __init__(self, start: float, end: float, frames: int) -> None:
