@@ -57,8 +57,18 @@ def _run_local(
 
     # spawn, not fork: torch in a forked child of a process that used threads can hang.
     context = multiprocessing.get_context("spawn")
+    records = []
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        return list(pool.map(_attempts, tasks, [retries] * len(tasks), [runner] * len(tasks)))
+        futures = [pool.submit(_attempts, task, retries, runner) for task in tasks]
+        for task, future in zip(tasks, futures, strict=True):
+            try:
+                records.append(future.result())
+            except Exception as error:  # the worker process itself died (killed, OOM)
+                folder = TrialDirectory(task.run_dir)
+                folder.record_failure(error)
+                folder.write_outcome("failed", 0.0)
+                records.append(folder.record(task.trial, task.final_eval_episodes))
+    return records
 
 
 def _check_clashes(sweep: SweepConfig, trials_dir: Path) -> None:
@@ -137,7 +147,7 @@ def run_sweep(
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; known backends: {list(BACKENDS)}")
     if (address is not None or callbacks) and backend != "ray":
-        raise ConfigError("--address names a Ray cluster: use it with --backend ray")
+        raise ConfigError("--address (a Ray cluster) and Tune callbacks need --backend ray")
     workers = (1 if backend == "local" else 0) if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
         raise ConfigError(f"workers must be an integer >= 0, got {workers!r}")
