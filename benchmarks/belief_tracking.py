@@ -26,7 +26,8 @@ Columns: ``threshold`` (Algorithm 1), ``IBU`` (the same filter without persisten
 ``belief`` (the defaults: switch rate 0.5, min_dwell 2) and ``belief, s est.`` (switch
 rates estimated too).
 Belief tracking's base rates are estimated without ground truth (EM of Saerens et al.
-2002 on the detector's outputs over separate calibration episodes of random play), and so
+2002 on the detector's outputs over separate calibration episodes of random play, floored
+at 0.01: see :func:`~noisybolt.perception.base_rates.belief_settings_from_play`), and so
 are the fluents' switch rates (from the lag-one autocorrelation of those outputs).
 
 Cost (``--cost``): microseconds per environment-step of ``RestrainingBolt.step`` at 64
@@ -48,7 +49,7 @@ import numpy as np
 
 from noisybolt.bolt import BeliefSettings, RestrainingBolt, Spec, Tracking
 from noisybolt.logic import compile_ltlf
-from noisybolt.perception.base_rates import estimate_base_rates, estimate_switch_rates
+from noisybolt.perception.base_rates import belief_settings_from_play
 
 GRID_SPECS = (
     Spec("F(bottom_left_corner)", terminal_reward=1.0, low_confidence_cost=0.5, name="visit_bl"),
@@ -255,10 +256,13 @@ def measure(
     world, detector, specs, n_actions, monotone = setting_parts(name, seed, n_envs, breakout_world)
     fluents = tuple(world.fluent_names)
     calibration = record(world, detector, max(episodes // 4, 8), seed + 1, n_actions)
-    estimate = estimate_base_rates(np.concatenate([e.probs for e in calibration]))
-    switch = estimate_switch_rates([e.probs for e in calibration])
+    estimated = belief_settings_from_play(
+        [e.probs for e in calibration], switch_rates=True, monotone=monotone
+    )
+    switch = np.asarray(estimated.switch_rate)
     recorded = record(world, detector, episodes, seed, n_actions)
-    base = {"base_rates": tuple(estimate.rates), "monotone": monotone, **belief_kwargs}
+    rates_used = np.asarray(estimated.base_rates)
+    base = {"base_rates": tuple(rates_used), "monotone": monotone, **belief_kwargs}
     trackers: dict[str, BeliefSettings | None] = {
         "threshold": None,
         # With no persistence (s = 1, min_dwell = 1) the joint filter is independent
@@ -274,10 +278,10 @@ def measure(
         f"(seed {seed}){'; belief ' + str(belief_kwargs) if belief_kwargs else ''}"
     )
     print(
-        "EM base rate / switch rate (no labels) vs true frequency: "
+        "EM base rate (floored at 0.01) / switch rate, no labels, vs true frequency: "
         + ", ".join(
             f"{f} {r:.3f}/{sw:.2f} ({t:.3f})"
-            for f, r, sw, t in zip(fluents, estimate.rates, switch, truth_rate, strict=True)
+            for f, r, sw, t in zip(fluents, rates_used, switch, truth_rate, strict=True)
         )
     )
     results = {}

@@ -95,6 +95,11 @@ def test_belief_settings_from_play_carry_the_em_estimate() -> None:
     probs = calibrated_frames(0.1, 0.9, 20_000, seed=4)
     settings = belief_settings_from_play([probs[:10_000], probs[10_000:]], monotone=("x",))
     assert settings.base_rates == pytest.approx((estimate_base_rates(probs).rates[0],))
+    # EM's 0 for a fluent never seen is floored: a trained agent may still produce it.
+    never = belief_settings_from_play([np.full((50, 1), 0.01)], min_base_rate=0.02)
+    assert never.base_rates == (0.02,)
+    with pytest.raises(BaseRateError):
+        belief_settings_from_play([probs], min_base_rate=1.5)
     assert settings.monotone == ("x",) and settings.switch_rate == 0.5
     with_rates = belief_settings_from_play([probs], switch_rates=True)
     assert with_rates.switch_rate == pytest.approx(tuple(estimate_switch_rates([probs])))
