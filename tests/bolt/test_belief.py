@@ -412,3 +412,14 @@ def test_a_spec_too_large_to_track_is_refused_with_what_to_do() -> None:
         RestrainingBolt(
             [spec(formula)], fluents, dfas=[compile_ltlf(formula, fluents)], tracking="belief"
         )
+
+
+def test_a_rare_monotone_event_is_believed_after_a_few_clear_frames() -> None:
+    # A brick random play never reached (base rate floored at 0.01) that an agent clears.
+    bolt = belief_bolt(eventually(), "F(x)", base_rates=(0.01,), monotone=("x",))
+    out = bolt.reset(np.array([[0.01]]))
+    accepted = []
+    for _ in range(4):
+        out = bolt.step(np.array([[0.99]]))
+        accepted.append(bool(out.accepting[0, 0]))
+    assert accepted == [False, True, True, True]
