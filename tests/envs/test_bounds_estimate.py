@@ -45,7 +45,8 @@ def test_bounds_from_the_episodes_random_play_ends_by_hand() -> None:
     assert estimate.bounds.low == 0.0
     assert estimate.bounds.high == pytest.approx(3.0 + ESTIMATE_MARGIN * 3.0)
     assert estimate.describe().endswith(
-        "1332 random-play episodes (4000 steps; returns 0 to 3, longest 3 steps), raised to [0, 4.5]"
+        "1332 random-play episodes (4000 steps; returns 0 to 3, longest 3 steps), "
+        "raised to [0, 4.5]"
     )
 
 
