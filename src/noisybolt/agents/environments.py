@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
@@ -42,6 +42,32 @@ __all__ = ["BoltSetup", "build_bolted_env", "make_env", "prepare_bolt"]
 
 #: Evaluation worlds are seeded apart from the training ones.
 EVAL_SEED_OFFSET = 10_000
+
+
+@overload
+def make_env(
+    config: TrainConfig,
+    detector: FluentDetector,
+    *,
+    training: Literal[False],
+    n_envs: int | None = None,
+    seed: int | None = None,
+    dfas: Sequence[Any] | None = None,
+    letters: np.ndarray | None = None,
+) -> BoltVecEnv: ...
+
+
+@overload
+def make_env(
+    config: TrainConfig,
+    detector: FluentDetector,
+    *,
+    training: bool,
+    n_envs: int | None = None,
+    seed: int | None = None,
+    dfas: Sequence[Any] | None = None,
+    letters: np.ndarray | None = None,
+) -> VecEnv: ...
 
 
 def make_env(

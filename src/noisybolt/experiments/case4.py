@@ -132,7 +132,7 @@ def measure_corners(
 
     from noisybolt.agents.evaluation import EpisodeRecord, evaluate_bolted_policy
     from noisybolt.agents.run_evaluation import load_run_model
-    from noisybolt.agents.training import TrainConfig, build_bolted_env, prepare_bolt
+    from noisybolt.agents.training import TrainConfig, make_env, prepare_bolt
     from noisybolt.rundir import RunDirectory
 
     if episodes < 1:
@@ -153,8 +153,14 @@ def measure_corners(
     dfas, detector = setup.dfas, setup.detector
     model = load_run_model(run, config)
     n_envs = max(1, min(n_envs, episodes))
-    env = build_bolted_env(
-        config, detector, n_envs=n_envs, seed=seed, dfas=dfas, letters=setup.letters
+    env = make_env(
+        config,
+        detector,
+        training=False,
+        n_envs=n_envs,
+        seed=seed,
+        dfas=dfas,
+        letters=setup.letters,
     )
     world: Any = env.world
     if not hasattr(world, "agent_state"):
