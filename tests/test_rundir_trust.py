@@ -365,3 +365,18 @@ def test_a_saved_config_is_read_strictly_naming_the_key(
     data = {**_config().to_dict(), **change}
     with pytest.raises(ConfigError, match=path.replace(".", r"\.")):
         TrainConfig.from_dict(data)
+
+
+def test_a_sweep_trial_killed_before_its_first_checkpoint_starts_over(tmp_path: Path) -> None:
+    # A trial whose directory holds config.json but no checkpoint has nothing to resume
+    # (a resume is refused): the sweep starts it over instead.
+    from noisybolt.experiments.sweeps.trials import TrialTask, run_trial
+    from noisybolt.rundir import RunDirectory
+
+    config = _config(frames=512, eval_freq=0, checkpoint_freq=0)
+    folder = tmp_path / "trial"
+    RunDirectory(folder).write_config(config.to_dict())
+    trial = {"id": "t", "group": "g", "row": "r", "seed": 0, "settings": {}}
+    run_trial(TrialTask(trial={**trial, "config": config.to_dict()}, run_dir=str(folder)))
+    assert json.loads((folder / "summary.json").read_text())["frames"] == 512
+    assert [m["frames"] for m in json.loads((folder / "metrics.json").read_text())] == [512]
