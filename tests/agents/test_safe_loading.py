@@ -169,3 +169,46 @@ def _env(config: TrainConfig) -> object:
 
     fluents = make_world(config.world, num_envs=1, seed=0).fluent_names
     return make_env(config, OracleDetector(fluents), training=True)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "dqn"])
+def test_a_trusted_old_run_converts_and_resumes(
+    ppo_run: Path, dqn_run: Path, tmp_path: Path, algo: str
+) -> None:
+    # A run as an older noisybolt saved it: the normaliser pickled whole, the replay
+    # buffer with SB3's save_replay_buffer. Refused as is; converted by its owner, resumed.
+    from stable_baselines3.common.save_util import save_to_pkl
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from noisybolt.agents.checkpoints import _main, load_normaliser
+
+    run = tmp_path / "run"
+    shutil.copytree(ppo_run if algo == "ppo" else dqn_run, run)
+    config = TrainConfig.from_dict(json.loads((run / "config.json").read_text()))
+    folder = next((run / "checkpoints").glob("step_*"))
+    if algo == "ppo":
+        env = _env(config)
+        assert isinstance(env, VecNormalize)
+        load_normaliser(env, folder / "vecnormalize.npz")
+        expected = float(env.ret_rms.var.item())
+        (folder / "vecnormalize.npz").unlink()
+        with (folder / "vecnormalize.pkl").open("wb") as handle:
+            pickle.dump(env, handle)
+    else:
+        from noisybolt.agents.checkpoints import load_replay_buffer
+        from noisybolt.agents.models import make_model
+
+        model = make_model(config, _env(config))
+        load_replay_buffer(model, folder / "replay_buffer.npz")
+        (folder / "replay_buffer.npz").unlink()
+        save_to_pkl(folder / "replay_buffer.pkl", model.replay_buffer)  # type: ignore[attr-defined]
+    more = TrainConfig.from_dict({**config.to_dict(), "frames": 1024})
+    with pytest.raises(CorruptFileError, match="--trust-pickles"):
+        train(more, run, resume=True, log=_quiet)
+    assert _main([str(run), "--trust-pickles"]) == 0
+    assert not list(run.rglob("*.pkl"))
+    if algo == "ppo":
+        env = _env(config)
+        load_normaliser(env, folder / "vecnormalize.npz")  # type: ignore[arg-type]
+        assert float(env.ret_rms.var.item()) == expected  # type: ignore[attr-defined]
+    assert train(more, run, resume=True, log=_quiet).frames == 1024

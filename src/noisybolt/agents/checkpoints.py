@@ -35,6 +35,7 @@ __all__ = [
     "BEST_DIR",
     "Checkpoint",
     "best_folder",
+    "convert_pickled_run",
     "copy_model_files",
     "latest_checkpoint",
     "load_normaliser",
@@ -199,9 +200,11 @@ def refuse_pickles(folder: Path) -> None:
     for name in LEGACY_PICKLES:
         if (folder / name).exists():
             raise UnsafeFileError(
-                f"{folder / name} is a pickle (saved by noisybolt before 0.x stored npz), and "
-                "loading a pickle can run any code; noisybolt does not load it. Start the run "
-                "over with --restart (its final model.zip still evaluates)"
+                f"{folder / name} is a pickle (saved by an older noisybolt), and loading a "
+                "pickle can run any code, so noisybolt does not load it. If you trust whoever "
+                "wrote this run, convert it once with `python -m noisybolt.agents.checkpoints "
+                "--trust-pickles RUN_DIR`; otherwise start the run over with --restart (its "
+                "final model.zip still evaluates)"
             )
 
 
@@ -273,3 +276,69 @@ def _fit(arrays: Mapping[str, np.ndarray], key: str, shape: tuple[int, ...], pat
             "run over with --restart"
         )
     return array.copy()
+
+
+# ---------------------------------------------------------------------- old runs
+def convert_pickled_run(run_dir: str | Path) -> list[Path]:
+    """Converts a run saved by an older noisybolt: its pickled normaliser statistics and
+    replay buffers become the npz files this version reads, and the pickles are removed.
+
+    This *unpickles* them, which runs whatever code they hold: call it only on a run you
+    trust (one you trained yourself). Returns the files converted.
+    """
+    import pickle
+
+    from stable_baselines3.common.save_util import load_from_pkl
+
+    run = RunDirectory(run_dir)
+    folders = [
+        run.path,
+        *run.path.glob(f"{CHECKPOINTS}/step_*"),
+        *run.path.glob(f"{BEST_DIR}/step_*"),
+    ]
+    converted = []
+    for folder in folders:
+        old = folder / "vecnormalize.pkl"
+        if old.is_file():
+            with old.open("rb") as handle:
+                normaliser = pickle.load(handle)  # the caller trusts it (see above)
+            if "returns" not in vars(normaliser):
+                # VecNormalize pickles without its running returns; SB3's own loader
+                # restarts them at zero, as a resume from the pickle did.
+                normaliser.returns = np.zeros(normaliser.num_envs)
+            save_normaliser(normaliser, folder / NORMALISER)
+            old.unlink()
+            converted.append(old)
+        old = folder / "replay_buffer.pkl"
+        if old.is_file():
+            buffer = load_from_pkl(old)
+            with atomic_open(folder / REPLAY_BUFFER, "wb") as handle:
+                np.savez(handle, **_buffer_arrays(buffer))  # type: ignore[arg-type]
+            old.unlink()
+            converted.append(old)
+    return converted
+
+
+def _main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m noisybolt.agents.checkpoints",
+        description="Convert a run saved by an older noisybolt (pickled statistics and "
+        "replay buffers) to npz. Unpickling runs code: only for runs you trust.",
+    )
+    parser.add_argument("run_dir", type=Path)
+    parser.add_argument(
+        "--trust-pickles",
+        action="store_true",
+        required=True,
+        help="confirm that you trust whoever wrote this run (its pickles are unpickled)",
+    )
+    args = parser.parse_args(argv)
+    for path in convert_pickled_run(args.run_dir):
+        print(f"converted {path}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(_main())
