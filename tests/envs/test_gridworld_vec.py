@@ -248,13 +248,14 @@ def test_make_world_builds_the_gridworld() -> None:
     assert isinstance(world, VectorGridworld) and world.num_envs == 3
     assert world.config.obs_mode == "rgb" and world.camera_spec.noise["name"] == "salt_pepper"
     assert make_world("gridworld", size=8).camera_spec.shape == (64, 64, 3)
-    assert known_worlds() == ("breakout", "gridworld")
+    assert known_worlds() == ("breakout", "breakout-ram", "gridworld")
 
 
 def test_make_world_bad_input() -> None:
-    with pytest.raises(UnknownNameError, match="breakout, gridworld") as info:
+    with pytest.raises(UnknownNameError, match="breakout, breakout-ram, gridworld") as info:
         make_world("pong")
-    assert info.value.name == "pong" and info.value.known == ("breakout", "gridworld")
+    assert info.value.name == "pong"
+    assert info.value.known == ("breakout", "breakout-ram", "gridworld")
     with pytest.raises(ConfigError, match="colour"):
         make_world("gridworld", colour="blue")
     with pytest.raises(UnknownNameError, match="gaussian"):
