@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from noisybolt.agents.evaluation import EpisodeRecord, EvalResult, summarise
-from noisybolt.bolt import CostMode, Thresholds
+from noisybolt.bolt import CostMode, Thresholds, Tracking
 from noisybolt.envs.gridworld import GridAction, GridworldEnv
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
@@ -271,6 +271,8 @@ def _record(
         dfas=setup.dfas,
         thresholds=Thresholds(**config.thresholds),
         cost_mode=cast(CostMode, config.cost_mode),  # checked by TrainConfig
+        tracking=cast(Tracking, config.tracking),  # checked by TrainConfig
+        belief=config.belief_settings,
     )
     policy = policy_from_model(model, deterministic=deterministic)
     return [record_episode(env, policy, seed=EVAL_SEED + i) for i in range(episodes)]

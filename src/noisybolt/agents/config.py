@@ -25,7 +25,15 @@ from noisybolt.agents.hyperparams import (
     load_hyperparams,
 )
 from noisybolt.agents.specs import expand_specs, resolve_spec
-from noisybolt.bolt import COST_MODES, RewardScheme, Spec, Thresholds, compliance_scale
+from noisybolt.bolt import (
+    COST_MODES,
+    BeliefSettings,
+    RewardScheme,
+    Spec,
+    Thresholds,
+    compliance_scale,
+)
+from noisybolt.bolt.belief import check_tracking
 from noisybolt.envs import DEFAULT_WORLD, check_world, make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
 from noisybolt.errors import (
@@ -244,6 +252,11 @@ class TrainConfig:
         checkpoint_freq: frames between checkpoints (0: none).
         thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
         cost_mode: ``"count"`` or ``"proportional"``.
+        tracking: how the bolt tracks its DFAs: ``"threshold"`` (Algorithm 1, the
+            default, what ``reproduce`` uses) or ``"belief"`` (a distribution over each
+            spec's DFA states, :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
+        confidence: ``belief`` only: the probability of the paid-for condition at which a
+            spec counts as accepting and is paid, in (0.5, 1).
         reward: the reward scheme (:mod:`noisybolt.bolt.schemes`): ``"compliance"``
             (default: compliance first, then the world's return) or ``"paper"`` (each
             spec's own terminal reward every accepting step: what ``reproduce`` uses).
@@ -281,6 +294,8 @@ class TrainConfig:
     checkpoint_freq: int = 20_000
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
+    tracking: str = "threshold"
+    confidence: float = 0.9
     reward: str = "compliance"
     reward_scale: float | None = None
     shaping: bool = True
@@ -326,6 +341,8 @@ class TrainConfig:
                 f"cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
             )
         Thresholds(**self.thresholds)
+        check_tracking(self.tracking)
+        BeliefSettings(confidence=self.confidence)  # ConfidenceLevelError outside (0.5, 1)
         object.__setattr__(self, "specs", tuple(_frozen(dict(s)) for s in self.specs))
         if self.reward == "compliance" and self.reward_scale is None:
             object.__setattr__(self, "reward_scale", _scale_from_world(self))
@@ -403,6 +420,11 @@ class TrainConfig:
         if not self.bolted or self.reward == "paper":
             return None
         return 1.0
+
+    @property
+    def belief_settings(self) -> BeliefSettings | None:
+        """The bolt's belief-tracking settings (None under threshold tracking)."""
+        return BeliefSettings(confidence=self.confidence) if self.tracking == "belief" else None
 
     @property
     def n_envs(self) -> int:
@@ -515,6 +537,8 @@ _FIELD_TYPES: dict[str, tuple[type, ...]] = {
     "checkpoint_freq": (int,),
     "thresholds": (dict,),
     "cost_mode": (str,),
+    "tracking": (str,),
+    "confidence": (int, float),
     "reward": (str,),
     "reward_scale": (int, float, type(None)),
     "shaping": (bool,),

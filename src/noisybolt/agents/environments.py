@@ -156,6 +156,8 @@ def build_bolted_env(
         dfas=dfas,
         thresholds=Thresholds(**config.thresholds),
         cost_mode=config.cost_mode,  # type: ignore[arg-type]
+        tracking=config.tracking,  # type: ignore[arg-type]
+        belief=config.belief_settings,
         progress_gamma=config.progress_gamma,
         shaping=config.shaping,
         world_letters=letters,

@@ -157,6 +157,18 @@ def register(subparsers: Any) -> None:
     )
     train.add_argument("--cost-mode", default="count", help="count (paper) or proportional")
     train.add_argument(
+        "--tracking",
+        default="threshold",
+        help="threshold (Algorithm 1: one frame decides) or belief (a distribution over "
+        "each spec's DFA states, paid at --confidence)",
+    )
+    train.add_argument(
+        "--confidence",
+        type=float,
+        default=0.9,
+        help="belief tracking: the probability at which a spec counts as accepted and is paid",
+    )
+    train.add_argument(
         "--unbolted",
         action="store_true",
         help="train without the bolt's rewards (compliance still measured)",
@@ -296,6 +308,8 @@ def _train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
         cost_mode=args.cost_mode,
+        tracking=args.tracking,
+        confidence=args.confidence,
         reward=args.reward,
         reward_scale=args.reward_scale,
         shaping=not args.no_shaping,
