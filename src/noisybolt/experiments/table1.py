@@ -277,7 +277,9 @@ class Table1Entry:
         n_seeds: seeds asked for.
         n_done: seeds finished.
         n_failed: seeds failed.
-        frames: frames trained per seed (the row's budget).
+        frames: the row's frame budget per seed.
+        frames_trained: frames each seed trained (over the finished seeds): below the
+            budget where stop-when-solved ended it.
     """
 
     row: Table1Row
@@ -294,6 +296,7 @@ class Table1Entry:
     n_done: int
     n_failed: int
     frames: int
+    frames_trained: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (statistics as ``{"mean", "std", "n"}``)."""
@@ -319,6 +322,7 @@ class Table1Entry:
             "n_done": self.n_done,
             "n_failed": self.n_failed,
             "frames": self.frames,
+            "frames_trained": stat(self.frames_trained),
             "paper": {
                 "rc_max": self.row.paper.rc_max,
                 "r_pi": self.row.paper.r_pi,
@@ -347,6 +351,7 @@ class Table1Entry:
             n_done=data["n_done"],
             n_failed=data["n_failed"],
             frames=data["frames"],
+            frames_trained=Stat.from_dict(data.get("frames_trained")),
         )
 
 
@@ -418,6 +423,7 @@ def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
                 n_done=group.n_done,
                 n_failed=group.n_failed,
                 frames=frames,
+                frames_trained=group.frames,
             )
         )
     return tuple(entries)
@@ -438,7 +444,7 @@ TABLE1_HEADER: tuple[str, ...] = (
     "goal rate",
     "followed",
     "paper",
-    "frames/seed",
+    "frames trained / budget",
     "seeds",
 )
 _CSV_HEADER = (
@@ -446,7 +452,7 @@ _CSV_HEADER = (
     "paper_r_pi", "n_steps_mean", "n_steps_std", "paper_n_steps", "n_frames_mean",
     "n_frames_reached", "paper_n_frames", "compliance_mean", "compliance_min",
     "goal_rate_mean", "followed", "paper_followed", "frames", "n_seeds", "n_done",
-    "n_failed",
+    "n_failed", "frames_trained_mean",
 )  # fmt: skip
 
 
@@ -474,7 +480,8 @@ def table1_table(entries: Sequence[Table1Entry]) -> Table:
                 pm(e.n_steps, 1), format_number(paper.n_steps), n_frames(e),
                 format_frames(paper.n_frames), percent(e.compliance and e.compliance.mean),
                 percent(e.goal_rate and e.goal_rate.mean), mark(e.followed), mark(paper.followed),
-                format_frames(e.frames), seeds,
+                f"{format_frames(e.frames_trained and e.frames_trained.mean)} / "
+                f"{format_frames(e.frames)}", seeds,
             )
         )  # fmt: skip
         data.append(
@@ -487,6 +494,7 @@ def table1_table(entries: Sequence[Table1Entry]) -> Table:
                 "" if e.compliance_min is None else f"{e.compliance_min:.6g}",
                 num(e.goal_rate, "mean"), "" if e.followed is None else int(e.followed),
                 int(paper.followed), e.frames, e.n_seeds, e.n_done, e.n_failed,
+                num(e.frames_trained, "mean"),
             )
         )  # fmt: skip
     return Table(TABLE1_HEADER, tuple(rows), _CSV_HEADER, tuple(data))
