@@ -62,6 +62,9 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "reward_scale": None,
     "shaping": False,
     "stop_after": 0,
+    # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
+    "tracking": "threshold",
+    "confidence": 0.9,
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
