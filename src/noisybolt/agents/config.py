@@ -62,6 +62,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "reward_scale": None,
     "shaping": False,
     "stop_after": 0,
+    # before keep_best existed a run's final model was its last
+    "keep_best": False,
     # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
     "tracking": "threshold",
     "confidence": 0.9,
