@@ -67,6 +67,7 @@ def test_a_world_whose_episodes_all_return_the_same_keeps_a_width_of_one_step() 
     estimate = estimate_return_bounds(_world(pay=0.0), steps=40, seed=0)
     assert estimate.observed == (0.0, 0.0)
     assert estimate.bounds.width == 0.0  # compliance_scale then gives 1
+    assert estimate.describe().endswith("it says nothing of the gap)")
 
 
 @pytest.mark.parametrize("steps", [0, -3, 2.5, True])

@@ -97,11 +97,16 @@ class EstimatedBounds:
     def describe(self) -> str:
         """One line for a log: the estimate and what it rests on."""
         lo, hi = self.observed
-        return (
+        text = (
             f"estimated from {self.episodes} random-play episodes ({self.steps} steps; returns "
             f"{lo:g} to {hi:g}, longest {self.longest} steps), raised to "
             f"[{self.bounds.low:g}, {self.bounds.high:g}]"
         )
+        if lo == hi:
+            # e.g. a sparse goal random play never reached: the gap a trained agent can
+            # open is unknown, and the scale falls back to 1.
+            text += " (random play returned the same every time: it says nothing of the gap)"
+        return text
 
 
 def estimate_return_bounds(world: Any, *, steps: int = 4096, seed: int = 0) -> EstimatedBounds:
