@@ -22,6 +22,7 @@ __all__ = [
     "NoCheckpointError",
     "NoisyboltError",
     "RunLockedError",
+    "SmallIntegerImagesWarning",
     "SpecSyntaxError",
     "UnknownFluentError",
     "UnknownNameError",
@@ -178,3 +179,8 @@ class EstimatedBoundsWarning(UserWarning):
     """The world declares no bounds on its episodes' returns, so the ``compliance`` scale
     was set from bounds estimated by random play; declare them (``return_bounds=``) or give
     the scale to be sure compliance comes first."""
+
+
+class SmallIntegerImagesWarning(UserWarning):
+    """A user's world shows uint8 image observations holding small integers (a symbolic
+    grid), so they reach the agent's network undivided (``normalize_images`` off)."""

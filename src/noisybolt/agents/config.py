@@ -18,6 +18,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, NoReturn
 
+import gymnasium as gym
+import numpy as np
+
 from noisybolt.agents.hyperparams import (
     META_KEYS,
     algorithm_class,
@@ -36,9 +39,11 @@ from noisybolt.bolt import (
 from noisybolt.bolt.belief import check_tracking
 from noisybolt.envs import DEFAULT_WORLD, check_world, make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
+from noisybolt.envs.registry import is_factory_path
 from noisybolt.errors import (
     ConfigError,
     EstimatedBoundsWarning,
+    SmallIntegerImagesWarning,
     SpecSyntaxError,
     UnknownNameError,
 )
@@ -399,6 +404,9 @@ class TrainConfig:
         params = load_hyperparams(world, algo, overrides, hp_file=hp_file)
         if n_envs is not None:
             params["n_envs"] = int(n_envs)
+        chosen = "policy_kwargs.normalize_images" in (overrides or {}) or hp_file is not None
+        if is_factory_path(world) and not chosen:
+            _keep_small_integer_images(world, dict(kwargs.get("world_kwargs") or {}), params)
         return cls(world=world, specs=tuple(resolved), algo=algo, hyperparams=params, **kwargs)
 
     @property
@@ -494,6 +502,49 @@ def _parsed_spec(fields: str | Mapping[str, Any]) -> Spec:
             "nested operators (e.g. G(a & b) instead of G(a) & G(b) nested)",
             formula=formula,
         ) from None
+
+
+#: The largest value an image observation may show in random play and still be read as
+#: small integers (MiniGrid's symbolic grid: object, colour and state indices, <= 10),
+#: not as pixels.
+SMALL_INTEGER_IMAGE_MAX = 31
+
+
+def _keep_small_integer_images(
+    world: str, world_kwargs: dict[str, Any], params: dict[str, Any]
+) -> None:
+    """Turns SB3's division of image observations by 255 off for a user's world whose
+    uint8 "images" are small integers (seen in seeded random play), and says so.
+
+    SB3 takes any uint8 ``[H, W, C]`` Box for pixels; MiniGrid's symbolic grid divided by
+    255 reaches the network as values under 0.04, and PPO then barely learns (the
+    MiniGrid example reached goal and compliance 100 % at 40k frames with the integers
+    kept).
+    """
+    probe: Any = make_world(world, num_envs=2, seed=0, **world_kwargs)
+    space = probe.single_observation_space
+    if not (
+        isinstance(space, gym.spaces.Box) and space.dtype == np.uint8 and len(space.shape) == 3
+    ):
+        return
+    obs, _ = probe.reset(seed=0)
+    probe.action_space.seed(0)
+    top = int(np.max(obs))
+    for _ in range(64):
+        obs, *_ = probe.step(probe.action_space.sample())
+        top = max(top, int(np.max(obs)))
+    probe.close()
+    if top > SMALL_INTEGER_IMAGE_MAX:
+        return
+    params.setdefault("policy_kwargs", {})["normalize_images"] = False
+    warnings.warn(
+        f"the {world!r} world's image observations are small integers (at most {top} in "
+        "random play, like MiniGrid's symbolic grid), not pixels: they reach the network "
+        "as they are (policy_kwargs.normalize_images=false; pass --hp "
+        "policy_kwargs.normalize_images=true to divide them by 255 after all)",
+        SmallIntegerImagesWarning,
+        stacklevel=3,
+    )
 
 
 #: Random-play steps (8 envs together) behind a world's estimated return bounds.
