@@ -526,6 +526,7 @@ def _keep_small_integer_images(
     if not (
         isinstance(space, gym.spaces.Box) and space.dtype == np.uint8 and len(space.shape) == 3
     ):
+        probe.close()
         return
     obs, _ = probe.reset(seed=0)
     probe.action_space.seed(0)
@@ -554,13 +555,15 @@ ESTIMATE_STEPS = 4096
 def _scale_from_world(config: TrainConfig) -> float:
     """The ``compliance`` scale from the world's declared return bounds, or, for a world
     that declares none, from bounds estimated by seeded random play (with a warning)."""
-    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-    bounds = world_return_bounds(world)
+    probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    bounds = world_return_bounds(probe)
+    probe.close()
     if bounds is None:
         # A user's env rarely knows its bounds; refusing to train would send every new
         # user to a flag. Random play's returns are an estimate, said so, not a bound.
-        world = make_world(config.world, num_envs=8, seed=0, **config.world_settings)
+        world: Any = make_world(config.world, num_envs=8, seed=0, **config.world_settings)
         estimate = estimate_return_bounds(world, steps=ESTIMATE_STEPS, seed=0)
+        world.close()
         bounds = estimate.bounds
         warnings.warn(
             f"the {config.world!r} world declares no bounds on its episodes' returns; the "
