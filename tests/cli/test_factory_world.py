@@ -28,6 +28,9 @@ def plain():
 def vector():
     return gym.make_vec("FrozenLake-v1", num_envs=2)
 
+def broken():
+    return gym.make("NoSuchEnv-v0")
+
 NOT_A_FUNCTION = 3
 """
 
@@ -100,6 +103,7 @@ def test_an_hp_file_replaces_the_builtin_table(tmp_path: Path) -> None:
         ("badworlds:NOT_A_FUNCTION", "has no function 'NOT_A_FUNCTION'"),
         ("badworlds:plain", "without labels; return noisybolt.FluentLabels"),
         ("badworlds:vector", "must return one Gymnasium env"),
+        ("badworlds:broken", "the factory raised NameNotFound"),
         ("badworlds:", "'package.module:factory'"),
     ],
 )

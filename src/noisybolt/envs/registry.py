@@ -168,7 +168,14 @@ def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
     """``factory()``, checked to be one labelled Gymnasium env."""
     from noisybolt.envs.labels import fluent_names_of
 
-    env = factory()
+    try:
+        env = factory()
+    except Exception as exc:
+        # The user's own code: say which factory failed and how, not a traceback.
+        raise WorldFactoryError(
+            f"world {path!r}: the factory raised {type(exc).__name__}: {exc}",
+            path=path,
+        ) from exc
     if not isinstance(env, gym.Env):
         raise WorldFactoryError(
             f"world {path!r}: the factory must return one Gymnasium env (gym.Env), got "
