@@ -272,7 +272,7 @@ def _record(
         thresholds=Thresholds(**config.thresholds),
         cost_mode=cast(CostMode, config.cost_mode),  # checked by TrainConfig
         tracking=cast(Tracking, config.tracking),  # checked by TrainConfig
-        belief=config.belief_settings,
+        belief=setup.belief,
     )
     policy = policy_from_model(model, deterministic=deterministic)
     return [record_episode(env, policy, seed=EVAL_SEED + i) for i in range(episodes)]

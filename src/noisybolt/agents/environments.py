@@ -26,7 +26,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.detectors import make_detector
-from noisybolt.bolt import Thresholds
+from noisybolt.bolt import BeliefSettings, Thresholds
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.errors import (
     ConfigError,
@@ -54,6 +54,7 @@ def make_env(
     seed: int | None = None,
     dfas: Sequence[Any] | None = None,
     letters: np.ndarray | None = None,
+    belief: BeliefSettings | None = None,
 ) -> BoltVecEnv: ...
 
 
@@ -67,6 +68,7 @@ def make_env(
     seed: int | None = None,
     dfas: Sequence[Any] | None = None,
     letters: np.ndarray | None = None,
+    belief: BeliefSettings | None = None,
 ) -> VecEnv: ...
 
 
@@ -79,6 +81,7 @@ def make_env(
     seed: int | None = None,
     dfas: Sequence[Any] | None = None,
     letters: np.ndarray | None = None,
+    belief: BeliefSettings | None = None,
 ) -> VecEnv:
     """The run's environments with every wrapper, in the order the module docstring draws.
 
@@ -92,6 +95,8 @@ def make_env(
         seed: seeds the worlds (default: the run's seed; evaluation ``+ 10,000``).
         dfas: the specs' DFAs, if compiled already (:class:`BoltSetup`).
         letters: see :class:`BoltSetup`.
+        belief: belief tracking's settings with the base rates estimated from play
+            (:class:`BoltSetup`); None: ``config.belief_settings``.
 
     Raises:
         ConfigError: ``life_loss_terminal`` for a world without lives.
@@ -101,7 +106,14 @@ def make_env(
     if seed is None:
         seed = config.seed + (0 if training else EVAL_SEED_OFFSET)
     bolted = build_bolted_env(
-        config, detector, n_envs=n_envs, seed=seed, dfas=dfas, training=training, letters=letters
+        config,
+        detector,
+        n_envs=n_envs,
+        seed=seed,
+        dfas=dfas,
+        training=training,
+        letters=letters,
+        belief=belief,
     )
     if not training:
         return bolted
@@ -134,6 +146,7 @@ def build_bolted_env(
     dfas: Sequence[Any] | None = None,
     training: bool = False,
     letters: np.ndarray | None = None,
+    belief: BeliefSettings | None = None,
 ) -> BoltVecEnv:
     """The world as an SB3 ``VecEnv``, monitored, with the bolt on top.
 
@@ -157,7 +170,7 @@ def build_bolted_env(
         thresholds=Thresholds(**config.thresholds),
         cost_mode=config.cost_mode,  # type: ignore[arg-type]
         tracking=config.tracking,  # type: ignore[arg-type]
-        belief=config.belief_settings,
+        belief=belief if belief is not None else config.belief_settings,
         progress_gamma=config.progress_gamma,
         shaping=config.shaping,
         world_letters=letters,
@@ -175,12 +188,16 @@ class BoltSetup:
         letters: bool ``[n, n_fluents]``, the distinct true-fluent assignments seen in
             random play (None under the paper scheme): progress shaping counts distances
             to acceptance over the letters the world produces.
+        belief: under belief tracking, the run's settings with each fluent's base rate
+            in play estimated from the detector's outputs on seeded random play, without
+            ground truth (:func:`belief_from_play`); None under threshold tracking.
     """
 
     fluents: tuple[str, ...]
     dfas: list[Any]
     detector: FluentDetector
     letters: np.ndarray | None = None
+    belief: BeliefSettings | None = None
 
 
 def prepare_bolt(
@@ -214,7 +231,70 @@ def prepare_bolt(
     letters = None
     if config.progress_gamma is not None:
         letters = _random_play_letters(config)
-    return BoltSetup(fluents=fluents, dfas=dfas, detector=detector, letters=letters)
+    belief = None
+    if config.belief_settings is not None:
+        belief = belief_from_play(config, detector)
+        rates = np.broadcast_to(np.asarray(belief.base_rates, dtype=float), (len(fluents),))
+        log(
+            "belief tracking: base rates in play, estimated from the detector on random "
+            "play (no ground truth): "
+            + ", ".join(f"{f} {r:.3f}" for f, r in zip(fluents, rates, strict=True))
+        )
+    return BoltSetup(fluents=fluents, dfas=dfas, detector=detector, letters=letters, belief=belief)
+
+
+#: Random play that the base-rate estimate reads: envs x steps frames.
+BASE_RATE_PLAY = (16, 128)
+
+
+def belief_from_play(
+    config: TrainConfig,
+    detector: FluentDetector,
+    *,
+    n_envs: int = BASE_RATE_PLAY[0],
+    steps: int = BASE_RATE_PLAY[1],
+) -> BeliefSettings:
+    """``config.belief_settings`` with base rates estimated from seeded random play.
+
+    The detector's probabilities on ``n_envs * steps`` frames of the bolt's camera in
+    random play (seeded by the run's seed: training and evaluation estimate the same) go
+    through the EM of Saerens et al. (:func:`~noisybolt.perception.base_rates.
+    belief_settings_from_play`): no ground truth is read unless the detector itself reads
+    it (the oracle and the synthetic detector). A trained classifier's probabilities carry
+    the label frequencies of its training images (:attr:`ClassifierDetector.
+    training_prior`); the other detectors' are taken as balanced (0.5). A world's
+    ``monotone_fluents`` (a brick gone stays gone), where it declares them, are kept.
+
+    Random play is not the trained agent's play: a fluent random play rarely shows (a
+    far corner) gets a small rate, floored at ``min_base_rate`` (0.01) so that the bolt
+    still believes a trained agent that shows it clearly.
+    """
+    from noisybolt.perception.base_rates import belief_settings_from_play
+    from noisybolt.perception.classifier import ClassifierDetector
+
+    settings = config.belief_settings
+    assert settings is not None, "belief_from_play is for belief tracking"
+    world: Any = make_world(
+        config.world, num_envs=n_envs, seed=config.seed + 1, **config.world_settings
+    )
+    try:
+        world.reset(seed=config.seed + 1)
+        world.action_space.seed(config.seed + 1)
+        frames = []
+        for step in range(steps + 1):
+            if step:
+                world.step(world.action_space.sample())
+            truth = np.asarray(world.true_fluents(), dtype=bool) if detector.needs_truth else None
+            frames.append(detector.predict(np.asarray(world.bolt_images()), truth=truth))
+    finally:
+        world.close()
+    prior = detector.training_prior if isinstance(detector, ClassifierDetector) else None
+    return belief_settings_from_play(
+        [np.concatenate(frames)],
+        training_prior=0.5 if prior is None else prior,
+        confidence=settings.confidence,
+        monotone=settings.monotone,
+    )
 
 
 def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 128) -> np.ndarray:

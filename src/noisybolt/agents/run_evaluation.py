@@ -168,6 +168,7 @@ def evaluate_run(
         seed=seed,
         dfas=dfas,
         letters=setup.letters,
+        belief=setup.belief,
     )
     result = evaluate_bolted_policy(
         lambda obs: model.predict(obs, deterministic=deterministic)[0],

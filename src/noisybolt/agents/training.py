@@ -199,9 +199,16 @@ def train(
         log=log,
         retrain_classifier=retrain_classifier,
     )
-    env = make_env(config, setup.detector, training=True, dfas=setup.dfas, letters=setup.letters)
-    eval_env = make_env(
-        config, setup.detector, training=False, dfas=setup.dfas, letters=setup.letters
+    env, eval_env = (
+        make_env(
+            config,
+            setup.detector,
+            training=training,
+            dfas=setup.dfas,
+            letters=setup.letters,
+            belief=setup.belief,
+        )
+        for training in (True, False)
     )
     tensorboard = str(run.file("tensorboard"))
     fresh = _make_model(config, env, tensorboard_log=tensorboard) if not resume else None

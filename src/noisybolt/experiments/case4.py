@@ -161,6 +161,7 @@ def measure_corners(
         seed=seed,
         dfas=dfas,
         letters=setup.letters,
+        belief=setup.belief,
     )
     world: Any = env.world
     if not hasattr(world, "agent_state"):

@@ -353,6 +353,15 @@ class ClassifierDetector:
         if len(set(self.fluent_names)) != len(self.fluent_names) or not self.fluent_names:
             raise ConfigError(f"fluent names must be non-empty and distinct: {self.fluent_names}")
 
+    @property
+    def training_prior(self) -> tuple[float, ...] | None:
+        """Each fluent's frequency in the images it was trained on, in column order (the
+        prior its probabilities carry); None for a file that did not record it."""
+        freqs = self.training.get("label_frequencies")
+        if not isinstance(freqs, dict) or set(freqs) != set(self.fluent_names):
+            return None
+        return tuple(float(freqs[name]) for name in self.fluent_names)
+
     @classmethod
     def untrained(
         cls,

@@ -219,6 +219,15 @@ def train_classifier(
         "train_samples": len(train_part),
         "validation_samples": len(val_part),
         "dataset_seed": dataset.seed,
+        # Each fluent's frequency among the training images: the prior the network's
+        # probabilities carry (what belief tracking's prior-shift correction divides out).
+        "label_frequencies": dict(
+            zip(
+                dataset.fluent_names,
+                (float(f) for f in train_part.labels.mean(axis=0)),
+                strict=True,
+            )
+        ),
         "validation_accuracy": dict(
             zip(dataset.fluent_names, history[-1].validation_accuracy, strict=True)
         ),
