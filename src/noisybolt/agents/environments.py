@@ -35,6 +35,7 @@ from noisybolt.errors import (
     UnsatisfiableSpecError,
 )
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
+from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
@@ -233,6 +234,12 @@ def prepare_bolt(
         letters = _random_play_letters(config)
     belief = None
     if config.belief_settings is not None:
+        if isinstance(detector, ClassifierDetector) and detector.training_prior is None:
+            log(
+                "belief tracking: this classifier file does not record the label "
+                "frequencies it was trained on; its prior is taken as 0.5 (train it again "
+                "with --retrain-classifier to record them)"
+            )
         belief = belief_from_play(config, detector)
         rates = np.broadcast_to(np.asarray(belief.base_rates, dtype=float), (len(fluents),))
         log(
@@ -270,7 +277,6 @@ def belief_from_play(
     still believes a trained agent that shows it clearly.
     """
     from noisybolt.perception.base_rates import belief_settings_from_play
-    from noisybolt.perception.classifier import ClassifierDetector
 
     settings = config.belief_settings
     assert settings is not None, "belief_from_play is for belief tracking"
