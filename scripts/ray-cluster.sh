@@ -1,37 +1,41 @@
 #!/bin/sh
 # A Ray cluster for `noisybolt sweep --backend ray` over several machines.
 #
-#   scripts/ray-cluster.sh head  [PORT]        on the first machine (default port 6379)
-#   scripts/ray-cluster.sh worker HEAD:PORT    on every other machine
+#   scripts/ray-cluster.sh head [PORT [ray start options]]   on the first machine (port 6379)
+#   scripts/ray-cluster.sh worker HEAD:PORT                 on every other machine
 #   scripts/ray-cluster.sh sweep CONFIG OUT [noisybolt sweep options]
-#                                               on any machine of the cluster
-#   scripts/ray-cluster.sh stop                on each machine, when done
+#                                                           on any machine of the cluster
+#   scripts/ray-cluster.sh stop                             on each machine, when done
 #
-# Every machine needs the same noisybolt installed (make setup) and the same path for
-# OUT: run directories, checkpoints and Tune's experiment state are written there by
+# Every machine needs the same noisybolt installed (make setup) and OUT at the same path:
+# run directories, checkpoints and Tune's experiment state (OUT/ray/) are written there by
 # whichever node runs a trial, so OUT must be on storage all nodes share (NFS or alike).
-# Each trial trains on one torch thread (resources: {cpus: N} in the sweep reserves more).
-# Running the same sweep command again resumes it (Tuner.restore, finished trials kept).
+# `sweep` joins the cluster at $RAY_ADDRESS (default: auto, the one started on this
+# machine); running the same command again resumes the sweep. `stop` is `ray stop`: it
+# stops every Ray process of this user on the machine. tests/experiments/test_ray_cluster.py
+# runs head (--num-cpus 2 --temp-dir DIR --block) and sweep on one machine.
 set -eu
 VENV=${VENV:-.venv}
-RAY="$VENV/bin/ray"
 case "${1:-}" in
   head)
-    "$RAY" start --head --port "${2:-6379}" --include-dashboard=false
-    echo "workers join with: scripts/ray-cluster.sh worker $(hostname -I | cut -d' ' -f1):${2:-6379}"
+    port=${2:-6379}
+    [ $# -ge 2 ] && shift 2 || shift $#
+    echo "workers join with: scripts/ray-cluster.sh worker $(hostname -I | cut -d' ' -f1):$port"
+    exec "$VENV/bin/ray" start --head --port "$port" --include-dashboard=false "$@"
     ;;
   worker)
-    "$RAY" start --address "${2:?give the head's HOST:PORT}"
+    exec "$VENV/bin/ray" start --address "${2:?give the head HOST:PORT}"
     ;;
   sweep)
     config=${2:?give the sweep config}; out=${3:?give the shared output directory}
     shift 3
-    "$VENV/bin/noisybolt" sweep "$config" --backend ray --address auto --out "$out" "$@"
+    exec "$VENV/bin/noisybolt" sweep "$config" --backend ray --address "${RAY_ADDRESS:-auto}" \
+      --out "$out" "$@"
     ;;
   stop)
-    "$RAY" stop
+    exec "$VENV/bin/ray" stop
     ;;
   *)
-    sed -n '2,15p' "$0"; exit 2
+    sed -n '2,16p' "$0"; exit 2
     ;;
 esac

@@ -326,7 +326,9 @@ def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
 
 def test_trial_directory_trained_with_other_settings_is_refused(grid_dir: Path) -> None:
     changed = _sweep(base={**TINY_BASE, "eval_episodes": 6})
-    with pytest.raises(ConfigError, match=r"other settings: edge-ppo/seed-0 \(eval_episodes\)"):
+    with pytest.raises(
+        ConfigError, match=r"edge-ppo/seed-0: the config differs in \['eval_episodes'\]"
+    ):
         run_sweep(changed, grid_dir, log=_quiet)
 
 

@@ -1,21 +1,17 @@
-"""The ``ray`` backend: Ray Tune runs the trials, retries them, resumes them, and returns
-their results.
+"""The ``ray`` backend: Ray Tune runs the trials, retries them, resumes them and returns
+their records.
 
-Each pending trial is one Tune trial of a grid over trial ids; the trainable runs
-:func:`~noisybolt.experiments.sweeps.trials.run_trial` on one torch thread with the CPUs
-of ``resources: {cpus: N}``. Tune owns the rest:
+Each pending trial is a Tune trial of a grid over trial ids, running
+:func:`~noisybolt.experiments.sweeps.trials.run_trial` with ``resources: {cpus: N}``.
+Tune retries a failed attempt (``FailureConfig(max_failures=retries)``; the attempt
+resumes from the run's last checkpoint); running the sweep again after an interruption
+(Ctrl-C, a lost driver) restores its experiment, kept in ``<sweep>/ray/``
+(``Tuner.restore(..., resume_errored=True)``); the records come from Tune's ``ResultGrid``.
 
-* retries: ``FailureConfig(max_failures=retries)``; an attempt resumes from the run's own
-  last checkpoint, in its run directory;
-* resume: the experiment's state lives in ``<sweep>/ray/``; running the sweep again after
-  an interruption (Ctrl-C, a lost driver) calls ``Tuner.restore(..., resume_errored=True)``;
-* results: each trial reports its record, and the ``ResultGrid`` becomes the tables.
-
-Without ``address`` a local Ray is started (and shut down) for the sweep, unless this
-process already joined one; with ``--address auto`` (or ``ray://host:10001``) the trials
-go to a running cluster. Run directories and Tune's files are written at the sweep
-directory's absolute path, so on several machines that directory must be on storage
-every node shares (see the README's section on sweeps).
+Without ``address`` a local Ray is started for the sweep (unless this process joined one);
+with one (``auto``, ``HOST:PORT``) the trials go to that cluster. Everything is written
+at the sweep directory's absolute path: on several machines it must be on storage that
+every node mounts at that path.
 """
 
 from __future__ import annotations
@@ -29,7 +25,7 @@ from typing import Any
 
 from noisybolt.errors import BackendUnavailableError
 from noisybolt.experiments.sweeps.results import TrialRecord
-from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, attempt, read_json
+from noisybolt.experiments.sweeps.trials import TrialTask, attempt, read_json
 from noisybolt.io import atomic_write_json
 
 __all__ = ["require_ray", "run_ray"]
@@ -54,12 +50,9 @@ def require_ray() -> Any:
 
 
 def _trainable(
-    config: dict[str, Any],
-    *,
-    tasks: Mapping[str, TrialTask],
-    runner: Callable[[TrialTask], TrialRecord],
+    config: dict[str, Any], *, tasks: Mapping[str, TrialTask], runner: Callable[..., Any]
 ) -> None:
-    """One Tune trial: one attempt at a sweep trial; what it raises, Tune retries."""
+    """A Tune trial: one attempt at a sweep trial, reporting its record."""
     from ray import tune
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -67,12 +60,8 @@ def _trainable(
     tune.report({"record": json.dumps(record.to_dict())})
 
 
-def _dirname(trial_id: str) -> str:
-    return trial_id.replace("/", "__")[:120]
-
-
-def _short(trial: Any) -> str:
-    return _dirname(str(trial.config["trial"]))
+def _dirname(trial: Any) -> str:
+    return str(trial.config["trial"]).replace("/", "__")[:120]
 
 
 def run_ray(
@@ -90,7 +79,7 @@ def run_ray(
     log: Callable[[str], None] = print,
 ) -> list[TrialRecord]:
     """Runs the ``pending`` trials with Ray Tune, or resumes their interrupted experiment;
-    returns the records of the experiment's ``ResultGrid``."""
+    returns the records its ``ResultGrid`` holds (those of the trials that finished)."""
     ray = require_ray()
     from ray import tune
 
@@ -99,12 +88,12 @@ def run_ray(
         ray.init(
             address=address, include_dashboard=False, log_to_driver=False, logging_level="error"
         )
-    by_id = {t.trial_id: t for t in tasks}
-    trainable = tune.with_resources(
-        tune.with_parameters(_trainable, tasks=by_id, runner=runner), {"cpu": cpus_per_trial}
+    parameters = tune.with_parameters(
+        _trainable, tasks={t.trial_id: t for t in tasks}, runner=runner
     )
-    # The experiment this sweep directory started last: restored when it holds every
-    # pending trial (an interrupted run), else a new one (the sweep grew, or it finished).
+    trainable = tune.with_resources(parameters, {"cpu": cpus_per_trial})
+    # The experiment this sweep started last is resumed when it holds every pending trial
+    # (it was interrupted); otherwise the sweep grew, or finished: a new experiment.
     state = read_json(sweep_dir / "ray.json") or {}
     path = state.get("experiment")
     # Tune's newer console output ignores verbose=0: our own progress lines say what matters.
@@ -115,15 +104,17 @@ def run_ray(
             log(f"ray: resuming the interrupted experiment {path}")
             tuner = tune.Tuner.restore(path, trainable=trainable, resume_errored=True)
         else:
-            experiment = f"{name}-{time.strftime('%Y%m%d-%H%M%S')}"
-            storage = (sweep_dir / "ray").resolve()
+            storage, experiment = (
+                sweep_dir.resolve() / "ray",
+                f"{name}-{time.strftime('%Y%m%d-%H%M%S')}",
+            )
             tuner = tune.Tuner(
                 trainable,
                 param_space={"trial": tune.grid_search(list(pending))},
                 tune_config=tune.TuneConfig(
                     max_concurrent_trials=max_concurrent or None,
-                    trial_name_creator=_short,
-                    trial_dirname_creator=_short,
+                    trial_name_creator=_dirname,
+                    trial_dirname_creator=_dirname,
                 ),
                 run_config=tune.RunConfig(
                     name=experiment,
@@ -133,33 +124,19 @@ def run_ray(
                     verbose=0,
                 ),
             )
-            path = str(storage / experiment)
-            atomic_write_json(sweep_dir / "ray.json", {"experiment": path, "trials": list(pending)})
-        log(
-            f"ray: {len(pending)} trials on {ray.cluster_resources().get('CPU', 0):.0f} CPUs "
-            f"({cpus_per_trial:g} per trial, {retries} retries by Tune)"
-        )
+            state = {"experiment": str(storage / experiment), "trials": list(pending)}
+            atomic_write_json(sweep_dir / "ray.json", state)
+        cpus = ray.cluster_resources().get("CPU", 0)
+        log(f"ray: {len(pending)} trials on {cpus:.0f} CPUs, {cpus_per_trial:g} per trial")
         grid = tuner.fit()
     finally:
         if ours:
             os.environ.pop("RAY_AIR_NEW_OUTPUT", None)
         if started_here:
             ray.shutdown()
-    records = []
-    for index in range(len(grid)):
-        result = grid[index]
-        # A trial that never started reports no config: its directory names it.
-        task = {_dirname(i): t for i, t in by_id.items()}[Path(result.path).name]
-        metrics = result.metrics or {}
-        if "record" in metrics and result.error is None:
-            records.append(TrialRecord.from_dict(json.loads(metrics["record"])))
-        else:  # Tune gave up on it (result.error), or it never ran (interrupted)
-            records.append(
-                TrialDirectory(task.run_dir).record(task.trial, task.final_eval_episodes)
-            )
-        record = records[-1]
-        log(
-            f"ray: {record.trial_id}: {record.status}"
-            + (f": {record.error}" if record.error else "")
-        )
-    return records
+    results = (grid[i] for i in range(len(grid)))
+    return [
+        TrialRecord.from_dict(json.loads(metrics["record"]))
+        for r in results
+        if r.error is None and "record" in (metrics := r.metrics or {})
+    ]

@@ -11,7 +11,18 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from noisybolt.experiments.reporting import Table, format_frames, percent, pm
+from noisybolt.experiments.reporting import (
+    Block,
+    Heading,
+    Table,
+    Text,
+    format_frames,
+    percent,
+    pm,
+    render_csv,
+    render_markdown,
+)
+from noisybolt.io import atomic_write_json, atomic_write_text
 
 __all__ = ["GroupSummary", "Stat", "SweepResult", "TrialRecord", "summarise_trials"]
 
@@ -31,44 +42,30 @@ class Stat(NamedTuple):
             >>> Stat.of([1.0, 3.0])
             Stat(mean=2.0, std=1.0, n=2)
         """
-        array = np.asarray(list(values), dtype=np.float64)
-        return None if array.size == 0 else cls(float(array.mean()), float(array.std()), array.size)
+        a = np.asarray(list(values), dtype=np.float64)
+        return cls(float(a.mean()), float(a.std()), a.size) if a.size else None
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None) -> Stat | None:
         """Reads ``_asdict()``'s output back (None stays None)."""
-        return (
-            None if data is None else cls(float(data["mean"]), float(data["std"]), int(data["n"]))
-        )
+        if data is None:
+            return None
+        return cls(float(data["mean"]), float(data["std"]), int(data["n"]))
 
 
 @dataclass(frozen=True)
 class TrialRecord:
-    """A trial's state and results.
-
-    Attributes:
-        trial_id: the trial's id.
-        group: its group (the id without the seed).
-        row: its row.
-        seed: its seed.
-        settings: its settings axes' values.
-        run_dir: its run directory.
-        status: ``"done"``, ``"failed"`` or ``"pending"`` (not run, or interrupted).
-        algo: its algorithm.
-        spec_names: its specs' names (formulas where unnamed).
-        final: the evaluation the tables report; None unless done.
-        frames: frames trained.
-        frames_to_comply: N_frames (None if never reached).
-        failed_attempts: attempts that raised (across every run of the sweep).
-        error: the last error's one-line message, if any.
-        seconds: wall time of the attempt that finished it.
+    """A trial's state and results. ``status``: ``done``, ``failed`` or ``pending`` (not
+    run, or interrupted); ``final``: the evaluation the tables report (None unless done);
+    ``frames_to_comply``: N_frames; ``failed_attempts``: attempts that raised, over every
+    run of the sweep, ``error`` the last one's message; ``seconds``: the finishing attempt's.
     """
 
     trial_id: str
-    group: str
+    group: str  # the id without the seed: a group's trials are averaged
     row: str
     seed: int
-    settings: dict[str, Any]
+    settings: dict[str, Any]  # the settings axes' values
     run_dir: Path
     status: str
     algo: str
@@ -86,20 +83,23 @@ class TrialRecord:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TrialRecord:
-        """Reads :meth:`to_dict`'s output back (how a Ray trial reports its record)."""
+        """Reads :meth:`to_dict`'s output back."""
         return cls(
-            **{**data, "run_dir": Path(data["run_dir"]), "spec_names": tuple(data["spec_names"])}
+            **{**data, "run_dir": Path(data["run_dir"]), "spec_names": (*data["spec_names"],)}
         )
+
+
+#: GroupSummary's statistics over seeds, in the CSV's order.
+_STATS = ("env_return", "length", "goal_rate", "success_rate", "frames_to_comply", "frames")
 
 
 @dataclass(frozen=True)
 class GroupSummary:
-    """A group's trials (one row of the results table), over seeds.
-
-    ``env_return`` (R_π), ``length`` (N_steps), ``goal_rate``, ``success_rate`` (goal and
-    compliant), per-spec ``compliance``: the final evaluations' means, over seeds;
-    ``compliance_min``: the lowest seed's compliance per spec; ``frames_to_comply``:
-    N_frames over the ``n_reached`` seeds that reached it.
+    """A group's trials over seeds (one row of the table): the means of the final
+    evaluations' ``env_return`` (R_π), ``length`` (N_steps), ``goal_rate``,
+    ``success_rate`` (goal and compliant) and per-spec ``compliance``; ``compliance_min``:
+    the lowest seed's; ``frames_to_comply``: N_frames over the ``n_reached`` seeds that
+    reached it; ``frames``: frames trained.
     """
 
     group: str
@@ -121,77 +121,55 @@ class GroupSummary:
     frames: Stat | None
 
     def n_frames_text(self) -> str:
-        """N_frames as tables show it: with a count when not every finished seed reached it
-        (``12.0k``, ``12.0k (2/3)``, ``— (0/3)``)."""
-        value = format_frames(self.frames_to_comply.mean if self.frames_to_comply else None)
-        if self.n_done and self.n_reached == self.n_done:
-            return value
-        return f"{value} ({self.n_reached}/{self.n_done})"
+        """N_frames, with a count unless every finished seed reached it (``12.0k (2/3)``)."""
+        value = format_frames(self.frames_to_comply and self.frames_to_comply.mean)
+        full = self.n_done and self.n_reached == self.n_done
+        return value if full else f"{value} ({self.n_reached}/{self.n_done})"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (statistics as ``{"mean", "std", "n"}``)."""
         data = {k: v._asdict() if isinstance(v, Stat) else v for k, v in self.__dict__.items()}
         data["compliance"] = {k: v._asdict() for k, v in self.compliance.items()}
-        data["spec_names"] = list(self.spec_names)
-        return data
+        return {**data, "spec_names": list(self.spec_names)}
 
-
-_STATS = ("env_return", "length", "goal_rate", "success_rate", "frames_to_comply", "frames")
-
-
-def groups_table(groups: Sequence[GroupSummary]) -> Table:
-    """The results table: one row per group (mean ± std over its finished seeds); its
-    CSV form has each mean and std in a column of its own."""
-    header = (
-        "group", "algo", "specs", "seeds done", "failed", "R_π (env return)", "N_steps",
-        "goal rate", "compliance", "goal & compliant", "N_frames",
-    )  # fmt: skip
-    rows = tuple(
-        (
-            g.group,
-            g.algo,
-            ", ".join(g.spec_names),
-            f"{g.n_done}/{g.n_trials}",
-            str(g.n_failed),
-            pm(g.env_return),
-            pm(g.length, 1),
-            percent(g.goal_rate and g.goal_rate.mean),
-            ", ".join(f"{k} {v.mean:.0%}" for k, v in g.compliance.items()) or "—",
-            percent(g.success_rate and g.success_rate.mean),
-            g.n_frames_text(),
+    def cells(self) -> tuple[str, ...]:
+        """The row as the table shows it."""
+        return (
+            self.group,
+            self.algo,
+            ", ".join(self.spec_names),
+            f"{self.n_done}/{self.n_trials}",
+            str(self.n_failed),
+            pm(self.env_return),
+            pm(self.length, 1),
+            percent(self.goal_rate and self.goal_rate.mean),
+            ", ".join(f"{k} {v.mean:.0%}" for k, v in self.compliance.items()) or "—",
+            percent(self.success_rate and self.success_rate.mean),
+            self.n_frames_text(),
         )
-        for g in groups
-    )
-    specs = list(dict.fromkeys(name for g in groups for name in g.spec_names))
-    data_header = ["group", "row", "settings", "algo", "specs", "n_trials", "n_done", "n_failed"]
-    data_header += [f"{s}_{part}" for s in _STATS for part in ("mean", "std")] + ["n_reached"]
-    data_header += [f"compliance_{s}_{part}" for s in specs for part in ("mean", "min")]
-    data_rows = []
-    for g in groups:
-        row: list[Any] = [g.group, g.row, json.dumps(g.settings, sort_keys=True), g.algo]
-        row += [";".join(g.spec_names), g.n_trials, g.n_done, g.n_failed]
-        for name in _STATS:
-            stat = getattr(g, name)
-            row += ["", ""] if stat is None else [f"{stat.mean:.6g}", f"{stat.std:.6g}"]
-        row.append(g.n_reached)
-        for s in specs:
-            stat = g.compliance.get(s)
-            row += ["", ""] if stat is None else [f"{stat.mean:.6g}", f"{g.compliance_min[s]:.6g}"]
-        data_rows.append(tuple(row))
-    return Table(header, rows, tuple(data_header), tuple(data_rows))
+
+    def data(self, specs: Sequence[str]) -> tuple[Any, ...]:
+        """The row as the CSV holds it (raw numbers; a mean and a std per statistic)."""
+        row: list[Any] = [
+            self.group,
+            self.row,
+            json.dumps(self.settings, sort_keys=True),
+            self.algo,
+        ]
+        row += [";".join(self.spec_names), self.n_trials, self.n_done, self.n_failed]
+        for s in (getattr(self, name) for name in _STATS):
+            row += ["", ""] if s is None else [f"{s.mean:.6g}", f"{s.std:.6g}"]
+        row.append(self.n_reached)
+        for name in specs:
+            s, low = self.compliance.get(name), self.compliance_min.get(name)
+            row += ["", ""] if s is None else [f"{s.mean:.6g}", f"{low:.6g}"]
+        return tuple(row)
 
 
 @dataclass(frozen=True)
 class SweepResult:
-    """A sweep's trials and table.
-
-    Attributes:
-        sweep_dir: the sweep directory.
-        name: the sweep's name.
-        records: every trial's record, in the sweep's order.
-        groups: one summary per group, in the sweep's order.
-        files: files written (label -> path).
-    """
+    """A sweep's trials (``records``) and groups, in the sweep's order; ``files``: the
+    files written (label -> path)."""
 
     sweep_dir: Path
     name: str
@@ -210,13 +188,44 @@ class SweepResult:
         return sum(r.status == "done" for r in self.records)
 
     def to_table(self) -> Table:
-        """The results table (see :func:`groups_table`)."""
-        return groups_table(self.groups)
+        """The results table: a row per group (mean ± std over its finished seeds)."""
+        specs = list(dict.fromkeys(s for g in self.groups for s in g.spec_names))
+        header = ("group", "algo", "specs", "seeds done", "failed", "R_π (env return)",
+                  "N_steps", "goal rate", "compliance", "goal & compliant", "N_frames")  # fmt: skip
+        data = ["group", "row", "settings", "algo", "specs", "n_trials", "n_done", "n_failed"]
+        data += [f"{s}_{part}" for s in _STATS for part in ("mean", "std")] + ["n_reached"]
+        data += [f"compliance_{s}_{part}" for s in specs for part in ("mean", "min")]
+        rows = tuple(g.cells() for g in self.groups)
+        return Table(header, rows, tuple(data), tuple(g.data(specs) for g in self.groups))
 
     def to_dict(self) -> dict[str, Any]:
         """What ``results.json`` holds."""
         groups = [g.to_dict() for g in self.groups]
         return {"name": self.name, "groups": groups, "trials": [r.to_dict() for r in self.records]}
+
+    def write(self) -> None:
+        """Writes ``results.json``, ``results.md`` (with the sweep's command and the failed
+        trials' errors) and ``results.csv`` in the sweep directory."""
+        files = {k: self.sweep_dir / f"results.{k}" for k in ("json", "md", "csv")}
+        command = self.sweep_dir / "command.txt"
+        table, failed = self.to_table(), [r for r in self.records if r.status == "failed"]
+        blocks: list[Block] = [
+            Heading(f"Sweep {self.name}"),
+            *([Text(f"Command: `{command.read_text().strip()}`")] if command.exists() else []),
+            Text(
+                "Mean ± std over each group's finished seeds of the final evaluation; "
+                "N_frames: first evaluation with ≥ 95% of episodes reaching the goal while "
+                "complying with every spec (ground truth), mean over the seeds that reached "
+                "it."
+            ),
+            table,
+            *([Text("Failed trials:")] if failed else []),
+            *([Text("\n".join(f"- `{r.trial_id}`: {r.error}" for r in failed))] if failed else []),
+        ]
+        atomic_write_json(files["json"], self.to_dict())
+        atomic_write_text(files["md"], render_markdown(blocks))
+        atomic_write_text(files["csv"], render_csv(table))
+        self.files.update(json=files["json"], markdown=files["md"], csv=files["csv"])
 
 
 def summarise_trials(records: Sequence[TrialRecord]) -> tuple[GroupSummary, ...]:
@@ -246,11 +255,11 @@ def summarise_trials(records: Sequence[TrialRecord]) -> tuple[GroupSummary, ...]
         reached = [float(r.frames_to_comply) for r in done if r.frames_to_comply is not None]
         summaries.append(
             GroupSummary(
-                group=group,
-                row=first.row,
-                settings=dict(first.settings),
-                algo=first.algo,
-                spec_names=first.spec_names,
+                group,
+                first.row,
+                dict(first.settings),
+                first.algo,
+                first.spec_names,
                 n_trials=len(members),
                 n_done=len(done),
                 n_failed=sum(r.status == "failed" for r in members),
@@ -258,8 +267,8 @@ def summarise_trials(records: Sequence[TrialRecord]) -> tuple[GroupSummary, ...]
                 length=Stat.of(f["length_mean"] for f in finals),
                 goal_rate=Stat.of(f["goal_rate"] for f in finals),
                 success_rate=Stat.of(f["success_rate"] for f in finals),
-                compliance={s: stat for s, v in rates.items() if (stat := Stat.of(v)) is not None},
-                compliance_min={s: float(min(v)) for s, v in rates.items() if v},
+                compliance={s: stat for s, v in rates.items() if (stat := Stat.of(v))},
+                compliance_min={s: min(v) for s, v in rates.items() if v},
                 frames_to_comply=Stat.of(reached),
                 n_reached=len(reached),
                 frames=Stat.of(float(r.frames) for r in done if r.frames is not None),
