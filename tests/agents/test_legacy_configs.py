@@ -1,4 +1,5 @@
-"""A run saved before a setting existed still resumes: LEGACY_DEFAULTS says what it meant."""
+"""A run saved before a setting existed, or before the schema was nested, still loads and
+resumes: its flat config.json converts, and LEGACY_DEFAULTS says what it meant."""
 
 from __future__ import annotations
 
@@ -7,38 +8,80 @@ from pathlib import Path
 
 import pytest
 
-from noisybolt.agents.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
+from noisybolt.agents.config import (
+    FLAT_PATHS,
+    LEGACY_DEFAULTS,
+    TrainConfig,
+    nested_config,
+    schema_paths,
+)
+from noisybolt.agents.hyperparams import WORLD_KEYS
+from noisybolt.agents.training import check_same_config
 from noisybolt.errors import ConfigError
 from noisybolt.rundir import RunDirectory
+
+RESULTS = Path(__file__).resolve().parents[2] / "results"
+#: The oldest config.json kept in the repository (a Breakout run of 2026-12-01).
+OLDEST = RESULTS / "breakout/ppo-bolted/config.json"
+
+
+def _flat(config: TrainConfig) -> dict[str, object]:
+    """``config`` as the flat config.json that noisybolt wrote before schema 2."""
+    nested = config.to_dict()
+    flat: dict[str, object] = {
+        k: nested[k] for k in ("seed", "frames", "checkpoint_freq", "progress_bar", "detector")
+    }
+    for name, path in FLAT_PATHS.items():
+        section, key = path.split(".")
+        flat[name] = nested[section][key]
+    world = {k: v for k, v in nested["world"].items() if k in WORLD_KEYS and v}
+    flat["hyperparams"] = {**nested["algorithm"]["hyperparams"], **world}
+    return flat
 
 
 def test_a_config_saved_before_belief_tracking_resumes_under_threshold_tracking(
     tmp_path: Path,
 ) -> None:
     config = TrainConfig.create(world="gridworld", specs=["edge"], reward="paper")
-    saved = config.to_dict()
+    saved = _flat(config)
     del saved["tracking"], saved["confidence"]  # what a run of early December 2026 wrote
     run = RunDirectory(tmp_path / "run")
     run.path.mkdir()
     (run.path / "config.json").write_text(json.dumps(saved))
-    run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
+    check_same_config(run, config)
     assert TrainConfig.from_dict(saved).tracking == "threshold"
-    # a run resumed under belief tracking would change the bolt halfway: refused
-    belief = {**config.to_dict(), "tracking": "belief"}
-    with pytest.raises(ConfigError, match="tracking"):
-        run.check_same_config(belief, ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
+    assert TrainConfig.from_dict(saved) == config
+    # a run resumed under belief tracking would change the bolt halfway: refused by path
+    with pytest.raises(ConfigError, match=r"bolt\.tracking: saved 'threshold', now 'belief'"):
+        check_same_config(run, config.override({"bolt.tracking": "belief"}))
 
 
 def test_every_setting_added_since_the_oldest_kept_run_has_a_legacy_default() -> None:
-    # The oldest config.json kept in the repository (a Breakout run of 2026-12-01): a field
-    # that config lacks was added later, and runs saved before it resume only if
-    # LEGACY_DEFAULTS says what they meant by it (tracking and confidence once did not).
-    oldest = Path(__file__).resolve().parents[2] / "results/breakout/ppo-bolted/config.json"
-    saved = set(json.loads(oldest.read_text()))
-    fields = set(TrainConfig.__dataclass_fields__)
-    assert saved <= fields | {"detector"}, saved - fields  # the kept run is a config at all
-    missing = sorted(fields - saved - set(LEGACY_DEFAULTS))
+    # A setting that the oldest kept config lacks was added later, and runs saved before
+    # it resume only if LEGACY_DEFAULTS says what they meant by it (tracking and
+    # confidence once did not). The world settings that rode among the hyperparameters
+    # meant False or the file's n_envs when absent: the schema's defaults.
+    saved = json.loads(OLDEST.read_text())
+    unknown = set(saved) - set(FLAT_PATHS) - {"seed", "frames", "checkpoint_freq"}
+    assert unknown <= {"progress_bar", "detector", "hyperparams"}, unknown
+    present = {FLAT_PATHS.get(k, k) for k in saved} | {f"world.{k}" for k in WORLD_KEYS}
+    present |= {f"detector.{k}" for k in saved["detector"]} | {"algorithm.hyperparams"}
+    missing = sorted(set(schema_paths()) - present - set(LEGACY_DEFAULTS))
     assert not missing, (
-        f"TrainConfig fields {missing} are newer than the oldest kept run: add what a run "
-        "saved before them meant to LEGACY_DEFAULTS, or old runs stop resuming"
+        f"settings {missing} are newer than the oldest kept run: add what a run saved "
+        "before them meant to LEGACY_DEFAULTS, or old runs stop resuming"
     )
+
+
+@pytest.mark.parametrize(
+    "path", sorted(RESULTS.rglob("config.json")), ids=lambda p: str(p.relative_to(RESULTS))
+)
+def test_every_kept_flat_config_loads_and_round_trips(path: Path) -> None:
+    saved = json.loads(path.read_text())
+    config = TrainConfig.from_dict(saved)
+    assert config.world == saved["world"] and config.frames == saved["frames"]
+    assert config.n_envs == saved["hyperparams"]["n_envs"]
+    assert "n_envs" not in config.hyperparams  # a world setting, in the world section
+    assert config.tracking == saved.get("tracking", "threshold")
+    assert TrainConfig.from_dict(config.to_dict()) == config
+    assert nested_config(config.to_dict()) == config.to_dict()

@@ -150,14 +150,14 @@ def test_a_run_saved_before_reward_schemes_resumes_as_the_paper_scheme(tmp_path:
     train(config, run, log=lambda _: None)
     saved = json.loads((run / "config.json").read_text())
     for key in ("reward", "reward_scale", "shaping"):
-        saved.pop(key)
+        saved["bolt"].pop(key)
     (run / "config.json").write_text(json.dumps(saved))
     assert TrainConfig.from_dict(saved).reward == "paper"
     bigger = TrainConfig.from_dict({**config.to_dict(), "frames": 128})
     train(bigger, run, resume=True, log=lambda _: None)  # no "config differs"
-    changed = {**config.to_dict(), "reward": "compliance", "reward_scale": 5.0, "frames": 256}
+    changed = {"bolt.reward": "compliance", "bolt.reward_scale": 5.0, "frames": 256}
     with pytest.raises(ConfigError, match="reward"):
-        train(TrainConfig.from_dict(changed), run, resume=True, log=lambda _: None)
+        train(config.override(changed), run, resume=True, log=lambda _: None)
 
 
 def test_cli_reward_flags_and_spec_set(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -192,7 +192,8 @@ def test_cli_reward_flags_and_spec_set(tmp_path: Path, capsys: pytest.CaptureFix
     printed = capsys.readouterr().out
     assert "compliance scale computed on the gridworld's product" in printed
     saved = json.loads((out / "config.json").read_text())
-    assert saved["reward"] == "compliance" and saved["specs"][0]["reward_scale"] == 12
+    assert saved["bolt"]["reward"] == "compliance"
+    assert saved["bolt"]["specs"][0]["reward_scale"] == 12
     assert main(["train", "--spec", "edge", "--reward", "bonus", "--out", str(tmp_path / "x")]) == 2
     assert (
         main(["train", "--spec", "edge", "--reward-scale", "-1", "--out", str(tmp_path / "y")]) == 2

@@ -84,4 +84,4 @@ def test_cli_trains_under_belief_tracking(tmp_path: Path) -> None:
     )
     assert code == 0
     saved = json.loads((out / "config.json").read_text())
-    assert saved["tracking"] == "belief" and saved["confidence"] == 0.95
+    assert saved["bolt"]["tracking"] == "belief" and saved["bolt"]["confidence"] == 0.95

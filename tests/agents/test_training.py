@@ -41,8 +41,8 @@ def test_run_directory_holds_config_command_metrics_model_and_checkpoint(tmp_pat
     result = train(_config(), tmp_path / "run", argv=["noisybolt", "train", "--x"], log=_quiet)
     run = tmp_path / "run"
     config = json.loads((run / "config.json").read_text())
-    assert config["specs"][0]["formula"] == "G(on_edge)"
-    assert config["hyperparams"]["n_steps"] == 64
+    assert config["bolt"]["specs"][0]["formula"] == "G(on_edge)"
+    assert config["algorithm"]["hyperparams"]["n_steps"] == 64
     assert (run / "command.txt").read_text() == "noisybolt train --x\n"
     metrics = json.loads((run / "metrics.json").read_text())
     assert [m["frames"] for m in metrics] == [1024, 2048]

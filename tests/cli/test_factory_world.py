@@ -137,9 +137,9 @@ def test_train_then_evaluate_in_a_new_process(
     argv += ["--eval-freq", "0", "--eval-episodes", "2", "--no-progress", "--out", str(out)]
     assert main([*argv, *_reward_args()]) == 0, capsys.readouterr().err
     config = json.loads((out / "config.json").read_text())
-    assert config["world"] == WORLD
-    assert config["hyperparams"]["n_envs"] == 2
-    assert config["hyperparams"]["gamma"] == 0.99  # from _default.yaml
+    assert config["world"]["name"] == WORLD
+    assert config["world"]["n_envs"] == 2
+    assert config["algorithm"]["hyperparams"]["gamma"] == 0.99  # from _default.yaml
     evaluated = subprocess.run(
         [sys.executable, "-m", "noisybolt", "evaluate", str(out), "--episodes", "3"],
         cwd=EXAMPLES,

@@ -135,7 +135,7 @@ def test_the_command_line_sets_the_stopping_rule(small_table: Path) -> None:
     config = json.loads(
         (small_table / "trials" / "edge-ppo" / "seed-0" / "config.json").read_text()
     )
-    assert config["stop_after"] == 3
+    assert config["evaluation"]["stop_after"] == 3
 
 
 def test_rows_are_chosen_by_row_or_spec_name() -> None:

@@ -1,30 +1,68 @@
-"""The description of a training run: :class:`TrainConfig` and its :class:`DetectorConfig`.
+"""The description of a training run: one nested, frozen schema.
 
-A config is frozen through and through (its mappings are :class:`FrozenDict`), and it is
-validated whole at construction: world, algorithm and its hyperparameters' values, specs
-(syntax, nesting, duplicates), seed range, counts and the reward scheme. What cannot be
-checked without building things (the model on the env's spaces, the detector against the
-world) is checked by :func:`noisybolt.agents.training.train` before it writes anything.
+A run is described by a :class:`TrainConfig` alone, made of sections::
+
+    seed, frames, checkpoint_freq, progress_bar    the run itself
+    world       WorldConfig        name or factory path, kwargs, n_envs, Atari conventions
+    bolt        BoltConfig         specs, reward scheme and scale, shaping, tracking, bands
+    detector    DetectorConfig     the bolt's fluent detector
+    algorithm   AlgorithmConfig    the SB3 algorithm and its resolved hyperparameters
+    evaluation  EvaluationConfig   periodic evaluation, success threshold, stopping, keep best
+
+``config.json`` holds :meth:`TrainConfig.to_dict` (nested, with ``"schema": 2``), and
+:meth:`TrainConfig.from_dict` reads it back strictly: an unknown key or a value of the
+wrong type is refused with the key's path (``bolt.tracking``,
+``algorithm.hyperparams.gamma``). The flat ``config.json`` of runs saved before the schema
+was nested still loads (:func:`nested_config`), what it lacks read through
+:data:`LEGACY_DEFAULTS`.
+
+Every other description of a run is a set of overrides of this schema, by dotted path:
+``noisybolt train``'s flags and ``--set PATH=VALUE``, sweep files, and the ``reproduce``
+commands (:meth:`TrainConfig.build` for a new run; :meth:`TrainConfig.override` changes a
+resolved one). The types of the paths are the dataclasses' annotations: there is no
+second type table.
+
+Each section validates itself at construction (values, ranges, names); ``TrainConfig``
+validates what spans sections (specs under the reward scheme, the compliance scale from
+the world, schedules against the budget). What needs things built (the model on the env's
+spaces, the detector against the world) is checked by
+:func:`noisybolt.agents.training.train` before it writes anything.
+
+Example:
+    >>> config = TrainConfig.build({"bolt.specs": ["edge"], "bolt.reward": "paper"})
+    >>> config.bolt.tracking, config.algorithm.name, config.world_config.n_envs
+    ('threshold', 'ppo', 8)
+    >>> config.override({"bolt.tracking": "belief"}).tracking
+    'belief'
+    >>> config.override({"bolt.trackin": "belief"})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    noisybolt.errors.ConfigError: unknown config key bolt.trackin; known in bolt: [...]
 """
 
 from __future__ import annotations
 
 import copy
-import inspect
+import dataclasses
 import json
 import os
+import types
+import typing
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any, NoReturn
+from typing import Any, Generic, NoReturn, TypeVar
 
 import gymnasium as gym
 import numpy as np
+import yaml
 
 from noisybolt.agents.hyperparams import (
-    META_KEYS,
+    WORLD_KEYS,
     algorithm_class,
+    check_hyperparameter_values,
     frame_schedules,
+    known_hyperparameters,
     load_hyperparams,
 )
 from noisybolt.agents.specs import expand_specs, resolve_spec
@@ -50,28 +88,41 @@ from noisybolt.errors import (
 
 __all__ = [
     "DETECTORS",
+    "FLAT_PATHS",
     "LEGACY_DEFAULTS",
     "RESUMABLE_KEYS",
+    "SCHEMA_VERSION",
+    "AlgorithmConfig",
+    "BoltConfig",
     "DetectorConfig",
+    "EvaluationConfig",
     "FrozenDict",
     "TrainConfig",
+    "WorldConfig",
     "check_hyperparameter_values",
+    "nested_config",
+    "schema_paths",
+    "value_from_text",
 ]
 
+#: The version of the nested schema that ``config.json`` holds under ``"schema"`` (a
+#: config without it is the flat form of the runs saved before: version 1).
+SCHEMA_VERSION = 2
 DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
-#: Settings that may change when a run is resumed.
-RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar", "stop_after")
-#: What a config saved before a setting existed meant by it (read on resume).
+#: Settings (schema paths) that may change when a run is resumed.
+RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar", "evaluation.stop_after")
+#: What a config saved before a setting existed meant by it, by schema path (read by
+#: :func:`nested_config`: a saved config that lacks the path gets this value).
 LEGACY_DEFAULTS: dict[str, Any] = {
-    "reward": "paper",
-    "reward_scale": None,
-    "shaping": False,
-    "stop_after": 0,
+    "bolt.reward": "paper",
+    "bolt.reward_scale": None,
+    "bolt.shaping": False,
+    "evaluation.stop_after": 0,
     # before keep_best existed a run's final model was its last
-    "keep_best": False,
+    "evaluation.keep_best": False,
     # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
-    "tracking": "threshold",
-    "confidence": 0.9,
+    "bolt.tracking": "threshold",
+    "bolt.confidence": 0.9,
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
@@ -81,19 +132,19 @@ class FrozenDict(dict):
     """A ``dict`` that refuses changes: the mappings a frozen config holds.
 
     It is still a ``dict`` (JSON, ``**`` and ``dict(...)`` work); change a config with
-    :func:`dataclasses.replace` instead.
+    :meth:`TrainConfig.override` instead.
 
     Example:
         >>> d = FrozenDict({"truth": 0.5})
         >>> d["truth"] = 0.7
         Traceback (most recent call last):
         ...
-        TypeError: a config's mappings are frozen: build a new config with dataclasses.replace
+        TypeError: a config's mappings are frozen: build a new config with TrainConfig.override
     """
 
     def _refuse(self, *args: Any, **kwargs: Any) -> NoReturn:
         raise TypeError(
-            "a config's mappings are frozen: build a new config with dataclasses.replace"
+            "a config's mappings are frozen: build a new config with TrainConfig.override"
         )
 
     __setitem__ = __delitem__ = __ior__ = _refuse
@@ -115,94 +166,107 @@ def _frozen(value: Any) -> Any:
     return value
 
 
-def _thaw(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {k: _thaw(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_thaw(v) for v in value]
-    return value
+def _count(path: str, value: Any, low: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ConfigError(f"{path} must be an integer >= {low}, got {value!r}")
 
 
-#: Ranges of the SB3 hyperparameters whose bad values would otherwise pass construction
-#: and fail (or silently misbehave) mid-run: ``(low, high, low_open, high_open)``.
-_RANGES: dict[str, tuple[float, float, bool, bool]] = {
-    "gamma": (0.0, 1.0, True, False),
-    "gae_lambda": (0.0, 1.0, False, False),
-    "learning_rate": (0.0, float("inf"), True, True),
-    "n_steps": (1, float("inf"), False, True),
-    "batch_size": (1, float("inf"), False, True),
-    "n_epochs": (1, float("inf"), False, True),
-    "buffer_size": (1, float("inf"), False, True),
-    "learning_starts": (0, float("inf"), False, True),
-    "target_update_interval": (1, float("inf"), False, True),
-    "gradient_steps": (-1, float("inf"), False, True),
-    "tau": (0.0, 1.0, True, False),
-    "ent_coef": (0.0, float("inf"), False, True),
-    "ent_coef_final": (0.0, float("inf"), False, True),
-    "ent_coef_frames": (1, float("inf"), False, True),
-    "exploration_frames": (1, float("inf"), False, True),
-    "vf_coef": (0.0, float("inf"), False, True),
-    "max_grad_norm": (0.0, float("inf"), True, True),
-    "clip_range": (0.0, float("inf"), True, True),
-    "exploration_fraction": (0.0, 1.0, False, False),
-    "exploration_initial_eps": (0.0, 1.0, False, False),
-    "exploration_final_eps": (0.0, 1.0, False, False),
-    "n_envs": (1, float("inf"), False, True),
-    "image_features": (1, float("inf"), False, True),
-}
-_INTEGERS = frozenset({"n_envs", "image_features", "ent_coef_frames", "exploration_frames"})
+# --------------------------------------------------------------------------- sections
 
 
-def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
-    """Refuses hyperparameter values of the wrong type or out of range.
+@dataclass(frozen=True, kw_only=True)
+class WorldConfig:
+    """The world the agent acts in (``world`` in ``config.json``).
 
-    A number's type is the SB3 constructor default's (an int where SB3 counts, a float
-    where it weighs); the ranges are those of ``_RANGES`` (``gamma`` in (0, 1], counts
-    >= 1, ...). What only the model's construction can tell is left to it.
-
-    Raises:
-        ConfigError: naming the key, the value and what is expected.
-
-    Example:
-        >>> check_hyperparameter_values("ppo", {"gamma": 2})
-        Traceback (most recent call last):
-        ...
-        noisybolt.errors.ConfigError: hyperparameter gamma=2 is out of range: it must be in (0, 1]
+    Attributes:
+        name: a registered world (``gridworld``, ``breakout``, ...) or a factory path
+            ``package.module:factory`` returning a labelled env
+            (:mod:`noisybolt.envs.registry`).
+        kwargs: passed to :func:`noisybolt.envs.make_world` (e.g. ``noise``, ``obs_mode``).
+        n_envs: training environments (the world's hyperparameter file gives it).
+        fire_on_reset: Atari: the world serves the ball after every reset and lost life.
+        clip_reward: Atari: the learner sees the game's score clipped to its sign, below
+            the bolt (training only).
+        life_loss_terminal: Atari: a lost life ends the learner's episode, above the bolt
+            (training only).
     """
-    defaults = {
-        name: p.default
-        for name, p in inspect.signature(algorithm_class(algo).__init__).parameters.items()
-    }
-    for key, value in params.items():
-        default = defaults.get(key, inspect.Parameter.empty)
-        numeric_default = isinstance(default, (int, float)) and not isinstance(default, bool)
-        if key == "train_freq" and isinstance(value, (list, tuple)):
-            continue
-        if value is None and key in META_KEYS:  # noisybolt's own settings: null is unset
-            continue
-        if key in _RANGES or numeric_default:
-            wants_int = key in _INTEGERS or (isinstance(default, int) and numeric_default)
-            number = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if not number or (wants_int and not isinstance(value, int)):
-                kind = "an integer" if wants_int else "a number"
-                raise ConfigError(f"hyperparameter {key}={value!r} must be {kind}")
-        elif isinstance(default, bool) and not isinstance(value, bool):
-            raise ConfigError(f"hyperparameter {key}={value!r} must be true or false")
-        if key in _RANGES:
-            low, high, low_open, high_open = _RANGES[key]
-            below = value <= low if low_open else value < low
-            above = value >= high if high_open else value > high
-            if below or above:
-                top = "inf" if high == float("inf") else f"{high:g}"
-                interval = f"{'(' if low_open else '['}{low:g}, {top}{')' if high_open else ']'}"
-                raise ConfigError(
-                    f"hyperparameter {key}={value!r} is out of range: it must be in {interval}"
-                )
+
+    name: str = DEFAULT_WORLD
+    kwargs: dict[str, Any] = field(default_factory=dict)
+    n_envs: int = 1
+    fire_on_reset: bool = False
+    clip_reward: bool = False
+    life_loss_terminal: bool = False
+
+    def __post_init__(self) -> None:
+        check_world(self.name)  # a registered name or an importable factory path
+        object.__setattr__(self, "kwargs", _frozen(dict(self.kwargs)))
+        _count("world.n_envs", self.n_envs, 1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
+class BoltConfig:
+    """The restraining bolt: its specs and how it pays (``bolt`` in ``config.json``).
+
+    Attributes:
+        specs: the specs as dicts of :class:`~noisybolt.bolt.Spec` fields, plus an
+            optional ``reward_scale`` (this spec's scale under the ``compliance`` scheme).
+        reward: the reward scheme (:mod:`noisybolt.bolt.schemes`): ``"compliance"``
+            (default: compliance first, then the world's return) or ``"paper"`` (each
+            spec's own terminal reward every accepting step: what ``reproduce`` uses).
+        reward_scale: ``compliance`` only: what a spec's acceptance is worth. None
+            computes it from the world's declared return bounds
+            (:func:`~noisybolt.bolt.compliance_scale`); the config holds the value used.
+        shaping: ``compliance`` only: potential-based progress shaping over each DFA
+            (:mod:`noisybolt.bolt.shaping`).
+        tracking: ``"threshold"`` (Algorithm 1, the default, what ``reproduce`` uses) or
+            ``"belief"`` (a distribution over each spec's DFA states,
+            :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
+        confidence: ``belief`` only: the probability of the paid-for condition at which a
+            spec counts as accepting and is paid, in (0.5, 1).
+        thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
+        cost_mode: ``"count"`` or ``"proportional"``.
+        bolted: False trains the same agent without a bolt (for comparison): specs are
+            still tracked for compliance metrics, with zero rewards.
+    """
+
+    specs: tuple[dict[str, Any], ...] = ()
+    reward: str = "compliance"
+    reward_scale: float | None = None
+    shaping: bool = True
+    tracking: str = "threshold"
+    confidence: float = 0.9
+    thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
+    cost_mode: str = "count"
+    bolted: bool = True
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "specs", tuple(_frozen(dict(s)) for s in self.specs))
+        object.__setattr__(self, "thresholds", _frozen(dict(self.thresholds)))
+        unknown = sorted(set(self.thresholds) - {"truth", "high"})
+        if unknown:
+            raise ConfigError(
+                f"unknown config key(s) bolt.thresholds.{unknown}; known: truth, high"
+            )
+        Thresholds(**self.thresholds)
+        if self.cost_mode not in COST_MODES:
+            raise ConfigError(
+                f"bolt.cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
+            )
+        check_tracking(self.tracking)
+        BeliefSettings(confidence=self.confidence)  # ConfidenceLevelError outside (0.5, 1)
+
+    @property
+    def scheme(self) -> RewardScheme:
+        """The reward scheme (validates ``reward``, ``reward_scale`` and ``shaping``)."""
+        if self.reward == "paper":
+            return RewardScheme("paper", scale=self.reward_scale)
+        return RewardScheme(self.reward, scale=self.reward_scale, shaping=self.shaping)
+
+
+@dataclass(frozen=True, kw_only=True)
 class DetectorConfig:
-    """Which fluent detector the bolt uses.
+    """Which fluent detector the bolt uses (``detector`` in ``config.json``).
 
     Attributes:
         kind: ``"classifier"`` (a trained CNN on the bolt's noisy camera), ``"oracle"``
@@ -232,25 +296,53 @@ class DetectorConfig:
         object.__setattr__(self, "low_confidence", tuple(self.low_confidence))
 
 
-@dataclass(frozen=True)
-class TrainConfig:
-    """Everything that defines a training run (saved as ``config.json``).
+@dataclass(frozen=True, kw_only=True)
+class AlgorithmConfig:
+    """The learner (``algorithm`` in ``config.json``).
 
     Attributes:
-        world: registry name of the world, or a factory path ``package.module:factory``
-            returning a labelled env (see :mod:`noisybolt.envs.registry`).
-        world_kwargs: passed to :func:`noisybolt.envs.make_world` (e.g. ``noise``).
-        specs: the bolt's specs as dicts of :class:`~noisybolt.bolt.Spec` fields, plus an
-            optional ``reward_scale`` (this spec's scale under the ``compliance`` scheme).
-        algo: ``ppo``, ``a2c`` or ``dqn``.
-        hyperparams: resolved hyperparameters (see :mod:`noisybolt.agents.hyperparams`).
-        detector: the fluent detector.
-        frames: environment steps to train for (all environments together).
-        seed: seeds the world, the agent and the evaluation.
-        eval_freq: frames between evaluations (0: only at the end).
-        eval_episodes: episodes per evaluation.
-        eval_envs: environments used to evaluate.
-        eval_deterministic: evaluate the greedy policy; by default actions are sampled, as
+        name: ``ppo``, ``a2c`` or ``dqn``.
+        hyperparams: resolved hyperparameters (:mod:`noisybolt.agents.hyperparams`): the
+            SB3 constructor's arguments and noisybolt's own agent settings
+            (:data:`~noisybolt.agents.hyperparams.META_KEYS`).
+    """
+
+    name: str = "ppo"
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        algorithm_class(self.name)
+        object.__setattr__(self, "hyperparams", _frozen(dict(self.hyperparams)))
+        known = known_hyperparameters(self.name) - WORLD_KEYS
+        for key in self.hyperparams:
+            if key in WORLD_KEYS:
+                raise ConfigError(
+                    f"algorithm.hyperparams.{key} is a setting of the world: set world.{key}"
+                )
+            if key not in known:
+                raise ConfigError(
+                    f"unknown config key algorithm.hyperparams.{key} for {self.name}; "
+                    f"known: {sorted(known)}"
+                )
+        check_hyperparameter_values(
+            self.name, {k: v for k, v in self.hyperparams.items() if k != "policy_kwargs"}
+        )
+        if self.hyperparams.get("ent_coef_final") is not None and self.name not in ("ppo", "a2c"):
+            raise ConfigError(
+                f"ent_coef_final: {self.name.upper()} has no entropy bonus (only PPO and A2C); "
+                "remove the hyperparameter"
+            )
+
+
+@dataclass(frozen=True, kw_only=True)
+class EvaluationConfig:
+    """How the run is evaluated while it trains (``evaluation`` in ``config.json``).
+
+    Attributes:
+        freq: frames between evaluations (0: only at the end).
+        episodes: episodes per evaluation.
+        envs: environments used to evaluate.
+        deterministic: evaluate the greedy policy; by default actions are sampled, as
             the paper's code base (rl-starter-files) evaluates: a half-trained greedy policy
             on a grid often loops (turning on the spot) where its sampled one does not.
         success_threshold: the share of evaluation episodes that must reach the goal and
@@ -259,69 +351,125 @@ class TrainConfig:
             in a row reach ``success_threshold``
             (:class:`~noisybolt.agents.stopping.StopWhenSolved`); 0 trains the whole
             ``frames`` budget.
-        checkpoint_freq: frames between checkpoints (0: none).
-        thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
-        cost_mode: ``"count"`` or ``"proportional"``.
-        tracking: how the bolt tracks its DFAs: ``"threshold"`` (Algorithm 1, the
-            default, what ``reproduce`` uses) or ``"belief"`` (a distribution over each
-            spec's DFA states, :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
-        confidence: ``belief`` only: the probability of the paid-for condition at which a
-            spec counts as accepting and is paid, in (0.5, 1).
-        reward: the reward scheme (:mod:`noisybolt.bolt.schemes`): ``"compliance"``
-            (default: compliance first, then the world's return) or ``"paper"`` (each
-            spec's own terminal reward every accepting step: what ``reproduce`` uses).
-        reward_scale: ``compliance`` only: what a spec's acceptance is worth. None
-            computes it from the world's declared return bounds
-            (:func:`~noisybolt.bolt.compliance_scale`); the config holds the value used.
-        shaping: ``compliance`` only: potential-based progress shaping over each DFA
-            (:mod:`noisybolt.bolt.shaping`), for the learner's ``gamma``.
-        bolted: False trains the same agent without a bolt (for comparison): specs are
-            still tracked for compliance metrics, with zero rewards.
         keep_best: the run's final model is the one of the periodic evaluation with the
             highest mean *shaped* return (environment + bolt rewards, as the bolt sees
             them through its detector), not the last one, as RL Zoo keeps
             ``best_model.zip``. Ground truth never chooses: compliance is measured on the
-            kept model afterwards. It guards a result against late drift (a policy that
-            complied for 200k frames and then found an equally short route past the spec
-            is not what the training signal prefers).
-        progress_bar: show a progress bar.
+            kept model afterwards.
     """
 
-    world: str = DEFAULT_WORLD
-    world_kwargs: dict[str, Any] = field(default_factory=dict)
-    specs: tuple[dict[str, Any], ...] = ()
-    algo: str = "ppo"
-    hyperparams: dict[str, Any] = field(default_factory=dict)
-    detector: DetectorConfig = field(default_factory=DetectorConfig)
-    frames: int = 100_000
-    seed: int = 0
-    eval_freq: int = 10_000
-    eval_episodes: int = 20
-    eval_envs: int = 4
-    eval_deterministic: bool = False
+    freq: int = 10_000
+    episodes: int = 20
+    envs: int = 4
+    deterministic: bool = False
     success_threshold: float = 0.95
     stop_after: int = 0
-    checkpoint_freq: int = 20_000
-    thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
-    cost_mode: str = "count"
-    tracking: str = "threshold"
-    confidence: float = 0.9
-    reward: str = "compliance"
-    reward_scale: float | None = None
-    shaping: bool = True
-    bolted: bool = True
     keep_best: bool = False
-    progress_bar: bool = True
 
     def __post_init__(self) -> None:
-        check_world(self.world)  # a registered name or an importable factory path
-        algorithm_class(self.algo)
-        for name in ("world_kwargs", "hyperparams", "thresholds"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
-        check_hyperparameter_values(
-            self.algo, {k: v for k, v in self.hyperparams.items() if k != "policy_kwargs"}
-        )
-        frame_schedules(self.hyperparams, frames=int(self.frames))  # validates them
+        _count("evaluation.freq", self.freq, 0)
+        _count("evaluation.episodes", self.episodes, 1)
+        _count("evaluation.envs", self.envs, 1)
+        if not 0.0 < self.success_threshold <= 1.0:
+            raise ConfigError(
+                f"evaluation.success_threshold must be in (0, 1], got {self.success_threshold}"
+            )
+        if isinstance(self.stop_after, bool) or not isinstance(self.stop_after, int):
+            raise ConfigError(
+                f"evaluation.stop_after must be an integer >= 0, got {self.stop_after!r}"
+            )
+        if self.stop_after < 0 or (self.stop_after and not self.freq):
+            raise ConfigError(
+                f"evaluation.stop_after={self.stop_after}: stopping when solved counts "
+                "periodic evaluations; give stop_after >= 0 and, for stop_after > 0, "
+                "eval_freq > 0 (evaluation.freq)"
+            )
+
+
+_T = TypeVar("_T")
+
+
+class _Alias(Generic[_T]):
+    """A read-only flat name for a setting held in a section: ``config.tracking`` is
+    ``config.bolt.tracking``. One place holds the data; these are the names the code read
+    before the schema was nested, and the keys of the flat ``config.json`` of older runs."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        section, _, self.name = path.partition(".")
+        self.section = _ATTRIBUTES.get(section, section)
+
+    def __get__(self, obj: Any, owner: Any = None) -> _T:
+        if obj is None:
+            return self  # type: ignore[return-value]
+        value: _T = getattr(getattr(obj, self.section), self.name)
+        return value
+
+
+#: Schema keys whose attribute has another name: ``config.world`` is the world's name
+#: (what most code wants), the section is ``config.world_config``.
+_ATTRIBUTES = {"world": "world_config"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainConfig:
+    """Everything that defines a training run (saved as ``config.json``).
+
+    Build a new run's config with :meth:`build` (overrides by schema path, hyperparameters
+    and specs resolved), read a saved one with :meth:`from_dict`, change one with
+    :meth:`override`. The flat names of the settings (``config.tracking``,
+    ``config.eval_freq``, ``config.algo``, ``config.world``: the world's name) read the
+    sections; :data:`FLAT_PATHS` says which path each reads.
+
+    Attributes:
+        seed: seeds the world, the agent and the evaluation.
+        frames: environment steps to train for (all environments together).
+        checkpoint_freq: frames between checkpoints (0: none).
+        progress_bar: show a progress bar.
+        world_config: the world (``world`` in ``config.json``; ``config.world`` is its name).
+        bolt: the bolt's specs and reward.
+        detector: the bolt's fluent detector.
+        algorithm: the learner and its hyperparameters.
+        evaluation: evaluation during training, stopping and the model kept.
+    """
+
+    seed: int = 0
+    frames: int = 100_000
+    checkpoint_freq: int = 20_000
+    progress_bar: bool = True
+    world_config: WorldConfig = field(default_factory=WorldConfig, metadata={"key": "world"})
+    bolt: BoltConfig = field(default_factory=BoltConfig)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    algorithm: AlgorithmConfig = field(default_factory=AlgorithmConfig)
+    evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+
+    world = _Alias[str]("world.name")
+    world_kwargs = _Alias[Mapping[str, Any]]("world.kwargs")
+    n_envs = _Alias[int]("world.n_envs")
+    specs = _Alias[tuple[Mapping[str, Any], ...]]("bolt.specs")
+    reward = _Alias[str]("bolt.reward")
+    reward_scale = _Alias[float | None]("bolt.reward_scale")
+    shaping = _Alias[bool]("bolt.shaping")
+    tracking = _Alias[str]("bolt.tracking")
+    confidence = _Alias[float]("bolt.confidence")
+    thresholds = _Alias[Mapping[str, float]]("bolt.thresholds")
+    cost_mode = _Alias[str]("bolt.cost_mode")
+    bolted = _Alias[bool]("bolt.bolted")
+    algo = _Alias[str]("algorithm.name")
+    hyperparams = _Alias[Mapping[str, Any]]("algorithm.hyperparams")
+    eval_freq = _Alias[int]("evaluation.freq")
+    eval_episodes = _Alias[int]("evaluation.episodes")
+    eval_envs = _Alias[int]("evaluation.envs")
+    eval_deterministic = _Alias[bool]("evaluation.deterministic")
+    success_threshold = _Alias[float]("evaluation.success_threshold")
+    stop_after = _Alias[int]("evaluation.stop_after")
+    keep_best = _Alias[bool]("evaluation.keep_best")
+
+    def __post_init__(self) -> None:
+        for key, kind in _sections(TrainConfig).items():
+            value = getattr(self, _ATTRIBUTES.get(key, key))
+            if not isinstance(value, kind):
+                raise ConfigError(f"config key {key} must be a {kind.__name__}, got {value!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int):
             raise ConfigError(f"seed must be an integer, got {self.seed!r}")
         if not SEED_RANGE[0] <= self.seed <= SEED_RANGE[1]:
@@ -329,35 +477,20 @@ class TrainConfig:
                 f"seed must be in [{SEED_RANGE[0]}, {SEED_RANGE[1]}] (what numpy accepts), "
                 f"got {self.seed}"
             )
+        _count("frames", self.frames, 1)
+        _count("checkpoint_freq", self.checkpoint_freq, 0)
+        if not isinstance(self.progress_bar, bool):
+            raise ConfigError(f"progress_bar must be true or false, got {self.progress_bar!r}")
+        frame_schedules(self.hyperparams, frames=self.frames)  # validates them
         if not self.specs:
-            raise ConfigError("give at least one spec (--spec NAME or --spec FORMULA)")
-        for name in ("frames", "eval_episodes", "eval_envs"):
-            if int(getattr(self, name)) < 1:
-                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
-        for name in ("eval_freq", "checkpoint_freq"):
-            if int(getattr(self, name)) < 0:
-                raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)}")
-        if not 0.0 < self.success_threshold <= 1.0:
-            raise ConfigError(f"success_threshold must be in (0, 1], got {self.success_threshold}")
-        if isinstance(self.stop_after, bool) or not isinstance(self.stop_after, int):
-            raise ConfigError(f"stop_after must be an integer >= 0, got {self.stop_after!r}")
-        if self.stop_after < 0 or (self.stop_after and not self.eval_freq):
-            raise ConfigError(
-                f"stop_after={self.stop_after}: stopping when solved counts periodic "
-                "evaluations; give stop_after >= 0 and, for stop_after > 0, eval_freq > 0"
-            )
-        if self.cost_mode not in COST_MODES:
-            raise ConfigError(
-                f"cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
-            )
-        Thresholds(**self.thresholds)
-        check_tracking(self.tracking)
-        BeliefSettings(confidence=self.confidence)  # ConfidenceLevelError outside (0.5, 1)
-        object.__setattr__(self, "specs", tuple(_frozen(dict(s)) for s in self.specs))
-        if self.reward == "compliance" and self.reward_scale is None:
-            object.__setattr__(self, "reward_scale", _scale_from_world(self))
-        scheme = self.scheme  # validates reward, reward_scale and shaping
-        object.__setattr__(self, "shaping", scheme.shaping)
+            raise ConfigError("give at least one spec (--spec NAME or --spec FORMULA: bolt.specs)")
+        bolt = self.bolt
+        if bolt.reward == "compliance" and bolt.reward_scale is None:
+            bolt = replace(bolt, reward_scale=_scale_from_world(self))
+        scheme = bolt.scheme  # validates reward, reward_scale and shaping
+        if scheme.shaping != bolt.shaping:
+            bolt = replace(bolt, shaping=scheme.shaping)
+        object.__setattr__(self, "bolt", bolt)
         names = [spec.name for spec in self.spec_objects()]  # validates every spec
         repeated = sorted({name for name in names if names.count(name) > 1})
         if repeated:
@@ -365,6 +498,60 @@ class TrainConfig:
                 f"spec(s) {repeated} given twice: each spec is tracked and reported by its "
                 "name; remove the repeat, or give each a name of its own (--spec-set name=...)"
             )
+
+    # ------------------------------------------------------------------ building
+
+    @classmethod
+    def build(
+        cls,
+        overrides: Mapping[str, Any] | None = None,
+        *,
+        hp_file: str | os.PathLike[str] | None = None,
+    ) -> TrainConfig:
+        """A new run's config: the schema's defaults with ``overrides`` applied, resolved.
+
+        Resolving: specs given by name, group or formula become :class:`~noisybolt.bolt.Spec`
+        fields; the hyperparameters are the world's file for the algorithm (or ``hp_file``)
+        with the ``algorithm.hyperparams.*`` overrides on top, and the world settings the
+        file gives (``n_envs``, the Atari conventions) fill the ``world`` section where no
+        override set them; the compliance scale comes from the world.
+
+        Args:
+            overrides: ``{schema path: value}``; a mapping value merges key by key
+                (``{"bolt": {"tracking": "belief"}}`` is ``{"bolt.tracking": "belief"}``).
+            hp_file: a YAML file of the built-in hyperparameter layout to read instead.
+
+        Raises:
+            ConfigError: an unknown path or a value of the wrong type (naming the path),
+                or a value the schema refuses.
+
+        Example:
+            >>> config = TrainConfig.build(
+            ...     {"bolt.specs": ["edge"], "bolt.reward": "paper", "algorithm.name": "dqn",
+            ...      "algorithm.hyperparams.gamma": 0.9, "world.n_envs": 2})
+            >>> config.algorithm.hyperparams["gamma"], config.world_config.n_envs
+            (0.9, 2)
+        """
+        changes = _paths(overrides or {})
+        prefix = "algorithm.hyperparams."
+        params_given = {k[len(prefix) :]: v for k, v in changes.items() if k.startswith(prefix)}
+        data = _defaults(cls)
+        for path, value in changes.items():
+            if not path.startswith(prefix):
+                _set(data, path, _checked(path, value))
+        world, algo = data["world"]["name"], data["algorithm"]["name"]
+        params = load_hyperparams(world, algo, params_given, hp_file=hp_file)
+        for key in sorted(WORLD_KEYS):
+            value = params.pop(key, None)
+            if value is not None and f"world.{key}" not in changes:
+                data["world"][key] = value
+        chosen = "policy_kwargs.normalize_images" in params_given or hp_file is not None
+        if is_factory_path(world) and not chosen:
+            _keep_small_integer_images(world, dict(data["world"]["kwargs"]), params)
+        data["algorithm"]["hyperparams"] = params
+        bolt = data["bolt"]
+        bolt["specs"] = _resolved_specs(bolt["specs"], paper=bolt["reward"] == "paper")
+        return _load(cls, data, "")
 
     @classmethod
     def create(
@@ -376,54 +563,60 @@ class TrainConfig:
         overrides: Mapping[str, Any] | None = None,
         n_envs: int | None = None,
         hp_file: str | os.PathLike[str] | None = None,
-        **kwargs: Any,
+        **settings: Any,
     ) -> TrainConfig:
-        """A config with specs resolved (names or formulas) and hyperparameters loaded.
+        """:meth:`build` with keyword arguments: ``overrides`` are hyperparameters, and
+        ``settings`` flat names (:data:`FLAT_PATHS`: ``tracking``, ``eval_freq``, ...),
+        run-level fields or sections (``detector=DetectorConfig(...)``).
 
-        A spec given as a mapping may carry ``reward_scale`` (its scale under the
-        ``compliance`` scheme) beside the :class:`~noisybolt.bolt.Spec` fields.
+        Example:
+            >>> TrainConfig.create(specs=["edge"], reward="paper", tracking="belief").bolt.tracking
+            'belief'
         """
-        paper = kwargs.get("reward", "compliance") == "paper"
-        resolved = []
-        for item in expand_specs(specs):
-            scale = None
-            if isinstance(item, Mapping):
-                item = dict(item)
-                scale = item.pop("reward_scale", None)
-                paid_by_paper = sorted({"terminal_reward", "reward_timing"} & set(item))
-                if paid_by_paper and not paper:
-                    raise ConfigError(
-                        f"spec {item.get('name') or item.get('formula')!r} sets "
-                        f"{paid_by_paper}, which only the paper reward scheme pays; under the "
-                        "compliance scheme set reward_scale instead, or use --reward paper"
-                    )
-            fields = asdict(_parsed_spec(item))
-            if scale is not None:
-                fields["reward_scale"] = scale
-            resolved.append(fields)
-        params = load_hyperparams(world, algo, overrides, hp_file=hp_file)
+        changes: dict[str, Any] = {"world.name": world, "bolt.specs": list(specs)}
+        changes["algorithm.name"] = algo
+        for key, value in (overrides or {}).items():
+            changes[f"algorithm.hyperparams.{key}"] = value
         if n_envs is not None:
-            params["n_envs"] = int(n_envs)
-        chosen = "policy_kwargs.normalize_images" in (overrides or {}) or hp_file is not None
-        if is_factory_path(world) and not chosen:
-            _keep_small_integer_images(world, dict(kwargs.get("world_kwargs") or {}), params)
-        return cls(world=world, specs=tuple(resolved), algo=algo, hyperparams=params, **kwargs)
+            changes["world.n_envs"] = n_envs
+        for key, value in settings.items():
+            if dataclasses.is_dataclass(value) and not isinstance(value, type):
+                value = _dump(value)
+            changes[FLAT_PATHS.get(key, key)] = value
+        return cls.build(changes, hp_file=hp_file)
+
+    def override(self, changes: Mapping[str, Any]) -> TrainConfig:
+        """This config with ``changes`` (``{schema path: value}``) applied, validated whole.
+
+        It changes what the paths name and nothing else: a resolved config keeps its
+        hyperparameters and compliance scale (build a new run's config with :meth:`build`
+        to resolve them again). Specs may be given by name or formula.
+
+        Raises:
+            ConfigError: an unknown path or a value of the wrong type, naming the path.
+        """
+        data = self.to_dict()
+        for path, value in _paths(changes).items():
+            if path == "bolt.specs":
+                value = _resolved_specs(_checked(path, value), paper=self.reward == "paper")
+            _set(data, path, _checked(path, value))
+        return TrainConfig.from_dict(data)
+
+    # ------------------------------------------------------------------ reading
 
     @property
     def world_settings(self) -> dict[str, Any]:
-        """``world_kwargs`` plus the world settings held among the hyperparameters (the
-        Atari convention ``fire_on_reset``): what every world of the run is built with."""
+        """``world.kwargs`` plus ``fire_on_reset`` when set: what every world of the run
+        is built with."""
         settings = dict(self.world_kwargs)
-        if self.hyperparams.get("fire_on_reset"):
+        if self.world_config.fire_on_reset:
             settings["fire_on_reset"] = True
         return settings
 
     @property
     def scheme(self) -> RewardScheme:
         """The reward scheme of the run."""
-        if self.reward == "paper":
-            return RewardScheme("paper", scale=self.reward_scale)
-        return RewardScheme(self.reward, scale=self.reward_scale, shaping=self.shaping)
+        return self.bolt.scheme
 
     @property
     def progress_gamma(self) -> float | None:
@@ -439,11 +632,6 @@ class TrainConfig:
         """The bolt's belief-tracking settings (None under threshold tracking)."""
         return BeliefSettings(confidence=self.confidence) if self.tracking == "belief" else None
 
-    @property
-    def n_envs(self) -> int:
-        """Training environments."""
-        return int(self.hyperparams.get("n_envs", 1))
-
     def spec_objects(self) -> list[Spec]:
         """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted)."""
         scheme = self.scheme
@@ -457,37 +645,341 @@ class TrainConfig:
         return specs
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (what ``config.json`` holds)."""
-        data = _thaw(asdict(self))
-        data["specs"] = [_thaw(dict(s)) for s in self.specs]
-        data["detector"]["low_confidence"] = list(self.detector.low_confidence)
-        return json.loads(json.dumps(data))
+        """JSON-able nested form (what ``config.json`` holds), with its schema version."""
+        return {"schema": SCHEMA_VERSION, **_dump(self)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TrainConfig:
-        """Reads :meth:`to_dict`'s output back, strictly.
+        """Reads :meth:`to_dict`'s output back strictly, or the flat form of older runs.
+
+        A key the data lacks takes what the version that saved it meant
+        (:data:`LEGACY_DEFAULTS`), else the schema's default.
 
         Raises:
             ConfigError: an unknown key, or a value of the wrong JSON type; the message
                 names the key's path (``detector.samples``).
 
         Example:
-            >>> TrainConfig.from_dict({"specs": ["edge"], "detector": {"samples": "many"}})
+            >>> TrainConfig.from_dict({"bolt": {"specs": [{"name": "edge"}]},
+            ...                        "detector": {"samples": "many"}})
             Traceback (most recent call last):
             ...
             noisybolt.errors.ConfigError: config key detector.samples must be an integer, got 'many'
         """
-        if not isinstance(data, Mapping):
-            raise ConfigError(f"a training config is a mapping, got {type(data).__name__}")
-        data = {**LEGACY_DEFAULTS, **data}
-        _check_keys(data, _FIELD_TYPES, "")
-        detector_data = data.pop("detector", {})
-        if not isinstance(detector_data, Mapping):
-            raise ConfigError(f"config key detector must be a mapping, got {detector_data!r}")
-        _check_keys(detector_data, _DETECTOR_TYPES, "detector.")
-        detector = DetectorConfig(**detector_data)
-        data["specs"] = tuple(data.get("specs", ()))
-        return cls(detector=detector, **data)
+        data = nested_config(data)
+        del data["schema"]
+        return _load(cls, data, "")
+
+
+#: The flat name of each setting held in a section (``tracking`` -> ``bolt.tracking``):
+#: the attributes that read them, the keys of the flat ``config.json`` of older runs and
+#: :meth:`TrainConfig.create`'s keywords.
+FLAT_PATHS: dict[str, str] = {
+    name: alias.path for name, alias in vars(TrainConfig).items() if isinstance(alias, _Alias)
+}
+
+
+# --------------------------------------------------------------------------- the schema
+
+
+def _keys(cls: type) -> dict[str, dataclasses.Field[Any]]:
+    """A section's fields by their ``config.json`` key."""
+    return {f.metadata.get("key", f.name): f for f in dataclasses.fields(cls)}
+
+
+def _hints(cls: type) -> dict[str, Any]:
+    return typing.get_type_hints(cls)
+
+
+def _sections(cls: type) -> dict[str, type]:
+    """The section fields of ``cls`` by key, with their classes."""
+    hints = _hints(cls)
+    return {
+        key: hints[f.name]
+        for key, f in _keys(cls).items()
+        if dataclasses.is_dataclass(hints[f.name])
+    }
+
+
+def _is_mapping(hint: Any) -> bool:
+    return hint is dict or typing.get_origin(hint) in (dict, Mapping)
+
+
+_TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false"}
+
+
+def _describe(hint: Any) -> str:
+    args = typing.get_args(hint)
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return " or ".join("null" if a is type(None) else _describe(a) for a in args)
+    if typing.get_origin(hint) is tuple:
+        return "a list"
+    if _is_mapping(hint) or dataclasses.is_dataclass(hint):
+        return "a mapping"
+    return _TYPE_NAMES.get(hint, getattr(hint, "__name__", str(hint)))
+
+
+def _value(value: Any, hint: Any, path: str) -> Any:
+    """``value`` as the setting at ``path`` (of type ``hint``) holds it, or a ConfigError
+    naming the path."""
+    if dataclasses.is_dataclass(hint) and isinstance(hint, type):
+        return _load(hint, value, path + ".")
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        for arm in (a for a in args if a is not type(None)):
+            try:
+                return _value(value, arm, path)
+            except ConfigError:
+                pass
+    elif hint is Any:
+        return _frozen(value)
+    elif hint is bool:
+        if isinstance(value, bool):
+            return value
+    elif hint is int:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+    elif hint is float:
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+    elif hint is str:
+        if isinstance(value, str):
+            return value
+    elif origin is tuple:
+        if isinstance(value, (list, tuple)):
+            return tuple(_value(v, args[0], f"{path}[{i}]") for i, v in enumerate(value))
+    elif _is_mapping(hint) and isinstance(value, Mapping):
+        return _frozen(dict(value))
+    raise ConfigError(f"config key {path} must be {_describe(hint)}, got {value!r}")
+
+
+def _load(cls: type[_T], data: Any, prefix: str) -> _T:
+    """Builds section ``cls`` from ``data`` strictly: unknown keys and wrong types are
+    refused with their path; missing keys take the field's default."""
+    if not isinstance(data, Mapping):
+        where = f"config key {prefix[:-1]}" if prefix else "a training config"
+        raise ConfigError(f"{where} must be a mapping, got {data!r}")
+    keys, hints = _keys(cls), _hints(cls)
+    unknown = sorted(set(data) - set(keys))
+    if unknown:
+        where = f" in {prefix[:-1]}" if prefix else ""
+        found = ", ".join(prefix + k for k in unknown)
+        raise ConfigError(f"unknown config key {found}; known{where}: {sorted(keys)}")
+    kwargs = {
+        keys[key].name: _value(value, hints[keys[key].name], prefix + key)
+        for key, value in data.items()
+    }
+    return cls(**kwargs)
+
+
+def _dump(section: Any) -> dict[str, Any]:
+    """A section as JSON-able data, by ``config.json`` keys."""
+    out = {}
+    for key, f in _keys(type(section)).items():
+        value = getattr(section, f.name)
+        out[key] = _dump(value) if dataclasses.is_dataclass(value) else value
+    return json.loads(json.dumps(out))
+
+
+def _defaults(cls: type) -> dict[str, Any]:
+    """The schema's defaults as ``config.json`` data (sections built from theirs)."""
+    sections = _sections(cls)
+    out: dict[str, Any] = {}
+    for key, f in _keys(cls).items():
+        if key in sections:
+            out[key] = _dump(sections[key]())
+        elif f.default is not dataclasses.MISSING:
+            out[key] = f.default
+        else:
+            out[key] = typing.cast(Callable[[], Any], f.default_factory)()
+    return json.loads(json.dumps(out))
+
+
+def _hint_at(path: str) -> Any:
+    """The type the setting at ``path`` holds (Any inside a mapping-typed setting).
+
+    Raises:
+        ConfigError: the path names no setting.
+    """
+    hint: Any = TrainConfig
+    parts = path.split(".")
+    for index, part in enumerate(parts):
+        where = ".".join(parts[:index])
+        if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+            keys = _keys(hint)
+            if part not in keys:
+                known = f"known in {where}" if where else "known"
+                raise ConfigError(f"unknown config key {path}; {known}: {sorted(keys)}")
+            hint = _hints(hint)[keys[part].name]
+        elif _is_mapping(hint) or hint is Any:
+            return Any
+        else:
+            raise ConfigError(f"config key {where} is not a mapping: {path} cannot reach into it")
+    return hint
+
+
+def _paths(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``changes`` as ``{schema path: value}``: a mapping given for a section or a
+    mapping-typed setting merges key by key."""
+    out: dict[str, Any] = {}
+    for key, value in changes.items():
+        path = f"{prefix}{key}"
+        hint = _hint_at(path)
+        if isinstance(value, Mapping) and (
+            dataclasses.is_dataclass(hint) or _is_mapping(hint) or hint is Any
+        ):
+            out.update(_paths(value, path + "."))
+        else:
+            out[path] = value
+    return out
+
+
+def _checked(path: str, value: Any) -> Any:
+    """``value`` if the setting at ``path`` can hold it (as JSON data), else a ConfigError."""
+    hint = _hint_at(path)
+    if path == "bolt.specs":  # names and formulas are resolved after the overrides
+        specs = [value] if isinstance(value, str) else value
+        if not isinstance(specs, (list, tuple)) or not all(
+            isinstance(s, (str, Mapping)) for s in specs
+        ):
+            raise ConfigError(
+                f"config key bolt.specs must be a list of spec names, formulas or mappings, "
+                f"got {value!r}"
+            )
+        return list(specs)
+    return json.loads(json.dumps(_value(value, hint, path)))
+
+
+def _set(data: dict[str, Any], path: str, value: Any) -> None:
+    *heads, last = path.split(".")
+    node = data
+    for head in heads:
+        child = node.get(head)
+        if not isinstance(child, dict):
+            child = node[head] = {}
+        node = child
+    node[last] = value
+
+
+def schema_paths() -> tuple[str, ...]:
+    """Every setting's path (a mapping-typed setting's keys are free below it).
+
+    Example:
+        >>> "bolt.tracking" in schema_paths(), "algorithm.hyperparams" in schema_paths()
+        (True, True)
+    """
+
+    def walk(cls: type, prefix: str) -> list[str]:
+        hints, out = _hints(cls), []
+        for key, f in _keys(cls).items():
+            hint = hints[f.name]
+            if dataclasses.is_dataclass(hint) and isinstance(hint, type):
+                out += walk(hint, f"{prefix}{key}.")
+            else:
+                out.append(prefix + key)
+        return out
+
+    return tuple(walk(TrainConfig, ""))
+
+
+def value_from_text(path: str, text: str) -> Any:
+    """The value a command line's ``PATH=TEXT`` means for the setting at ``path``: the
+    text itself for a string setting, else ``text`` read as YAML (``[32, 32]``, ``true``,
+    ``null``; ``3e-4`` as the number a user means).
+
+    Example:
+        >>> value_from_text("bolt.tracking", "belief"), value_from_text("frames", "5000")
+        ('belief', 5000)
+        >>> value_from_text("algorithm.hyperparams.learning_rate", "3e-4")
+        0.0003
+    """
+    hint = _hint_at(path)
+    arms = typing.get_args(hint) if typing.get_origin(hint) is types.UnionType else (hint,)
+    if str in arms and not (type(None) in arms and text.strip() in ("null", "~")):
+        return text
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        raise ConfigError(f"cannot read the value of {path}={text!r}: {error}") from None
+    if isinstance(value, str):  # YAML 1.1 reads "3e-4" as a string
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
+def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
+    """A saved config's data in today's nested form, with its schema version: the flat
+    ``config.json`` of a run saved before the schema was nested converted (its keys are
+    :data:`FLAT_PATHS`; world settings among its hyperparameters moved to ``world``), and
+    every path of
+    :data:`LEGACY_DEFAULTS` it lacks filled in. Nothing is validated here.
+
+    Raises:
+        ConfigError: not a mapping, or a schema version this noisybolt does not read.
+
+    Example:
+        >>> nested = nested_config({"algo": "dqn", "eval_freq": 500, "hyperparams": {"n_envs": 2}})
+        >>> nested["algorithm"], nested["evaluation"]["freq"], nested["world"]["n_envs"]
+        ({'name': 'dqn', 'hyperparams': {}}, 500, 2)
+        >>> nested["bolt"]["tracking"]  # runs saved before belief tracking tracked by threshold
+        'threshold'
+    """
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"a training config is a mapping, got {type(data).__name__}")
+    raw: dict[str, Any] = json.loads(json.dumps(dict(data)))
+    version = raw.pop("schema", None)
+    nested_form = version is not None or any(
+        isinstance(raw.get(k), Mapping) for k in ("world", "bolt", "algorithm", "evaluation")
+    )
+    if version is not None and version != SCHEMA_VERSION:
+        raise ConfigError(
+            f"config schema {version!r}: this noisybolt reads schema {SCHEMA_VERSION} (and the "
+            "flat configs of older runs); use the noisybolt version that wrote it"
+        )
+    out: dict[str, Any] = raw if nested_form else {}
+    if not nested_form:
+        for key, value in raw.items():
+            if key == "hyperparams" and isinstance(value, Mapping):
+                value = dict(value)
+                for name in sorted(WORLD_KEYS & set(value)):
+                    setting = value.pop(name)
+                    if setting is not None:
+                        _set(out, f"world.{name}", setting)
+            _set(out, FLAT_PATHS.get(key, key), value)
+    for path, value in LEGACY_DEFAULTS.items():
+        section, key = path.split(".")
+        if not isinstance(out.get(section), dict):
+            out.setdefault(section, {})  # a section of the wrong type is refused by loading
+        if isinstance(out[section], dict) and key not in out[section]:
+            out[section][key] = value
+    return {"schema": SCHEMA_VERSION, **out}
+
+
+def _resolved_specs(items: Sequence[Any], *, paper: bool) -> list[dict[str, Any]]:
+    """Specs given by name, group, formula or mapping, as :class:`Spec` fields (plus a
+    spec's own ``reward_scale``)."""
+    resolved = []
+    for item in expand_specs(list(items)):
+        scale = None
+        if isinstance(item, Mapping):
+            item = dict(item)
+            scale = item.pop("reward_scale", None)
+            paid_by_paper = sorted({"terminal_reward", "reward_timing"} & set(item))
+            if paid_by_paper and not paper:
+                raise ConfigError(
+                    f"spec {item.get('name') or item.get('formula')!r} sets "
+                    f"{paid_by_paper}, which only the paper reward scheme pays; under the "
+                    "compliance scheme set reward_scale instead, or use --reward paper"
+                )
+        fields = asdict(_parsed_spec(item))
+        if scale is not None:
+            fields["reward_scale"] = scale
+        resolved.append(json.loads(json.dumps(fields)))
+    return resolved
 
 
 def _parsed_spec(fields: str | Mapping[str, Any]) -> Spec:
@@ -575,71 +1067,3 @@ def _scale_from_world(config: TrainConfig) -> float:
             stacklevel=2,
         )
     return compliance_scale(bounds)
-
-
-#: JSON types of each config field (what ``config.json`` may hold there); None allowed
-#: where the field's default is None.
-_FIELD_TYPES: dict[str, tuple[type, ...]] = {
-    "world": (str,),
-    "world_kwargs": (dict,),
-    "specs": (list, tuple),
-    "algo": (str,),
-    "hyperparams": (dict,),
-    "detector": (dict,),
-    "frames": (int,),
-    "seed": (int,),
-    "eval_freq": (int,),
-    "eval_episodes": (int,),
-    "eval_envs": (int,),
-    "eval_deterministic": (bool,),
-    "success_threshold": (int, float),
-    "checkpoint_freq": (int,),
-    "thresholds": (dict,),
-    "cost_mode": (str,),
-    "tracking": (str,),
-    "confidence": (int, float),
-    "reward": (str,),
-    "reward_scale": (int, float, type(None)),
-    "shaping": (bool,),
-    "bolted": (bool,),
-    "keep_best": (bool,),
-    "progress_bar": (bool,),
-}
-_DETECTOR_TYPES: dict[str, tuple[type, ...]] = {
-    "kind": (str,),
-    "path": (str, type(None)),
-    "low_confidence": (list, tuple),
-    "samples": (int,),
-    "epochs": (int,),
-    "seed": (int,),
-}
-_TYPE_NAMES = {
-    str: "a string",
-    dict: "a mapping",
-    list: "a list",
-    int: "an integer",
-    float: "a number",
-    bool: "true or false",
-}
-
-
-def _check_keys(data: Mapping[str, Any], types: Mapping[str, tuple[type, ...]], path: str) -> None:
-    """Refuses unknown keys and values of the wrong JSON type, naming the key's path.
-
-    Fields that a newer config adds and this table lacks are checked by their own
-    constructor only (the table types what ``config.json`` holds today).
-    """
-    unknown = sorted(
-        set(data) - set(types) - set(TrainConfig.__dataclass_fields__ if not path else ())
-    )
-    if unknown:
-        known = sorted(set(types) | (set(TrainConfig.__dataclass_fields__) if not path else set()))
-        raise ConfigError(f"unknown config key(s) {[path + k for k in unknown]}; known: {known}")
-    for key, value in data.items():
-        allowed = types.get(key)
-        if allowed is None:
-            continue
-        wrong = not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed)
-        if wrong:
-            wanted = " or ".join(_TYPE_NAMES.get(t, "null") for t in allowed if t is not tuple)
-            raise ConfigError(f"config key {path}{key} must be {wanted}, got {value!r}")

@@ -119,7 +119,7 @@ def make_env(
     if not training:
         return bolted
     env: VecEnv = bolted
-    if config.hyperparams.get("life_loss_terminal"):
+    if config.world_config.life_loss_terminal:
         lives = getattr(bolted.world, "lives", None)
         if not callable(lives):
             raise ConfigError(
@@ -151,7 +151,7 @@ def build_bolted_env(
 ) -> BoltVecEnv:
     """The world as an SB3 ``VecEnv``, monitored, with the bolt on top.
 
-    The Atari conventions among the hyperparameters: ``fire_on_reset`` is part of the
+    The Atari conventions of the ``world`` section: ``fire_on_reset`` is part of the
     world (training and evaluation alike); ``clip_reward`` (the game's score clipped to
     its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
     above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
@@ -160,7 +160,7 @@ def build_bolted_env(
     """
     world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
     venv: VecEnv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
-    if training and config.hyperparams.get("clip_reward"):
+    if training and config.world_config.clip_reward:
         venv = ClipGameReward(venv)
     return BoltVecEnv(
         venv,

@@ -30,7 +30,9 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_HYPERPARAMS",
     "META_KEYS",
+    "WORLD_KEYS",
     "algorithm_class",
+    "check_hyperparameter_values",
     "frame_schedules",
     "known_hyperparameters",
     "load_hyperparams",
@@ -43,10 +45,10 @@ ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN
 #: where the values come from).
 DEFAULT_HYPERPARAMS = "_default"
 
-#: noisybolt's own keys, consumed before the rest reaches the SB3 constructor.
+#: noisybolt's own settings of the agent, consumed before the rest reaches the SB3
+#: constructor (a run's config holds them in ``algorithm.hyperparams``).
 META_KEYS: frozenset[str] = frozenset(
     {
-        "n_envs",
         "normalize_reward",
         "image_features",
         # the agent's convolutions (extractor.conv_stack): auto, nature, atari2013, grid
@@ -58,11 +60,15 @@ META_KEYS: frozenset[str] = frozenset(
         # DQN: epsilon falls over this many frames, whatever the budget
         # (sets SB3's exploration_fraction; see frame_schedules)
         "exploration_frames",
-        # Atari conventions (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset)
-        "fire_on_reset",
-        "clip_reward",
-        "life_loss_terminal",
     }
+)
+
+#: Settings of the world that the per-world files give beside the hyperparameters, as RL
+#: Zoo's files give ``n_envs``: training environments and the Atari conventions
+#: (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset). A run's config holds them in
+#: its ``world`` section (:class:`~noisybolt.agents.config.WorldConfig`).
+WORLD_KEYS: frozenset[str] = frozenset(
+    {"n_envs", "fire_on_reset", "clip_reward", "life_loss_terminal"}
 )
 
 # Constructor arguments that noisybolt sets itself.
@@ -84,9 +90,10 @@ def algorithm_class(algo: str) -> type[BaseAlgorithm]:
 
 
 def known_hyperparameters(algo: str) -> frozenset[str]:
-    """Keys accepted for ``algo``: its SB3 constructor's arguments plus :data:`META_KEYS`."""
+    """Keys accepted for ``algo`` in a hyperparameter file or override: its SB3
+    constructor's arguments plus :data:`META_KEYS` and :data:`WORLD_KEYS`."""
     params = inspect.signature(algorithm_class(algo).__init__).parameters
-    return frozenset(params) - _RESERVED | META_KEYS
+    return frozenset(params) - _RESERVED | META_KEYS | WORLD_KEYS
 
 
 def frame_schedules(params: Mapping[str, Any], *, frames: int) -> dict[str, Any]:
@@ -233,3 +240,80 @@ def load_hyperparams(
         source = hp_file if hp_file is not None else f"built-in hyperparameters for {world}"
         raise ConfigError(f"{source}/{algo} has unknown keys {unknown}")
     return params
+
+
+#: Ranges of the SB3 hyperparameters whose bad values would otherwise pass construction
+#: and fail (or silently misbehave) mid-run: ``(low, high, low_open, high_open)``.
+_RANGES: dict[str, tuple[float, float, bool, bool]] = {
+    "gamma": (0.0, 1.0, True, False),
+    "gae_lambda": (0.0, 1.0, False, False),
+    "learning_rate": (0.0, float("inf"), True, True),
+    "n_steps": (1, float("inf"), False, True),
+    "batch_size": (1, float("inf"), False, True),
+    "n_epochs": (1, float("inf"), False, True),
+    "buffer_size": (1, float("inf"), False, True),
+    "learning_starts": (0, float("inf"), False, True),
+    "target_update_interval": (1, float("inf"), False, True),
+    "gradient_steps": (-1, float("inf"), False, True),
+    "tau": (0.0, 1.0, True, False),
+    "ent_coef": (0.0, float("inf"), False, True),
+    "ent_coef_final": (0.0, float("inf"), False, True),
+    "ent_coef_frames": (1, float("inf"), False, True),
+    "exploration_frames": (1, float("inf"), False, True),
+    "vf_coef": (0.0, float("inf"), False, True),
+    "max_grad_norm": (0.0, float("inf"), True, True),
+    "clip_range": (0.0, float("inf"), True, True),
+    "exploration_fraction": (0.0, 1.0, False, False),
+    "exploration_initial_eps": (0.0, 1.0, False, False),
+    "exploration_final_eps": (0.0, 1.0, False, False),
+    "n_envs": (1, float("inf"), False, True),
+    "image_features": (1, float("inf"), False, True),
+}
+_INTEGERS = frozenset({"n_envs", "image_features", "ent_coef_frames", "exploration_frames"})
+
+
+def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
+    """Refuses hyperparameter values of the wrong type or out of range.
+
+    A number's type is the SB3 constructor default's (an int where SB3 counts, a float
+    where it weighs); the ranges are those of ``_RANGES`` (``gamma`` in (0, 1], counts
+    >= 1, ...). What only the model's construction can tell is left to it.
+
+    Raises:
+        ConfigError: naming the key, the value and what is expected.
+
+    Example:
+        >>> check_hyperparameter_values("ppo", {"gamma": 2})
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: hyperparameter gamma=2 is out of range: it must be in (0, 1]
+    """
+    defaults = {
+        name: p.default
+        for name, p in inspect.signature(algorithm_class(algo).__init__).parameters.items()
+    }
+    for key, value in params.items():
+        default = defaults.get(key, inspect.Parameter.empty)
+        numeric_default = isinstance(default, (int, float)) and not isinstance(default, bool)
+        if key == "train_freq" and isinstance(value, (list, tuple)):
+            continue
+        if value is None and key in META_KEYS:  # noisybolt's own settings: null is unset
+            continue
+        if key in _RANGES or numeric_default:
+            wants_int = key in _INTEGERS or (isinstance(default, int) and numeric_default)
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not number or (wants_int and not isinstance(value, int)):
+                kind = "an integer" if wants_int else "a number"
+                raise ConfigError(f"hyperparameter {key}={value!r} must be {kind}")
+        elif isinstance(default, bool) and not isinstance(value, bool):
+            raise ConfigError(f"hyperparameter {key}={value!r} must be true or false")
+        if key in _RANGES:
+            low, high, low_open, high_open = _RANGES[key]
+            below = value <= low if low_open else value < low
+            above = value >= high if high_open else value > high
+            if below or above:
+                top = "inf" if high == float("inf") else f"{high:g}"
+                interval = f"{'(' if low_open else '['}{low:g}, {top}{')' if high_open else ']'}"
+                raise ConfigError(
+                    f"hyperparameter {key}={value!r} is out of range: it must be in {interval}"
+                )

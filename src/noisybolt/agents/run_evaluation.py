@@ -141,14 +141,12 @@ def evaluate_run(
         heatmap: where to save the trajectory heat-map (worlds with grid positions: the
             gridworld), or None.
         heatmap_episodes: episodes drawn in the heat-map.
-        overrides: config fields to change for this evaluation only (e.g. another
-            ``world_kwargs`` to test the policy under other noise).
+        overrides: settings (schema paths) to change for this evaluation only (e.g.
+            ``{"world.kwargs.noise": "regional"}`` to test the policy under other noise).
     """
     torch.set_num_threads(1)
     run = RunDirectory(run_dir)
-    data = run.read_config()
-    data.update(overrides or {})
-    config = TrainConfig.from_dict(data)
+    config = TrainConfig.from_dict(run.read_config()).override(overrides or {})
     if deterministic is None:
         deterministic = config.eval_deterministic
     display = world_display(config.world)

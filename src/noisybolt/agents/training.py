@@ -2,7 +2,7 @@
 
 A run directory holds::
 
-    config.json            the resolved :class:`TrainConfig` (defaults included)
+    config.json            the resolved :class:`TrainConfig`, nested (schema 2)
     command.txt            the exact command
     .lock                  held by the training writing the run (names its pid, command)
     metrics.json           one record per evaluation (returns, compliance, success, frames)
@@ -81,7 +81,7 @@ from noisybolt.agents.models import make_model as _make_model
 from noisybolt.agents.stopping import StopWhenSolved, trailing_streak
 from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError
 from noisybolt.io import atomic_write_json
-from noisybolt.rundir import RunDirectory
+from noisybolt.rundir import RunDirectory, config_differences
 
 __all__ = [
     "DETECTORS",
@@ -93,6 +93,7 @@ __all__ = [
     "TrainConfig",
     "TrainResult",
     "build_bolted_env",
+    "check_same_config",
     "classifier_architecture",
     "default_classifier_path",
     "make_detector",
@@ -183,12 +184,7 @@ def train(
             "start it over, or choose another directory"
         )
     if resume:  # before the costly checks: a resume with other settings fails at once
-        run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
-    if config.hyperparams.get("ent_coef_final") is not None and config.algo not in ("ppo", "a2c"):
-        raise ConfigError(
-            f"ent_coef_final: {config.algo.upper()} has no entropy bonus (only PPO and A2C); "
-            "remove the hyperparameter"
-        )
+        check_same_config(run, config)
 
     # Everything that can be checked is checked before anything is written: the specs
     # against the world, the detector, the environments, and the model on their spaces.
@@ -220,7 +216,7 @@ def train(
         best: dict[str, Any] | None = None
         if resume:
             # Read under the lock: no other writer can be midway through these files.
-            run.check_same_config(config.to_dict(), ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
+            check_same_config(run, config)
             model, state = _load_checkpoint(config, run, env)
             model.tensorboard_log = tensorboard  # never the path the saved model names
             history = list(state.get("history", []))
@@ -247,6 +243,30 @@ def train(
             best=best,
             fresh=not resume,
             log=log,
+        )
+
+
+def check_same_config(run: RunDirectory, config: TrainConfig) -> None:
+    """Refuses to resume ``run`` with settings other than its saved ones
+    (:data:`RESUMABLE_KEYS` aside), naming every differing schema path. The saved config is
+    read as :meth:`TrainConfig.from_dict` reads it: a flat ``config.json`` of an older run
+    through :data:`LEGACY_DEFAULTS`.
+
+    Raises:
+        ConfigError: the configs differ, or the saved one does not load.
+    """
+    try:
+        saved = TrainConfig.from_dict(run.read_config()).to_dict()
+    except ConfigError as error:
+        raise ConfigError(
+            f"cannot resume {run.path}: its config.json does not load: {error}"
+        ) from None
+    diffs = config_differences(saved, config.to_dict(), ignore=RESUMABLE_KEYS)
+    if diffs:
+        lines = "; ".join(f"{k}: saved {a!r}, now {b!r}" for k, (a, b) in diffs.items())
+        raise ConfigError(
+            f"cannot resume {run.path}: the config differs in {sorted(diffs)} ({lines}); "
+            "use the saved settings or start a new run directory"
         )
 
 

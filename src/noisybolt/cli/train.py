@@ -13,7 +13,7 @@ from typing import Any
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["format_eval_table", "parse_frames", "register"]
+__all__ = ["FLAG_PATHS", "format_eval_table", "parse_frames", "register", "train_overrides"]
 
 _SUFFIX = {"": 1, "k": 1_000, "m": 1_000_000}
 
@@ -39,23 +39,59 @@ def parse_interval(text: str) -> int:
     return 0 if text.strip() == "0" else parse_frames(text)
 
 
+#: Each ``noisybolt train`` flag as the schema path it overrides
+#: (:mod:`noisybolt.agents.config`). A flag given is an override of its path, a flag left
+#: out leaves the schema's default; ``--set PATH=VALUE`` reaches every other path.
+FLAG_PATHS: dict[str, str] = {
+    "--world": "world.name",
+    "--noise": "world.kwargs.noise",
+    "--obs-mode": "world.kwargs.obs_mode",
+    "--n-envs": "world.n_envs",
+    "--spec": "bolt.specs",
+    "--reward": "bolt.reward",
+    "--reward-scale": "bolt.reward_scale",
+    "--no-shaping": "bolt.shaping",
+    "--tracking": "bolt.tracking",
+    "--confidence": "bolt.confidence",
+    "--cost-mode": "bolt.cost_mode",
+    "--unbolted": "bolt.bolted",
+    "--detector": "detector.kind",
+    "--classifier": "detector.path",
+    "--low-confidence": "detector.low_confidence",
+    "--algo": "algorithm.name",
+    "--hp": "algorithm.hyperparams",
+    "--frames": "frames",
+    "--seed": "seed",
+    "--eval-freq": "evaluation.freq",
+    "--eval-episodes": "evaluation.episodes",
+    "--checkpoint-freq": "checkpoint_freq",
+    "--keep-best": "evaluation.keep_best",
+    "--no-progress": "progress_bar",
+}
+
+
 def register(subparsers: Any) -> None:
     """Adds ``noisybolt train`` and ``noisybolt evaluate``."""
     train = subparsers.add_parser(
         "train",
         help="train an agent under a restraining bolt",
-        description="Train PPO, A2C or DQN on a world under the bolt's LTLf specs.",
+        description="Train PPO, A2C or DQN on a world under the bolt's LTLf specs. Every "
+        "option that describes the run overrides one path of the run's config schema "
+        "(config.json); --set PATH=VALUE overrides any path.",
     )
-    train.add_argument(
+
+    def flag(name: str, **kwargs: Any) -> None:
+        # dest is the schema path; a flag not given is absent (the schema's default)
+        train.add_argument(name, dest=FLAG_PATHS[name], default=argparse.SUPPRESS, **kwargs)
+
+    flag(
         "--world",
-        default=None,
         help="a world name (default: the gridworld) or a factory path PACKAGE.MODULE:FACTORY whose "
         "FACTORY() returns a labelled env (noisybolt.FluentLabels); recorded in config.json",
     )
-    train.add_argument(
+    flag(
         "--spec",
         action="append",
-        default=[],
         metavar="NAME|FORMULA",
         help="a built-in spec name (edge, avoid_top_right, top_right_once, one_corner_once, "
         "clear_left_column, left_row0..left_row5), a group of them (left_column_milestones: "
@@ -65,7 +101,7 @@ def register(subparsers: Any) -> None:
     train.add_argument(
         "--spec-set",
         action=_SpecSetAction,
-        dest="spec",
+        dest=FLAG_PATHS["--spec"],
         metavar="KEY=VALUE",
         help="a setting of the --spec before it: reward_scale, low_confidence_cost, name "
         "(and, with --reward paper, terminal_reward, reward_timing); repeat for several",
@@ -76,63 +112,54 @@ def register(subparsers: Any) -> None:
         default=None,
         help="a YAML file of specs (names, formulas, or mappings with per-spec settings)",
     )
-    train.add_argument(
+    flag(
         "--reward",
-        default="compliance",
         help="reward scheme: compliance (default: complying is worth more than any gap "
         "between two episodes' returns, paid at the episode's end, with progress shaping) "
         "or paper (each spec's terminal_reward every accepting step: Algorithm 1 as "
         "reproduced)",
     )
-    train.add_argument(
+    flag(
         "--reward-scale",
         type=float,
-        default=None,
         help="compliance scheme: what complying with a spec is worth (default: from the "
         "world's declared return bounds)",
     )
-    train.add_argument(
+    flag(
         "--no-shaping",
-        action="store_true",
+        action="store_false",
         help="compliance scheme: no progress shaping over the DFAs",
     )
-    train.add_argument("--algo", default="ppo", help="ppo, a2c or dqn (default ppo)")
-    train.add_argument(
+    flag("--algo", help="ppo, a2c or dqn (default ppo)")
+    flag(
         "--detector",
-        default="classifier",
         help="classifier (trained CNN, default), oracle (ground truth) or synthetic",
     )
-    train.add_argument(
-        "--classifier", type=Path, help="classifier file (default: cached or trained)"
-    )
+    flag("--classifier", help="classifier file (default: cached or trained)")
     train.add_argument(
         "--retrain-classifier",
         action="store_true",
         help="train the cached classifier for this world and camera again (e.g. after "
         "changing what a fluent means); not with --resume",
     )
-    train.add_argument(
+    flag(
         "--low-confidence",
         action="append",
-        default=[],
         metavar="FLUENT",
         help="fluents the synthetic detector sees with low confidence",
     )
-    train.add_argument(
-        "--noise", default=None, help="the bolt camera's noise (world default if unset)"
-    )
-    train.add_argument(
-        "--obs-mode", default=None, help="the agent's observation (gridworld: grid, view, rgb)"
-    )
-    train.add_argument("--frames", type=parse_frames, default=100_000, help="e.g. 100k (default)")
-    train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--n-envs", type=int, default=None, help="training environments")
+    flag("--noise", help="the bolt camera's noise (world default if unset)")
+    flag("--obs-mode", help="the agent's observation (gridworld: grid, view, rgb)")
+    flag("--frames", type=parse_frames, help="e.g. 100k (default)")
+    flag("--seed", type=int, help="seeds the run and its detector (detector.seed); default 0")
+    flag("--n-envs", type=int, help="training environments")
     train.add_argument(
         "--hp",
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="hyperparameter override, e.g. --hp learning_rate=3e-4",
+        help="hyperparameter override, e.g. --hp learning_rate=3e-4 "
+        "(= --set algorithm.hyperparams.learning_rate=3e-4)",
     )
     train.add_argument(
         "--hp-file",
@@ -142,42 +169,47 @@ def register(subparsers: Any) -> None:
         "noisybolt/configs/hyperparams/gridworld.yaml) instead of the world's built-in "
         "ones; a world without built-in ones gets the documented _default.yaml",
     )
-    train.add_argument(
+    flag(
         "--eval-freq",
         type=parse_interval,
-        default=10_000,
-        help="frames between evaluations (0: only at the end)",
+        help="frames between evaluations (0: only at the end; default 10k)",
     )
-    train.add_argument("--eval-episodes", type=int, default=20)
-    train.add_argument(
+    flag("--eval-episodes", type=int, help="episodes per evaluation (default 20)")
+    flag(
         "--checkpoint-freq",
         type=parse_interval,
-        default=20_000,
-        help="frames between checkpoints (0: only at the end)",
+        help="frames between checkpoints (0: only at the end; default 20k)",
     )
-    train.add_argument("--cost-mode", default="count", help="count (paper) or proportional")
-    train.add_argument(
+    flag("--cost-mode", help="count (paper) or proportional")
+    flag(
         "--tracking",
-        default="threshold",
         help="threshold (Algorithm 1: one frame decides) or belief (a distribution over "
         "each spec's DFA states, paid at --confidence)",
     )
-    train.add_argument(
+    flag(
         "--confidence",
         type=float,
-        default=0.9,
         help="belief tracking: the probability at which a spec counts as accepted and is paid",
     )
-    train.add_argument(
+    flag(
         "--unbolted",
-        action="store_true",
+        action="store_false",
         help="train without the bolt's rewards (compliance still measured)",
     )
-    train.add_argument(
+    flag(
         "--keep-best",
         action="store_true",
         help="keep the model of the evaluation with the best shaped (env + bolt) return, "
         "not the last one (best/ holds it; ground truth never chooses)",
+    )
+    train.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PATH=VALUE",
+        help="override any setting of the config schema by its path, e.g. --set "
+        "evaluation.envs=8, --set bolt.thresholds.high=0.95 (the value read as YAML; "
+        "applied after the other options)",
     )
     train.add_argument("--out", type=Path, default=None, help="run directory (default runs/...)")
     train.add_argument(
@@ -190,7 +222,7 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="start the run in --out over: its earlier results and checkpoints are removed",
     )
-    train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    flag("--no-progress", action="store_false", help="no progress bar")
     train.set_defaults(func=_train)
 
     evaluate = subparsers.add_parser(
@@ -226,7 +258,7 @@ class _SpecSetAction(argparse.Action):
 
         from noisybolt.agents.specs import BUILTIN_SPECS, SPEC_FILE_KEYS
 
-        specs = list(getattr(namespace, self.dest) or [])
+        specs = list(getattr(namespace, self.dest, None) or [])
         if not specs:
             parser.error("--spec-set sets a setting of the --spec before it: give a --spec first")
         key, sep, text = str(values).partition("=")
@@ -246,13 +278,34 @@ class _SpecSetAction(argparse.Action):
         setattr(namespace, self.dest, specs)
 
 
-def _world_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    kwargs: dict[str, Any] = {}
-    if args.noise is not None:
-        kwargs["noise"] = args.noise
-    if args.obs_mode is not None:
-        kwargs["obs_mode"] = args.obs_mode
-    return kwargs
+def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The config overrides ``noisybolt train``'s options stand for: each flag given at its
+    schema path (:data:`FLAG_PATHS`), ``--hp K=V`` at ``algorithm.hyperparams.K``, specs
+    of ``--specs-file`` after those of ``--spec``, then every ``--set PATH=VALUE``.
+
+    Raises:
+        ConfigError: an unknown path, or a ``--hp``/``--set`` not of the form KEY=VALUE.
+    """
+    from noisybolt.agents.config import value_from_text
+    from noisybolt.agents.specs import load_specs_file
+
+    paths = set(FLAG_PATHS.values())
+    overrides = {k: v for k, v in vars(args).items() if k in paths}
+    specs = list(overrides.pop("bolt.specs", []))
+    if args.specs_file is not None:
+        specs += load_specs_file(args.specs_file)
+    if specs:
+        overrides["bolt.specs"] = specs
+    if "seed" in overrides:  # the detector's seed follows the run's
+        overrides["detector.seed"] = overrides["seed"]
+    assignments = [("--hp", f"algorithm.hyperparams.{item}") for item in args.hp]
+    assignments += [("--set", item) for item in args.set]
+    for option, item in assignments:
+        path, sep, text = item.partition("=")
+        if not sep or not path.strip():
+            raise ConfigError(f"{option} {item!r} is not of the form KEY=VALUE")
+        overrides[path.strip()] = value_from_text(path.strip(), text)
+    return overrides
 
 
 @contextlib.contextmanager
@@ -274,52 +327,17 @@ def _sigterm_as_interrupt() -> Iterator[None]:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from noisybolt.agents.hyperparams import parse_overrides
-    from noisybolt.agents.specs import load_specs_file
-    from noisybolt.agents.training import DetectorConfig, TrainConfig, train
-    from noisybolt.envs.registry import DEFAULT_WORLD
+    from noisybolt.agents.training import TrainConfig, train
 
-    args.world = args.world or DEFAULT_WORLD
-    specs = list(args.spec)
-    if args.specs_file is not None:
-        specs += load_specs_file(args.specs_file)
-    if not specs:
+    overrides = train_overrides(args)
+    if not overrides.get("bolt.specs"):
         raise ConfigError(
             "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
         )
-    detector = DetectorConfig(
-        kind=args.detector,
-        path=str(args.classifier) if args.classifier else None,
-        low_confidence=tuple(args.low_confidence),
-        seed=args.seed,
-    )
-    config = TrainConfig.create(
-        world=args.world,
-        specs=specs,
-        algo=args.algo,
-        overrides=parse_overrides(args.hp),
-        hp_file=args.hp_file,
-        n_envs=args.n_envs,
-        world_kwargs=_world_kwargs(args),
-        detector=detector,
-        frames=args.frames,
-        seed=args.seed,
-        eval_freq=args.eval_freq,
-        eval_episodes=args.eval_episodes,
-        checkpoint_freq=args.checkpoint_freq,
-        cost_mode=args.cost_mode,
-        tracking=args.tracking,
-        confidence=args.confidence,
-        reward=args.reward,
-        reward_scale=args.reward_scale,
-        shaping=not args.no_shaping,
-        bolted=not args.unbolted,
-        keep_best=args.keep_best,
-        progress_bar=not args.no_progress,
-    )
+    config = TrainConfig.build(overrides, hp_file=args.hp_file)
     from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
-    if config.reward == "compliance" and args.reward_scale is None:
+    if config.reward == "compliance" and "bolt.reward_scale" not in overrides:
         config = with_exact_scale(config)
     best = goal_feasibility(config)
     if best is not None and best.value is None:
@@ -328,8 +346,8 @@ def _train(args: argparse.Namespace) -> int:
             "spec (noisybolt check says more): the agent must trade the goal for the bolt"
         )
     print(describe_scheme(config))
-    world_label = args.world.replace(":", ".")  # a factory path names no folder well
-    out = args.out or Path("runs") / f"{world_label}-{args.algo}-seed{args.seed}"
+    world_label = config.world.replace(":", ".")  # a factory path names no folder well
+    out = args.out or Path("runs") / f"{world_label}-{config.algo}-seed{config.seed}"
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
     if args.resume and not (out / "config.json").exists():
@@ -383,12 +401,8 @@ def format_eval_table(
 
 def _evaluate(args: argparse.Namespace) -> int:
     from noisybolt.agents.run_evaluation import evaluate_run
-    from noisybolt.rundir import RunDirectory
 
-    overrides = None
-    if args.noise is not None:
-        world_kwargs = dict(RunDirectory(args.run_dir).read_config().get("world_kwargs") or {})
-        overrides = {"world_kwargs": world_kwargs | {"noise": args.noise}}
+    overrides = None if args.noise is None else {"world.kwargs.noise": args.noise}
     report = evaluate_run(
         args.run_dir,
         episodes=args.episodes,

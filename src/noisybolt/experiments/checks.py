@@ -18,7 +18,6 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from noisybolt.errors import UnknownFluentError
@@ -96,4 +95,4 @@ def with_exact_scale(config: TrainConfig, log: Callable[[str], None] | None = pr
             f"compliance scale computed on the {config.world}'s product: {scale:g} (the bound "
             f"from its return range: {config.reward_scale:g})"
         )
-    return replace(config, reward_scale=scale)
+    return config.override({"bolt.reward_scale": scale})
