@@ -100,7 +100,9 @@ __all__ = [
     "TrainConfig",
     "WorldConfig",
     "check_hyperparameter_values",
+    "checked_value",
     "nested_config",
+    "override_paths",
     "schema_paths",
     "value_from_text",
 ]
@@ -538,7 +540,7 @@ class TrainConfig:
         data = _defaults(cls)
         for path, value in changes.items():
             if not path.startswith(prefix):
-                _set(data, path, _checked(path, value))
+                _set(data, path, checked_value(path, value))
         world, algo = data["world"]["name"], data["algorithm"]["name"]
         params = load_hyperparams(world, algo, params_given, hp_file=hp_file)
         for key in sorted(WORLD_KEYS):
@@ -598,8 +600,8 @@ class TrainConfig:
         data = self.to_dict()
         for path, value in _paths(changes).items():
             if path == "bolt.specs":
-                value = _resolved_specs(_checked(path, value), paper=self.reward == "paper")
-            _set(data, path, _checked(path, value))
+                value = _resolved_specs(checked_value(path, value), paper=self.reward == "paper")
+            _set(data, path, checked_value(path, value))
         return TrainConfig.from_dict(data)
 
     # ------------------------------------------------------------------ reading
@@ -836,8 +838,42 @@ def _paths(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def _checked(path: str, value: Any) -> Any:
-    """``value`` if the setting at ``path`` can hold it (as JSON data), else a ConfigError."""
+def override_paths(changes: Mapping[str, Any]) -> dict[str, Any]:
+    """``changes`` as ``{schema path: value}``, the form :meth:`TrainConfig.build` takes:
+    nested mappings flattened, and the flat names of older files (:data:`FLAT_PATHS`:
+    ``eval_freq``, ``world_kwargs.noise``, ``hyperparams.gamma``, ``world: gridworld``)
+    read as their paths.
+
+    Raises:
+        ConfigError: a key that names no setting.
+
+    Example:
+        >>> override_paths({"world_kwargs.noise": "regional", "bolt": {"tracking": "belief"}})
+        {'world.kwargs.noise': 'regional', 'bolt.tracking': 'belief'}
+    """
+    out: dict[str, Any] = {}
+    for key, value in changes.items():
+        head, dot, rest = str(key).partition(".")
+        section = head in _sections(TrainConfig) and (dot or isinstance(value, Mapping))
+        if head in FLAT_PATHS and not section:
+            key = FLAT_PATHS[head] + dot + rest
+        out.update(_paths({key: value}))
+    return out
+
+
+def checked_value(path: str, value: Any) -> Any:
+    """``value`` as JSON data if the setting at ``path`` can hold it (specs: a list of
+    names, formulas or mappings).
+
+    Raises:
+        ConfigError: an unknown path, or a value of the wrong type, naming the path.
+
+    Example:
+        >>> checked_value("evaluation.episodes", "many")
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: config key evaluation.episodes must be an integer, got 'many'
+    """
     hint = _hint_at(path)
     if path == "bolt.specs":  # names and formulas are resolved after the overrides
         specs = [value] if isinstance(value, str) else value

@@ -1,8 +1,11 @@
-"""A sweep's grid: named rows and settings axes, each an override of one ``TrainConfig``.
+"""A sweep's grid: named rows and settings axes, each a set of overrides of one run config.
 
-The settings a sweep may set are :class:`~noisybolt.agents.training.TrainConfig`'s own
-fields (``seed`` aside: seeds are an axis of their own), plus ``n_envs`` (a
-hyperparameter); their types are read from the dataclass, so the schema is written once.
+The settings of ``base``, a row or an axis are paths of the run's config schema
+(:mod:`noisybolt.agents.config`: ``bolt.tracking``, ``world.kwargs.noise``,
+``algorithm.hyperparams.gamma``), given dotted or as nested mappings; the flat names of
+older sweep files (``eval_freq``, ``world_kwargs.noise``, ``algo``) read as their paths.
+The schema types and checks them: a sweep holds no type table of its own. Seeds are an
+axis of their own (``seeds``), not a setting.
 """
 
 from __future__ import annotations
@@ -11,10 +14,8 @@ import itertools
 import json
 import os
 import re
-import types
-import typing
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -41,83 +42,47 @@ _TOP_KEYS = (
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]*")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]")
 _FRAMES = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kKmM]?)\s*")
-_FRAME_KEYS = ("frames", "eval_freq", "checkpoint_freq")
+_FRAME_PATHS = ("frames", "evaluation.freq", "checkpoint_freq")
 
 
-def sweep_settings() -> dict[str, Any]:
-    """The settings a sweep may set, with their types (from ``TrainConfig``'s fields).
+def sweep_settings() -> tuple[str, ...]:
+    """The settings a sweep may set: every path of the run's config schema but ``seed``.
 
     Example:
         >>> settings = sweep_settings()
-        >>> settings["frames"], "seed" in settings, "n_envs" in settings
-        (<class 'int'>, False, True)
+        >>> "bolt.tracking" in settings, "seed" in settings, "world.n_envs" in settings
+        (True, False, True)
     """
-    from noisybolt.agents.training import TrainConfig
+    from noisybolt.agents.config import schema_paths
 
-    hints = typing.get_type_hints(TrainConfig)
-    types = {f.name: hints[f.name] for f in fields(TrainConfig) if f.name != "seed"}
-    return {**types, "n_envs": int}
+    return tuple(path for path in schema_paths() if path != "seed")
 
 
-def _check(key: str, value: Any, kind: Any, where: str) -> Any:
-    """``value`` as setting ``key`` of type ``kind`` takes it, or a ConfigError."""
-    if key in _FRAME_KEYS and isinstance(value, str):
-        match = _FRAMES.fullmatch(value)
-        if not match:
-            raise ConfigError(f"{where}: {key}: not a frame count: {value!r} (e.g. 60000, 60k)")
-        return int(float(match.group(1)) * {"": 1, "k": 1_000, "m": 1_000_000}[match[2].lower()])
-    if key == "specs":
-        specs = [value] if isinstance(value, str) else value
-        if not isinstance(specs, list) or not specs:
-            raise ConfigError(f"{where}: specs must be a non-empty list of names or formulas")
-        return specs
-    union = typing.get_origin(kind) in (typing.Union, types.UnionType)
-    allowed = [typing.get_origin(a) or a for a in (typing.get_args(kind) if union else (kind,))]
-    if value is None and type(None) in allowed:
-        return None
-    if isinstance(value, bool):
-        fits = bool in allowed
-    elif isinstance(value, int):
-        fits = int in allowed or float in allowed
-    elif isinstance(value, Mapping):
-        fits = dict in allowed or key == "detector"
-    else:
-        fits = isinstance(value, tuple(a for a in allowed if isinstance(a, type)))
-    if not fits:
-        names = " or ".join(getattr(a, "__name__", str(a)) for a in allowed)
-        raise ConfigError(f"{where}: {key} must be {names}, got {value!r}")
-    return dict(value) if isinstance(value, Mapping) else value
+def _block(block: Any, where: str) -> dict[str, Any]:
+    """A block of settings as ``{schema path: value}`` (frame counts such as ``60k`` read),
+    each value checked against the schema's type."""
+    from noisybolt.agents.config import checked_value, override_paths
 
-
-def _block(block: Any, where: str, settings: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(block, Mapping):
         raise ConfigError(f"{where} must be a mapping of training settings, got {block!r}")
-    out = {}
-    for key, value in block.items():
-        if key == "seed":
-            raise ConfigError(f"{where}: 'seed' is not a setting here; list seeds under 'seeds'")
-        if key not in settings:
-            raise ConfigError(f"{where}: unknown setting {key!r}; known: {sorted(settings)}")
-        out[key] = _check(key, value, settings[key], where)
-    return out
-
-
-def _merge(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
-    """``over`` on ``base``: mappings merge key by key, everything else is replaced."""
-    merged = dict(base)
-    for key, value in over.items():
-        old = merged.get(key)
-        both = isinstance(value, Mapping) and isinstance(old, Mapping)
-        merged[key] = _merge(old, value) if both else value  # type: ignore[arg-type]
-    return merged
-
-
-def _nested(key: str, value: Any) -> dict[str, Any]:
-    """A dotted axis key as a nested override (hyperparameter names keep their dots)."""
-    head, _, rest = key.partition(".")
-    if not rest:
-        return {head: value}
-    return {head: {rest: value} if head == "hyperparams" else _nested(rest, value)}
+    try:
+        paths = override_paths(block)
+    except ConfigError as error:
+        raise ConfigError(f"{where}: {error}") from None
+    if "seed" in paths:
+        raise ConfigError(f"{where}: 'seed' is not a setting here; list seeds under 'seeds'")
+    for key in _FRAME_PATHS:
+        value = paths.get(key)
+        if isinstance(value, str):
+            match = _FRAMES.fullmatch(value)
+            if not match:
+                raise ConfigError(f"{where}: {key}: not a frame count: {value!r} (e.g. 60k)")
+            scale = {"": 1, "k": 1_000, "m": 1_000_000}[match[2].lower()]
+            paths[key] = int(float(match[1]) * scale)
+    try:
+        return {path: checked_value(path, value) for path, value in paths.items()}
+    except ConfigError as error:
+        raise ConfigError(f"{where}: {error}") from None
 
 
 def _count(value: Any, key: str) -> int:
@@ -198,17 +163,16 @@ class SweepConfig:
         """
         if not isinstance(data, Mapping):
             raise ConfigError(f"a sweep config must be a mapping, got {type(data).__name__}")
-        settings = sweep_settings()
         unknown = sorted(set(data) - set(_TOP_KEYS))
         if unknown:
             raise ConfigError(
-                f"unknown sweep key(s) {unknown}; known: {sorted(_TOP_KEYS)} "
-                f"(training settings go under 'base' or a row: {sorted(settings)})"
+                f"unknown sweep key(s) {unknown}; known: {sorted(_TOP_KEYS)} (training "
+                "settings, paths of the run config schema, go under 'base' or a row)"
             )
         sweep_name = str(data.get("name") or name or "sweep")
         if not _NAME.fullmatch(sweep_name):
             raise ConfigError(f"sweep name {sweep_name!r} must match {_NAME.pattern}")
-        base = _block(data.get("base") or {}, "base", settings)
+        base = _block(data.get("base") or {}, "base")
         rows = data.get("rows")
         if not isinstance(rows, list) or not rows:
             raise ConfigError("a sweep needs 'rows': a non-empty list of named settings")
@@ -219,7 +183,7 @@ class SweepConfig:
             if names.count(row_name) > 1:
                 raise ConfigError(f"two rows are named {row_name!r}")
         seeds = _seeds(data.get("seeds", 1))
-        axes = _axes(data.get("settings") or {}, settings)
+        axes = _axes(data.get("settings") or {})
         cpus = _cpus(data.get("resources") or {})
         labels = [k.rsplit(".", 1)[-1] for k, _ in axes]
         labels = [
@@ -228,14 +192,12 @@ class SweepConfig:
         trials: list[Trial] = []
         for row, row_name in zip(rows, names, strict=True):
             assert isinstance(row_name, str)
-            over = _block(
-                {k: v for k, v in row.items() if k != "name"}, f"row {row_name!r}", settings
-            )
+            over = _block({k: v for k, v in row.items() if k != "name"}, f"row {row_name!r}")
             for combo in itertools.product(*(values for _, values in axes)):
                 assignment = {k: v for (k, _), v in zip(axes, combo, strict=True)}
-                merged = _merge(base, over)
+                merged = {**base, **over}
                 for key, value in assignment.items():
-                    merged = _merge(merged, _nested(key, value))
+                    merged.update(_block({key: value}, f"settings {key!r}"))
                 label = ",".join(f"{lb}={_slug(v)}" for lb, v in zip(labels, combo, strict=True))
                 group = f"{row_name}/{label}" if label else row_name
                 where = f"row {row_name!r}" + (f" with {label}" if label else "")
@@ -327,24 +289,17 @@ def _seeds(value: Any) -> tuple[int, ...]:
     raise ConfigError(f"seeds must be >= 1 (a count) or a non-empty list of seeds, got {value!r}")
 
 
-def _axes(axes: Any, settings: Mapping[str, Any]) -> list[tuple[str, tuple[Any, ...]]]:
+def _axes(axes: Any) -> list[tuple[str, tuple[Any, ...]]]:
     if not isinstance(axes, Mapping):
         raise ConfigError(f"settings must map setting names to lists of values, got {axes!r}")
     out = []
     for key, values in axes.items():
-        head, _, rest = str(key).partition(".")
-        if head == "seed":
-            raise ConfigError("settings: vary seeds with 'seeds', not a settings axis")
-        if head not in settings:
-            raise ConfigError(
-                f"settings: unknown setting {head!r} in {key!r}; known: {sorted(settings)}"
-            )
-        if rest and typing.get_origin(settings[head]) is not dict and head != "detector":
-            raise ConfigError(f"settings: {head!r} is not a mapping, so {key!r} cannot reach in")
         if not isinstance(values, list) or not values:
             raise ConfigError(f"settings: {key!r} needs a non-empty list of values")
-        if not rest:
-            values = [_check(head, v, settings[head], f"settings {key!r}") for v in values]
+        if str(key).partition(".")[0] == "seed":
+            raise ConfigError("settings: vary seeds with 'seeds', not a settings axis")
+        for value in values:  # an unknown key or a value of the wrong type, named
+            _block({key: value}, f"settings {key!r}")
         if len({json.dumps(v, sort_keys=True, default=str) for v in values}) != len(values):
             raise ConfigError(f"settings: {key!r} lists a value twice")
         out.append((str(key), tuple(values)))
@@ -366,34 +321,18 @@ def _slug(value: Any) -> str:
 
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
-    from noisybolt.agents.training import DetectorConfig, TrainConfig
-    from noisybolt.envs.registry import DEFAULT_WORLD
+    from noisybolt.agents.training import TrainConfig
     from noisybolt.experiments.checks import with_exact_scale
 
-    values = {"progress_bar": False, **settings}
-    if "specs" not in values:
-        raise ConfigError(f"{where}: no specs (set 'specs' in the row or in 'base')")
-    detector = dict(values.pop("detector", {}) or {})
-    unknown = sorted(set(detector) - set(DetectorConfig.__dataclass_fields__))
-    if unknown:
-        known = sorted(DetectorConfig.__dataclass_fields__)
-        raise ConfigError(f"{where}: unknown detector setting(s) {unknown}; known: {known}")
+    if "bolt.specs" not in settings:
+        raise ConfigError(f"{where}: no specs (set 'bolt.specs' in the row or in 'base')")
     try:
-        config = TrainConfig.create(
-            world=values.pop("world", DEFAULT_WORLD),
-            specs=values.pop("specs"),
-            algo=values.pop("algo", "ppo"),
-            overrides=values.pop("hyperparams", None),
-            n_envs=values.pop("n_envs", None),
-            detector=DetectorConfig(**detector),
-            seed=seed,
-            **values,
-        )
+        config = TrainConfig.build({"progress_bar": False, **settings, "seed": seed})
         # What `noisybolt train` would choose: the compliance scale computed on the
         # world's product where it can be explored.
-        return (
-            config if values.get("reward_scale") is not None else with_exact_scale(config, log=None)
-        )
+        if "bolt.reward_scale" in settings:
+            return config
+        return with_exact_scale(config, log=None)
     except (NoisyboltError, TypeError, ValueError) as error:
         raise ConfigError(f"{where}: {error}") from None
 
