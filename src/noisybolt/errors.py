@@ -24,6 +24,7 @@ __all__ = [
     "RunLockedError",
     "SmallIntegerImagesWarning",
     "SpecSyntaxError",
+    "StaleInfoError",
     "UnknownFluentError",
     "UnknownNameError",
     "UnlabelledEnvError",
@@ -116,6 +117,11 @@ class CameraError(ConfigError):
 class UnlabelledEnvError(ConfigError):
     """An env offered to the bolt carries no labels (no ``fluent_names``, or no
     ``bolt_image``/``true_fluents`` in its ``info``): wrap it in ``noisybolt.FluentLabels``."""
+
+
+class StaleInfoError(NoisyboltError, RuntimeError):
+    """A deferred ``info`` value (e.g. a world's bolt camera images) was first read after
+    the world had moved on (a later reset or step): read it before stepping again."""
 
 
 class WorldFactoryError(ConfigError):

@@ -140,7 +140,11 @@ def test_meets_the_protocols_and_the_gymnasium_vector_api() -> None:
     assert world.observation_space.shape == (5, 7, 7, 3)
     assert world.action_space == gym.spaces.MultiDiscrete([4] * 5)
     obs, infos = world.reset(seed=1)
-    assert world.observation_space.contains(obs) and infos == {}
+    assert world.observation_space.contains(obs)
+    assert set(infos) == {
+        "bolt_image", "_bolt_image", "true_fluents", "_true_fluents", "grid_position",
+        "_grid_position",
+    }  # fmt: skip
     assert world.true_fluents().dtype == bool and world.true_fluents().shape == (5, 7)
     assert world.fluent_names == GRIDWORLD_FLUENTS
     vec = gym.make_vec("noisybolt/Gridworld-6x6-v0", num_envs=3)
@@ -207,8 +211,10 @@ def test_sb3_vec_env_follows_sb3_conventions() -> None:
     assert all(info["TimeLimit.truncated"] for info in infos)
     assert infos[1]["terminal_observation"][2, 1, 0] == 10  # agent moved to (2, 1) ...
     assert obs[1, 1, 1, 0] == 10  # ... and the returned observation is the new episode's
-    assert isinstance(venv, BoltObservable)
-    assert venv.bolt_images().shape == (2, 48, 48, 3)
+    # The world's own batched info, kept for the batched bolt (SB3's dicts hold SB3's keys).
+    assert np.asarray(venv.batched_info["bolt_image"]).shape == (2, 48, 48, 3)
+    assert venv.batched_info["_final_info"].tolist() == [True, True]
+    assert "bolt_image" not in infos[0]
     assert venv.get_attr("fluent_names") == [GRIDWORLD_FLUENTS] * 2
     assert venv.env_is_wrapped(gym.Wrapper) == [False, False]
 

@@ -198,13 +198,15 @@ def test_vector_world_keeps_each_ended_episodes_last_view() -> None:
     ended = 0
     for _ in range(40):
         actions = rng.integers(4, size=n)
-        _, rewards, term, trunc, _ = world.step(actions)
+        _, rewards, term, trunc, vinfo = world.step(actions)
         for i, single in enumerate(singles):
             _, reward, sterm, strunc, info = single.step(int(actions[i]))
             assert (rewards[i], term[i], trunc[i]) == (reward, sterm, strunc)
-            np.testing.assert_array_equal(world.final_true_fluents()[i], info["true_fluents"])
-            np.testing.assert_array_equal(world.final_bolt_images()[i], info["bolt_image"])
-            if sterm or strunc:
+            if sterm or strunc:  # the ended episode's last view, in final_info
+                final = vinfo["final_info"]
+                assert final["_true_fluents"][i] and final["_bolt_image"][i]
+                np.testing.assert_array_equal(final["true_fluents"][i], info["true_fluents"])
+                np.testing.assert_array_equal(final["bolt_image"][i], info["bolt_image"])
                 ended += 1
                 _, info = single.reset()
             np.testing.assert_array_equal(world.true_fluents()[i], info["true_fluents"])

@@ -187,27 +187,37 @@ def test_make_bolted_vec_env_refuses_bad_input() -> None:
         make_bolted_vec_env(lake, 2, ["G(lava)"], OracleDetector(list(FLUENTS)))
 
 
-def test_batched_bolt_needs_a_world_that_shows_ended_episodes() -> None:
+def test_batched_bolt_reads_the_worlds_batched_info_through_sb3_vec_env() -> None:
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
     from noisybolt.envs import SB3VecEnv
     from noisybolt.envs.labelled_vec import LabelledVectorEnv
 
+    specs, oracle = coerce_specs("G(top_row)"), OracleDetector(list(FLUENTS))
+    with pytest.raises(ConfigError, match="SB3VecEnv"):
+        BoltVecEnv(DummyVecEnv([lake]), specs, oracle)  # type: ignore[arg-type]
     world = LabelledVectorEnv([lake, lake])
+    with pytest.raises(ConfigError, match="not the vector env under"):
+        BoltVecEnv(SB3VecEnv(world), specs, oracle, world=LabelledVectorEnv([lake]))
 
-    class NoLastView:  # meets BoltObservable, not AutoresetBoltObservable
-        fluent_names = world.fluent_names
-        num_envs = 2
-        camera_spec = None
+    class ForgetsEndedEpisodes(gym.vector.VectorWrapper):
+        """Drops the ended episodes' labels from final_info (what the bolt must read)."""
 
-        def bolt_images(self) -> np.ndarray:
-            return world.bolt_images()
+        def step(self, actions: Any) -> Any:
+            obs, rewards, terminated, truncated, info = self.env.step(actions)
+            info.get("final_info", {}).pop("bolt_image", None)
+            return obs, rewards, terminated, truncated, info
 
-        def true_fluents(self) -> np.ndarray:
-            return world.true_fluents()
-
-    with pytest.raises(ConfigError, match="final_bolt_images"):
-        BoltVecEnv(
-            SB3VecEnv(world),
-            coerce_specs("G(top_row)"),
-            OracleDetector(list(FLUENTS)),
-            world=NoLastView(),
-        )  # type: ignore[arg-type]
+    forgetful = ForgetsEndedEpisodes(LabelledVectorEnv([lake]))
+    forgetful.fluent_names = world.fluent_names  # type: ignore[attr-defined]
+    bolted = BoltVecEnv(SB3VecEnv(forgetful), specs, oracle)  # type: ignore[arg-type]
+    bolted.reset()
+    for action in (1, 1, 1, 1, 1, 1, 1, 1):  # down until the lake ends the episode
+        bolted.step_async(np.array([action]))
+        try:
+            bolted.step_wait()
+        except UnlabelledEnvError as error:
+            assert "final_info" in str(error) and "bolt_image" in str(error)
+            break
+    else:
+        pytest.fail("the episode never ended, or the bolt read a final_info without labels")

@@ -12,7 +12,11 @@ deterministic) but drives the ALE directly: about 1.3x the steps per second of t
 wrapped Gymnasium env on one core, and it gives the bolt direct access to RAM and colour
 frames, which ale-py's own threaded ``AtariVectorEnv`` does not expose.
 
-The bolt's side (:class:`~noisybolt.perception.protocols.BoltObservable`):
+The bolt's side, through ``infos`` (the contract of :mod:`noisybolt.perception.protocols`:
+``infos["bolt_image"]`` and ``infos["true_fluents"]`` batched at reset and step, the ended
+games' last ones in ``infos["final_info"]``, as :class:`~noisybolt.envs.deferred.DeferredArray` s
+that render the camera and read the RAM only when read; :meth:`BreakoutWorld.bolt_images`
+and :meth:`BreakoutWorld.true_fluents` are views of them for sample collection):
 
 * fluent ``brick_clear_left``: every brick of the leftmost ``left_columns`` brick
   column(s) is gone, read from RAM (:func:`bricks_present`);
@@ -39,7 +43,7 @@ they stay); :meth:`BreakoutWorld.sample_collection_states` waits for that.
 Example:
     >>> world = make_breakout_world(num_envs=2, seed=0)
     >>> obs, info = world.reset(seed=0)
-    >>> obs.shape, world.bolt_images().shape, world.true_fluents().any()
+    >>> obs.shape, np.asarray(info["bolt_image"]).shape, np.asarray(info["true_fluents"]).any()
     ((2, 4, 84, 84), (2, 84, 84, 3), np.False_)
     >>> world.close()
 """
@@ -58,10 +62,16 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
 from noisybolt.bolt.schemes import ReturnBounds
+from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.fluents import select_fluents
 from noisybolt.errors import ConfigError
 from noisybolt.perception.noise import make_noise
-from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    FINAL_INFO_KEY,
+    TRUE_FLUENTS_KEY,
+    CameraSpec,
+)
 
 #: The most points a game of Breakout can score: two walls of 432 (see return_bounds).
 MAX_SCORE = 864.0
@@ -230,9 +240,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
     Gymnasium vector API with **same-step autoreset**, like
     :class:`~noisybolt.envs.gridworld_vec.VectorGridworld` and SB3: a step that ends an
     episode returns the new episode's first observation, the ended one's last in
-    ``infos["final_obs"]`` (object array, mask ``infos["_final_obs"]``), and
-    :meth:`final_bolt_images` / :meth:`final_true_fluents` give the bolt the state each
-    game *reached* before the reset. Observations (``obs_mode="stack"``): uint8
+    ``infos["final_obs"]`` (object array, mask ``infos["_final_obs"]``), and the bolt's
+    labels of the state each game *reached* before the reset in ``infos["final_info"]``
+    (``infos`` also holds the current labels and ``lives``; see the module docs).
+    Observations (``obs_mode="stack"``): uint8
     ``[num_envs, frame_stack, 84, 84]``; with ``obs_mode="ram"``: float32 ``[num_envs,
     128]``, the RAM bytes divided by 255 (SB3 scales only images, and raw bytes up to 255
     would swamp a dense layer's initial weights). Actions: ``Discrete(4)`` per game (NOOP,
@@ -369,10 +380,15 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self._done = np.zeros(num_envs, dtype=bool)  # which games ended in the last step
         self._final_rgb: dict[int, np.ndarray] = {}  # their last colour frame and RAM
         self._final_ram: dict[int, np.ndarray] = {}
-        self._final_images: np.ndarray | None = None
         self._lives = np.zeros(num_envs, dtype=np.int64)
-        self._images: np.ndarray | None = None  # bolt images of the current step, cached
+        self._every = np.ones(num_envs, dtype=bool)  # the labels' masks: every game
+        self._every.setflags(write=False)
+        # The labels of the last reset or step (and of the states it reached before any
+        # autoreset); the info and the bolt_images()/true_fluents() views share them.
+        self._labels: dict[str, Any] = {}
+        self._final_labels: dict[str, Any] = {}
         self._started = False
+        self._info()
 
     # -- seeding and resets ---------------------------------------------------------------
     def _seed_all(self, seed: int | None) -> None:
@@ -461,7 +477,57 @@ class BreakoutWorld(gym.vector.VectorEnv):
         return self._stack.copy()
 
     def _info(self) -> dict[str, Any]:
-        return {"lives": self._lives.copy(), "_lives": np.ones(self.num_envs, dtype=bool)}
+        """The info of a reset or step: lives, and the bolt's labels of the states it
+        reached (new labels: the last ones expire)."""
+        for labels in (self._labels, self._final_labels):
+            for value in labels.values():
+                if isinstance(value, DeferredArray):
+                    value.expire()
+        n, k = self.num_envs, len(self._fluent_names)
+        images_shape = (n, self.camera_size, self.camera_size, 3)
+        images = DeferredArray(
+            lambda: self._capture([ale.getScreenRGB() for ale in self._ales]),
+            shape=images_shape,
+            dtype=np.uint8,
+        )
+        self._labels = {
+            BOLT_IMAGE_KEY: images,
+            TRUE_FLUENTS_KEY: DeferredArray(
+                lambda: self._fluents(self.rams()), shape=(n, k), dtype=bool
+            ),
+        }
+        info: dict[str, Any] = {
+            "lives": self._lives.copy(),
+            "_lives": self._every,
+            **self._labels,
+            **{f"_{key}": self._every for key in self._labels},
+        }
+        if not self._final_rgb:
+            self._final_labels = self._labels
+            return info
+        final_rgb, final_ram, done = dict(self._final_rgb), dict(self._final_ram), self._done
+
+        def final_images() -> np.ndarray:
+            # The current view first, then the ended games' last frames: the camera's
+            # noise draws keep that order however the values are read.
+            out = images.value.copy()
+            idx = sorted(final_rgb)
+            out[idx] = self._capture([final_rgb[i] for i in idx])
+            return out
+
+        def final_fluents() -> np.ndarray:
+            rams = self.rams()
+            for i, ram in final_ram.items():
+                rams[i] = ram
+            return self._fluents(rams)
+
+        self._final_labels = {
+            BOLT_IMAGE_KEY: DeferredArray(final_images, shape=images_shape, dtype=np.uint8),
+            TRUE_FLUENTS_KEY: DeferredArray(final_fluents, shape=(n, k), dtype=bool),
+            f"_{BOLT_IMAGE_KEY}": done,
+            f"_{TRUE_FLUENTS_KEY}": done,
+        }
+        return info
 
     # -- stepping -------------------------------------------------------------------------
     def step(
@@ -512,17 +578,14 @@ class BreakoutWorld(gym.vector.VectorEnv):
             infos.update(
                 final_obs=final_obs,
                 _final_obs=self._done.copy(),
-                final_info={},
-                _final_info=self._done.copy(),
+                **{FINAL_INFO_KEY: self._final_labels, f"_{FINAL_INFO_KEY}": self._done.copy()},
             )
         return self._observations(), rewards, terminated, truncated, infos
 
     def _clear_step_state(self) -> None:
         self._done = np.zeros(self.num_envs, dtype=bool)
-        self._final_rgb.clear()
-        self._final_ram.clear()
-        self._images = None
-        self._final_images = None
+        self._final_rgb = {}
+        self._final_ram = {}
 
     # -- the bolt's view ------------------------------------------------------------------
     def return_bounds(self) -> ReturnBounds:
@@ -553,18 +616,17 @@ class BreakoutWorld(gym.vector.VectorEnv):
         return np.stack([ale.getScreenRGB() for ale in self._ales])
 
     def true_fluents(self) -> np.ndarray:
-        """bool ``[num_envs, n_fluents]``: the fluents from RAM."""
-        return self._fluents(self.rams())
+        """bool ``[num_envs, n_fluents]``: the fluents from RAM (a view of
+        ``infos["true_fluents"]`` of the last reset or step)."""
+        return np.asarray(self._labels[TRUE_FLUENTS_KEY])
 
     def _fluents(self, rams: np.ndarray) -> np.ndarray:
         return breakout_fluents(rams, self.left_columns)[:, self._fluent_columns]
 
     def final_true_fluents(self) -> np.ndarray:
-        """Ground truth of the states the last step reached, before autoreset."""
-        rams = self.rams()
-        for i, ram in self._final_ram.items():
-            rams[i] = ram
-        return self._fluents(rams)
+        """Ground truth of the states the last step reached, before autoreset (a view of
+        ``infos["final_info"]["true_fluents"]``, rows that did not end as now)."""
+        return np.asarray(self._final_labels[TRUE_FLUENTS_KEY])
 
     @property
     def dones(self) -> np.ndarray:
@@ -584,23 +646,14 @@ class BreakoutWorld(gym.vector.VectorEnv):
         return images
 
     def bolt_images(self) -> np.ndarray:
-        """uint8 ``[num_envs, S, S, 3]``: the camera's noisy view (same until the next step)."""
-        if self._images is None:
-            self._images = self._capture([ale.getScreenRGB() for ale in self._ales])
-        return self._images.copy()
+        """uint8 ``[num_envs, S, S, 3]``: the camera's noisy view, a view of
+        ``infos["bolt_image"]`` of the last reset or step (one capture per step)."""
+        return np.asarray(self._labels[BOLT_IMAGE_KEY])
 
     def final_bolt_images(self) -> np.ndarray:
-        """The bolt's view of the states the last step *reached*, before autoreset.
-
-        Equal to :meth:`bolt_images` for games whose episode did not just end.
-        """
-        if self._final_images is None:
-            images = self.bolt_images()
-            if self._final_rgb:
-                idx = sorted(self._final_rgb)
-                images[idx] = self._capture([self._final_rgb[i] for i in idx])
-            self._final_images = images
-        return self._final_images.copy()
+        """The bolt's view of the states the last step *reached*, before autoreset (a view
+        of ``infos["final_info"]["bolt_image"]``; rows that did not end as now)."""
+        return np.asarray(self._final_labels[BOLT_IMAGE_KEY])
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """The raw colour frames, one per game."""
@@ -646,6 +699,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 self._grey[i, 1].fill(0)
                 self._stack[i] = self._processed(i)
             self._lives[i] = ale.lives()
+        self._info()  # the views (bolt_images, true_fluents) show the new walls
 
     def close_extras(self, **kwargs: Any) -> None:
         """Releases the consoles."""
@@ -687,6 +741,7 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
         self.observation_space = self._world.single_observation_space
         self.action_space = self._world.single_action_space
         self._ended = False
+        self._world_labels: dict[str, Any] = {}  # the world's labels of the state shown
 
     @property
     def world(self) -> BreakoutWorld:
@@ -700,6 +755,7 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
         super().reset(seed=seed)
         obs, info = self._world.reset(seed=seed, options=options)
         self._ended = False
+        self._world_labels = info
         return obs[0], self._labelled({"lives": int(info["lives"][0])})
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -708,8 +764,10 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
             raise RuntimeError("the game has ended: call reset()")
         obs, rewards, terminated, truncated, info = self._world.step(np.array([int(action)]))
         self._ended = bool(terminated[0] or truncated[0])
+        self._world_labels = info
         if self._ended:
             obs = info["final_obs"][0][None]
+            self._world_labels = info[FINAL_INFO_KEY]
         info = self._labelled({})
         return obs[0], float(rewards[0]), bool(terminated[0]), bool(truncated[0]), info
 
@@ -730,14 +788,13 @@ class BreakoutEnv(gym.Env[np.ndarray, np.int64]):
         return self._world.camera_spec
 
     def bolt_image(self) -> np.ndarray:
-        """uint8 ``[S, S, 3]``: the bolt's noisy view of the state the last step reached."""
-        images = self._world.final_bolt_images() if self._ended else self._world.bolt_images()
-        return images[0]
+        """uint8 ``[S, S, 3]``: the bolt's noisy view of the state the last step reached
+        (row 0 of the world's ``info["bolt_image"]``, or of its ``final_info``'s)."""
+        return np.asarray(self._world_labels[BOLT_IMAGE_KEY])[0]
 
     def true_fluents(self) -> np.ndarray:
         """bool ``[n_fluents]``: the ground truth of that state."""
-        world = self._world
-        return (world.final_true_fluents() if self._ended else world.true_fluents())[0]
+        return np.asarray(self._world_labels[TRUE_FLUENTS_KEY])[0]
 
     def render(self) -> np.ndarray | None:
         """The raw colour frame (210x160) of that state."""

@@ -13,19 +13,29 @@ returns the *new* episode's first observation, and the last observation of the e
 in ``infos["final_obs"]`` (an object array, None for rooms that did not end, with mask
 ``infos["_final_obs"]``), as Gymnasium's ``SyncVectorEnv`` does in that mode. This is
 also SB3's convention, so :class:`~noisybolt.envs.sb3.SB3VecEnv` adapts it with no
-extra copy. It meets :class:`~noisybolt.perception.protocols.BoltObservable`; because of
-the autoreset, :meth:`VectorGridworld.final_bolt_images` and
-:meth:`VectorGridworld.final_true_fluents` give the bolt the state each room *reached*
-(before any reset), which a bolt needs to take the last transition of an episode.
+extra copy.
+
+The bolt reads the world through ``infos`` (the contract of
+:mod:`noisybolt.perception.protocols`), batched as a ``SyncVectorEnv`` of
+:class:`~noisybolt.envs.gridworld.GridworldEnv` s would batch them (tested equal): at
+reset and step ``infos["bolt_image"]``, ``infos["true_fluents"]`` and
+``infos["grid_position"]`` (each with its ``_key`` mask), and after a step that ended
+episodes the ended rooms' last state under the same keys in ``infos["final_info"]``. The
+values are :class:`~noisybolt.envs.deferred.DeferredArray` s: the camera renders and
+draws its noise only when someone reads them (``np.asarray``), once per step for the
+current and the ended rooms together, so a world stepped without a bolt costs and draws
+what it always did. :meth:`VectorGridworld.bolt_images`, :meth:`~VectorGridworld.true_fluents`
+and their ``final_`` forms are views of the same values (sample collection reads them
+after :meth:`~VectorGridworld.sample_collection_states`, which is no step).
 
 Example:
     >>> world = VectorGridworld(num_envs=3, obs_mode="grid", seed=0)
     >>> obs, infos = world.reset(seed=0)
-    >>> obs.shape
-    (3, 6, 6, 3)
+    >>> obs.shape, np.asarray(infos["true_fluents"]).shape
+    ((3, 6, 6, 3), (3, 7))
     >>> obs, rewards, terminated, truncated, infos = world.step(np.array([2, 1, 3]))
-    >>> rewards.tolist(), world.true_fluents().shape, world.bolt_images().shape
-    ([-1.5, -1.5, -1.5], (3, 7), (3, 48, 48, 3))
+    >>> rewards.tolist(), np.asarray(infos["bolt_image"]).shape, infos["grid_position"][0]
+    ([-1.5, -1.5, -1.5], (3, 48, 48, 3), array([2, 1]))
 """
 
 from __future__ import annotations
@@ -41,6 +51,7 @@ from gymnasium.vector.utils import batch_space
 
 from noisybolt.bolt.schemes import ReturnBounds
 from noisybolt.envs.bounds import episode_return_bounds
+from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.gridworld import (
     AGENT_COLOUR,
     AGENT_OBJECT,
@@ -61,7 +72,13 @@ from noisybolt.envs.gridworld import (
 )
 from noisybolt.errors import ConfigError
 from noisybolt.perception.noise import NoiseSpec
-from noisybolt.perception.protocols import CameraSpec
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    FINAL_INFO_KEY,
+    GRID_POSITION_KEY,
+    TRUE_FLUENTS_KEY,
+    CameraSpec,
+)
 
 __all__ = ["VectorGridworld", "egocentric_views", "room_encoding"]
 
@@ -198,8 +215,13 @@ class VectorGridworld(VectorEnv):
         self._steps = np.zeros(n, dtype=np.int64)
         self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
         self._done = np.zeros(n, dtype=bool)
-        self._bolt_cache: np.ndarray | None = None
-        self._final_bolt_cache: np.ndarray | None = None
+        self._every = np.ones(n, dtype=bool)  # the labels' masks: every room has them
+        self._every.setflags(write=False)
+        # The labels of the last reset or step (and of the states it reached before any
+        # autoreset); the info and the bolt_images()/true_fluents() views share them.
+        self._labels: dict[str, Any] = {}
+        self._final_labels: dict[str, Any] = {}
+        self._label()
 
     # ------------------------------------------------------------------ Gymnasium API
 
@@ -213,7 +235,8 @@ class VectorGridworld(VectorEnv):
             options: must be None or empty (the start state is fixed).
 
         Returns:
-            ``(observations, {})``.
+            ``(observations, infos)``, ``infos`` holding the bolt's labels (see the
+            module docs).
         """
         if options:
             raise ConfigError(f"VectorGridworld.reset takes no options, got {options!r}")
@@ -222,14 +245,14 @@ class VectorGridworld(VectorEnv):
             self._np_random = self._noise_rng
             self._np_random_seed = seed if isinstance(seed, int) else -1
         x0, y0, d0 = self._start
-        self._x[:] = x0
-        self._y[:] = y0
-        self._dir[:] = d0
+        n = self.num_envs
+        self._x = np.full(n, x0, dtype=np.intp)
+        self._y = np.full(n, y0, dtype=np.intp)
+        self._dir = np.full(n, d0, dtype=np.intp)
         self._steps[:] = 0
-        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
-        self._done[:] = False
-        self._invalidate()
-        return self._observe(self._x, self._y, self._dir), {}
+        self._final = (self._x, self._y, self._dir)
+        self._done = np.zeros(n, dtype=bool)
+        return self._observe(self._x, self._y, self._dir), self._label()
 
     def step(
         self, actions: np.ndarray
@@ -241,7 +264,8 @@ class VectorGridworld(VectorEnv):
 
         Returns:
             ``(observations, rewards float64, terminations, truncations, infos)``; see the
-            module docstring for ``infos["final_obs"]``.
+            module docstring for ``infos`` (the bolt's labels, ``final_obs`` and
+            ``final_info``).
         """
         a = np.asarray(actions)
         if a.shape != (self.num_envs,) or not np.issubdtype(a.dtype, np.integer):
@@ -265,26 +289,26 @@ class VectorGridworld(VectorEnv):
         done = terminated | truncated
         self._final = (x, y, d)
         self._done = done
-        infos: dict[str, Any] = {}
+        final_obs = None
         if done.any():
             idx = np.flatnonzero(done)
             final_obs = np.full(self.num_envs, None, dtype=object)
             ended = self._observe(x[idx], y[idx], d[idx])
             for k, i in enumerate(idx):  # only the rooms that ended, for the object array
                 final_obs[i] = ended[k]
-            infos = {
-                "final_obs": final_obs,
-                "_final_obs": done.copy(),
-                "final_info": {},
-                "_final_info": done.copy(),
-            }
             x0, y0, d0 = self._start
             x = np.where(done, x0, x)
             y = np.where(done, y0, y)
             d = np.where(done, d0, d)
             self._steps[done] = 0
         self._x, self._y, self._dir = x, y, d
-        self._invalidate()
+        infos = self._label()
+        if final_obs is not None:
+            infos.update(
+                final_obs=final_obs,
+                _final_obs=done.copy(),
+                **{FINAL_INFO_KEY: self._final_labels, f"_{FINAL_INFO_KEY}": done.copy()},
+            )
         return self._observe(x, y, d), rewards, terminated, truncated, infos
 
     def render(self) -> tuple[np.ndarray, ...] | None:
@@ -322,50 +346,27 @@ class VectorGridworld(VectorEnv):
     def bolt_images(self) -> np.ndarray:
         """uint8 ``[num_envs, H, W, 3]``: the bolt's noisy view of the current states.
 
-        Computed once per step (repeated calls return the same array).
+        A view of ``infos["bolt_image"]`` of the last reset or step (or of the states
+        :meth:`sample_collection_states` or :meth:`set_agent_state` set): one camera call
+        and one noise draw per step, however often it is read.
         """
-        if self._bolt_cache is None:
-            self._capture()
-        assert self._bolt_cache is not None
-        return self._bolt_cache
+        return np.asarray(self._labels[BOLT_IMAGE_KEY])
 
     def true_fluents(self) -> np.ndarray:
-        """bool ``[num_envs, n_fluents]``: the ground truth of the current states."""
-        return self._fluents(self._x, self._y, self._dir)
+        """bool ``[num_envs, n_fluents]``: the ground truth of the current states (a view
+        of ``infos["true_fluents"]``)."""
+        return np.asarray(self._labels[TRUE_FLUENTS_KEY])
 
     def final_bolt_images(self) -> np.ndarray:
-        """The bolt's view of the states the last step *reached*, before autoreset.
-
-        Equal to :meth:`bolt_images` for rooms whose episode did not just end.
-        """
-        if self._final_bolt_cache is None:
-            self._capture()
-        assert self._final_bolt_cache is not None
-        return self._final_bolt_cache
-
-    def _capture(self) -> None:
-        """Fills both image caches with one camera call (noise has a per-call overhead)."""
-        if not self._done.any():
-            self._bolt_cache = self._final_bolt_cache = self._camera.capture(
-                self._x, self._y, self._dir, rng=self._noise_rng
-            )
-            return
-        idx = np.flatnonzero(self._done)
-        both = self._camera.capture(
-            *(
-                np.concatenate([now, final[idx]])
-                for now, final in zip((self._x, self._y, self._dir), self._final, strict=True)
-            ),
-            rng=self._noise_rng,
-        )
-        self._bolt_cache = both[: self.num_envs]
-        final = both[: self.num_envs].copy()
-        final[idx] = both[self.num_envs :]
-        self._final_bolt_cache = final
+        """The bolt's view of the states the last step *reached*, before autoreset: a view
+        of ``infos["final_info"]["bolt_image"]``, and of :meth:`bolt_images` for rooms whose
+        episode did not just end."""
+        return np.asarray(self._final_labels[BOLT_IMAGE_KEY])
 
     def final_true_fluents(self) -> np.ndarray:
-        """Ground truth of the states the last step reached, before autoreset."""
-        return self._fluents(*self._final)
+        """Ground truth of the states the last step reached, before autoreset (a view of
+        ``infos["final_info"]["true_fluents"]``, rows that did not end as now)."""
+        return np.asarray(self._final_labels[TRUE_FLUENTS_KEY])
 
     @property
     def dones(self) -> np.ndarray:
@@ -384,9 +385,9 @@ class VectorGridworld(VectorEnv):
         self._y = rng.integers(1, s - 1, size=self.num_envs).astype(np.intp)
         self._dir = rng.integers(0, 4, size=self.num_envs).astype(np.intp)
         self._steps[:] = 0
-        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
-        self._done[:] = False
-        self._invalidate()
+        self._final = (self._x, self._y, self._dir)
+        self._done = np.zeros(self.num_envs, dtype=bool)
+        self._label()
 
     def set_agent_state(
         self,
@@ -409,9 +410,9 @@ class VectorGridworld(VectorEnv):
             raise ConfigError(f"headings must be in [0, 4), got {d}")
         self._x, self._y, self._dir = x.copy(), y.copy(), d.copy()
         self._steps[:] = 0 if steps is None else np.asarray(steps).reshape(self.num_envs)
-        self._final = (self._x.copy(), self._y.copy(), self._dir.copy())
-        self._done[:] = False
-        self._invalidate()
+        self._final = (self._x, self._y, self._dir)
+        self._done = np.zeros(self.num_envs, dtype=bool)
+        self._label()
 
     # ---------------------------------------------------------------------- state
 
@@ -431,9 +432,63 @@ class VectorGridworld(VectorEnv):
 
     # -------------------------------------------------------------------- helpers
 
-    def _invalidate(self) -> None:
-        self._bolt_cache = None
-        self._final_bolt_cache = None
+    def _label(self) -> dict[str, Any]:
+        """The labels of the states just set (the info of a reset or step, see the module
+        docs); the last ones expire. Returns a new info dict holding them."""
+        for labels in (self._labels, self._final_labels):
+            for value in labels.values():
+                if isinstance(value, DeferredArray):
+                    value.expire()
+        n, done = self.num_envs, self._done
+        x, y, d = self._x, self._y, self._dir
+        fx, fy, fd = self._final
+        camera = self._camera
+        captured: list[np.ndarray] = []
+
+        def capture() -> list[np.ndarray]:
+            # One camera call for the current and the ended rooms' last states together:
+            # the noise has a per-call overhead, and its draws keep one order.
+            if captured:
+                return captured
+            if not done.any():
+                now = camera.capture(x, y, d, rng=self._noise_rng)
+                captured.extend((now, now))
+                return captured
+            idx = np.flatnonzero(done)
+            both = camera.capture(
+                np.concatenate([x, fx[idx]]),
+                np.concatenate([y, fy[idx]]),
+                np.concatenate([d, fd[idx]]),
+                rng=self._noise_rng,
+            )
+            final = both[:n].copy()
+            final[idx] = both[n:]
+            captured.extend((both[:n], final))
+            return captured
+
+        images, fluents = (n, *camera.spec.shape), (n, len(self._fluent_names))
+        self._labels = {
+            BOLT_IMAGE_KEY: DeferredArray(lambda: capture()[0], shape=images, dtype=np.uint8),
+            TRUE_FLUENTS_KEY: DeferredArray(
+                lambda: self._fluents(x, y, d), shape=fluents, dtype=bool
+            ),
+            GRID_POSITION_KEY: DeferredArray(lambda: _cells(x, y), shape=(n, 2), dtype=np.int64),
+        }
+        masks = {f"_{key}": self._every for key in self._labels}
+        if done.any():
+            self._final_labels = {
+                BOLT_IMAGE_KEY: DeferredArray(lambda: capture()[1], shape=images, dtype=np.uint8),
+                TRUE_FLUENTS_KEY: DeferredArray(
+                    lambda: self._fluents(fx, fy, fd), shape=fluents, dtype=bool
+                ),
+                GRID_POSITION_KEY: DeferredArray(
+                    lambda: _cells(fx, fy), shape=(n, 2), dtype=np.int64
+                ),
+            }
+            self._final_labels.update({f"_{key}": done for key in list(self._final_labels)})
+        else:
+            self._final_labels = self._labels
+        return {**self._labels, **masks}
 
     def _fluents(self, x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
         full = gridworld_fluents(x, y, d, size=self.config.size)
@@ -460,3 +515,8 @@ class VectorGridworld(VectorEnv):
             f"VectorGridworld(num_envs={self.num_envs}, size={self.config.size}, "
             f"obs_mode={self.config.obs_mode!r}, noise={self._camera.spec.noise['name']!r})"
         )
+
+
+def _cells(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """int64 ``[n, 2]``: each room's agent cell ``(x, y)`` (``info["grid_position"]``)."""
+    return np.stack([x, y], axis=1).astype(np.int64, copy=False)

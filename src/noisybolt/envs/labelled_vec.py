@@ -2,10 +2,13 @@
 
 :class:`LabelledVectorEnv` steps copies of a labelled env (see
 :class:`~noisybolt.envs.labels.FluentLabels`) in a Gymnasium ``SyncVectorEnv`` with
-*same-step* autoreset, and keeps what their ``info`` said at reset and step, so it meets
-:class:`~noisybolt.perception.protocols.BoltObservable` (``bolt_images``, ``true_fluents``,
-and the last view of an episode that just ended, from ``info["final_info"]``). It is what
-:func:`noisybolt.make_bolted_vec_env` and a world named by factory path are built on.
+*same-step* autoreset, whose batched ``info`` is then the world–bolt contract of
+:mod:`noisybolt.perception.protocols` as it stands: the envs' labels batched at reset and
+step, and an ended episode's last ones in ``info["final_info"]``. It checks that they are
+there (an unlabelled env is refused at its first reset or step) and names the fluents. It
+is what :func:`noisybolt.make_bolted_vec_env` and a world named by factory path are built
+on; :meth:`~LabelledVectorEnv.bolt_images` and :meth:`~LabelledVectorEnv.true_fluents`
+(views of the last ``info``) serve sample collection.
 
 Example:
     >>> import gymnasium as gym
@@ -14,8 +17,8 @@ Example:
     ...     env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
     ...     return FluentLabels(env, fluents={"at_goal": lambda e: e.s == 15})
     >>> world = LabelledVectorEnv([lake, lake])
-    >>> obs, _ = world.reset(seed=0)
-    >>> world.fluent_names, world.true_fluents().tolist(), world.bolt_images().shape
+    >>> obs, info = world.reset(seed=0)
+    >>> world.fluent_names, info["true_fluents"].tolist(), info["bolt_image"].shape
     (('at_goal',), [[False], [False]], (2, 256, 256, 3))
 """
 
@@ -29,9 +32,14 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 from noisybolt.bolt.schemes import ReturnBounds
-from noisybolt.envs.labels import fluent_names_of
+from noisybolt.envs.labels import batched_labels_from_info, fluent_names_of
 from noisybolt.errors import ConfigError, UnlabelledEnvError
-from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, CameraSpec
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    FINAL_INFO_KEY,
+    TRUE_FLUENTS_KEY,
+    CameraSpec,
+)
 
 __all__ = ["LabelledVectorEnv"]
 
@@ -68,10 +76,8 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         self.action_space = self._venv.action_space
         self.render_mode = self._venv.render_mode
         self._first_seed = seed
-        self._images: np.ndarray | None = None
+        self._images: np.ndarray | None = None  # the labels of the last reset or step
         self._truth: np.ndarray | None = None
-        self._final_images: np.ndarray | None = None
-        self._final_truth: np.ndarray | None = None
 
     @property
     def envs(self) -> list[gym.Env]:
@@ -81,28 +87,25 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
-        """Resets every env (env ``i`` with ``seed + i``) and keeps their labels."""
+        """Resets every env (env ``i`` with ``seed + i``); checks their labels."""
         if seed is None:
             seed, self._first_seed = self._first_seed, None
         else:
             self._first_seed = None
         obs, info = self._venv.reset(seed=seed, options=options)
-        self._images, self._truth = _labels(info, self.num_envs, "reset")
-        self._final_images, self._final_truth = self._images, self._truth
+        self._images, self._truth = batched_labels_from_info(info, self.num_envs, where="reset")
         return obs, info
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Steps every env; an ended one is reset in the same step (its last view kept)."""
+        """Steps every env; an ended one is reset in the same step, its last labels in
+        ``info["final_info"]`` (checked there)."""
         obs, rewards, terminated, truncated, info = self._venv.step(actions)
-        self._images, self._truth = _labels(info, self.num_envs, "step")
+        self._images, self._truth = batched_labels_from_info(info, self.num_envs, where="step")
         ended = np.flatnonzero(np.logical_or(terminated, truncated))
         if ended.size:
-            final_images, final_truth = _labels(info["final_info"], self.num_envs, "step", ended)
-            self._final_images, self._final_truth = self._images.copy(), self._truth.copy()
-            self._final_images[ended] = final_images[ended]
-            self._final_truth[ended] = final_truth[ended]
-        else:
-            self._final_images, self._final_truth = self._images, self._truth
+            batched_labels_from_info(
+                info.get(FINAL_INFO_KEY, {}), self.num_envs, where="step", rows=ended
+            )
         return obs, rewards, terminated, truncated, info
 
     def _need_reset(self) -> None:
@@ -144,28 +147,18 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         return spec
 
     def bolt_images(self) -> np.ndarray:
-        """uint8 ``[num_envs, H, W, 3]``: the bolt's view of every env now."""
+        """uint8 ``[num_envs, H, W, 3]``: the bolt's view of every env now (a view of the
+        last ``info["bolt_image"]``)."""
         self._need_reset()
         assert self._images is not None
         return self._images
 
     def true_fluents(self) -> np.ndarray:
-        """bool ``[num_envs, n_fluents]``: the ground truth of every env now."""
+        """bool ``[num_envs, n_fluents]``: the ground truth of every env now (a view of the
+        last ``info["true_fluents"]``)."""
         self._need_reset()
         assert self._truth is not None
         return self._truth
-
-    def final_bolt_images(self) -> np.ndarray:
-        """The bolt's view of the states the last step reached, before autoreset."""
-        self._need_reset()
-        assert self._final_images is not None
-        return self._final_images
-
-    def final_true_fluents(self) -> np.ndarray:
-        """The ground truth of the states the last step reached, before autoreset."""
-        self._need_reset()
-        assert self._final_truth is not None
-        return self._final_truth
 
     def render(self) -> tuple[Any, ...] | None:
         """Every env's ``render()``."""
@@ -183,22 +176,3 @@ def _labels_of_one(info: dict[str, Any]) -> tuple[Any, Any]:
             "wrap it in noisybolt.FluentLabels"
         )
     return info[BOLT_IMAGE_KEY], info[TRUE_FLUENTS_KEY]
-
-
-def _labels(
-    info: dict[str, Any], n: int, where: str, rows: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """The batched labels of a vector ``info`` (checked present for ``rows``, default all)."""
-    rows = np.arange(n) if rows is None else rows
-    for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY):
-        present = info.get(f"_{key}")
-        if key not in info or present is None or not np.all(np.asarray(present)[rows]):
-            raise UnlabelledEnvError(
-                f"an env's info at {where} has no {key!r}: a bolted env must put "
-                f"info[{BOLT_IMAGE_KEY!r}] and info[{TRUE_FLUENTS_KEY!r}] at reset and step; "
-                "wrap it in noisybolt.FluentLabels"
-            )
-    images = np.asarray(info[BOLT_IMAGE_KEY])
-    if images.dtype != np.uint8 or images.ndim != 4:
-        raise ConfigError(f"bolt images must be uint8 [H, W, 3], got {images.dtype} {images.shape}")
-    return images, np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)

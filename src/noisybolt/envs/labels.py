@@ -45,6 +45,7 @@ __all__ = [
     "Camera",
     "FluentFn",
     "FluentLabels",
+    "batched_labels_from_info",
     "collect_labelled_samples",
     "fluent_names_of",
     "labels_from_info",
@@ -331,6 +332,52 @@ def labels_from_info(info: dict[str, Any], *, where: str) -> tuple[np.ndarray, n
             f"info[{BOLT_IMAGE_KEY!r}] and info[{TRUE_FLUENTS_KEY!r}] at reset and step; "
             "wrap it in noisybolt.FluentLabels"
         ) from None
+
+
+def batched_labels_from_info(
+    info: Mapping[str, Any], n_envs: int, *, where: str, rows: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(bolt images, true fluents)`` of a vector env's batched ``info`` (the world–bolt
+    contract, :mod:`noisybolt.perception.protocols`): uint8 ``[n_envs, H, W, C]`` and bool
+    ``[n_envs, n_fluents]``, read with ``np.asarray`` (a deferred value is computed now).
+
+    Args:
+        info: the batched info (or its ``final_info``).
+        n_envs: the batch size.
+        where: ``"reset"`` or ``"step"``, for the message.
+        rows: the rows that must carry labels (their ``_key`` masks True); default all.
+
+    Raises:
+        UnlabelledEnvError: a key or a row of its mask is missing.
+        ConfigError: the images are not uint8 ``[n_envs, H, W, C]`` or the fluents not
+            ``[n_envs, n_fluents]``.
+    """
+    for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY):
+        present = info.get(f"_{key}")
+        if (
+            key not in info
+            or present is None
+            or not np.all(present if rows is None else np.asarray(present)[rows])
+        ):
+            raise UnlabelledEnvError(
+                f"an env's info at {where} has no {key!r}: a bolted vector env must put "
+                f"info[{BOLT_IMAGE_KEY!r}] and info[{TRUE_FLUENTS_KEY!r}] (with their '_' "
+                "masks) at reset and step, and in info['final_info'] for an ended episode; "
+                "wrap its envs in noisybolt.FluentLabels"
+            )
+    images = np.asarray(info[BOLT_IMAGE_KEY])
+    truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
+    if images.dtype != np.uint8 or images.ndim != 4 or len(images) != n_envs:
+        raise ConfigError(
+            f"info[{BOLT_IMAGE_KEY!r}] at {where} must be uint8 [{n_envs}, H, W, C], got "
+            f"{images.dtype} {images.shape}"
+        )
+    if truth.ndim != 2 or len(truth) != n_envs:
+        raise ConfigError(
+            f"info[{TRUE_FLUENTS_KEY!r}] at {where} must be bool [{n_envs}, n_fluents], got "
+            f"shape {truth.shape}"
+        )
+    return images, truth
 
 
 def collect_labelled_samples(

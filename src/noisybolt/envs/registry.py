@@ -7,12 +7,13 @@ A world is named in a config by a registered name or by a *factory path*
 process (a resumed run, ``evaluate``, a spawned worker) rebuilds it from the path; a
 module not on ``sys.path`` is looked for in the current directory too.
 
-A registered world factory returns a vectorised world meeting
-:class:`~noisybolt.perception.protocols.AutoresetBoltObservable` (and, for training, a Gymnasium
-:class:`~gymnasium.vector.VectorEnv` with same-step autoreset). Factories are registered
-as ``"module:attribute"`` paths and imported only when asked for, so a world whose module
-or dependencies are missing breaks only itself. Every factory takes the keywords
-``num_envs``, ``seed``, ``noise`` and ``obs_mode`` plus its own.
+A registered world factory returns a vectorised world: a Gymnasium
+:class:`~gymnasium.vector.VectorEnv` with same-step autoreset that puts the bolt's labels
+into its batched ``info`` (the contract of :mod:`noisybolt.perception.protocols`) and
+meets :class:`~noisybolt.perception.protocols.BoltObservable` for sample collection.
+Factories are registered as ``"module:attribute"`` paths and imported only when asked
+for, so a world whose module or dependencies are missing breaks only itself. Every
+factory takes the keywords ``num_envs``, ``seed``, ``noise`` and ``obs_mode`` plus its own.
 
 Example:
     >>> world = make_world("gridworld", num_envs=2, seed=0, obs_mode="view")
@@ -42,7 +43,7 @@ from noisybolt.errors import (
     WorldFactoryError,
 )
 from noisybolt.perception.noise import NoiseSpec
-from noisybolt.perception.protocols import AutoresetBoltObservable
+from noisybolt.perception.protocols import BoltObservable
 
 __all__ = [
     "DEFAULT_WORLD",
@@ -58,7 +59,7 @@ __all__ = [
     "world_fingerprint",
 ]
 
-WorldFactory = Callable[..., AutoresetBoltObservable]
+WorldFactory = Callable[..., BoltObservable]
 
 #: The paper's 6x6 gridworld: the world of a run that names none, and of the paper's
 #: experiments (Table 1, case 4). World names live here, in ``envs``, and nowhere else.
@@ -318,7 +319,7 @@ def make_world(
     noise: NoiseSpec = "none",
     obs_mode: str | None = None,
     **kwargs: Any,
-) -> AutoresetBoltObservable:
+) -> BoltObservable:
     """Build a vectorised world by name.
 
     Args:

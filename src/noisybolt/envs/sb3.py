@@ -5,9 +5,15 @@ of per-environment info dicts holding ``terminal_observation`` and
 ``TimeLimit.truncated``, and resets finished environments itself in the same step. A
 Gymnasium :class:`~gymnasium.vector.VectorEnv` with *same-step* autoreset (such as
 :class:`~noisybolt.envs.gridworld_vec.VectorGridworld`) already does the last part, so
-:class:`SB3VecEnv` only translates the return values. It also forwards the world's
-:class:`~noisybolt.perception.protocols.BoltObservable` members, so a bolt wrapper can
-sit on either form.
+:class:`SB3VecEnv` only translates the return values.
+
+The world's own ``info`` is batched (arrays with a leading env axis); SB3's is a list of
+per-env dicts. The batched bolt (:class:`noisybolt.wrappers.BoltVecEnv`) reads the
+world–bolt contract (:mod:`noisybolt.perception.protocols`) from the batched form, which
+:attr:`SB3VecEnv.batched_info` keeps from the last reset or step, as SB3 keeps a reset's
+infos in ``reset_infos``: splitting the camera images into per-env dicts only for the bolt
+to stack them again would cost a copy of every image every step (and make a deferred
+camera render whether or not anyone looks). The per-env dicts hold SB3's keys.
 
 Example:
     >>> from noisybolt.envs.gridworld_vec import VectorGridworld
@@ -63,13 +69,14 @@ class SB3VecEnv(VecEnv):
             action_space=venv.single_action_space,
         )
         self._actions: np.ndarray | None = None
+        self._batched_info: dict[str, Any] = {}
 
     # ------------------------------------------------------------------ SB3 VecEnv
 
     def reset(self) -> np.ndarray:
         """Reset every environment; uses the seed given to :meth:`seed`, if any."""
         seed = self._seeds[0]
-        obs, _ = self.venv.reset(seed=seed)
+        obs, self._batched_info = self.venv.reset(seed=seed)
         self._reset_seeds()
         self._reset_options()
         self.reset_infos = [dict() for _ in range(self.num_envs)]
@@ -85,6 +92,7 @@ class SB3VecEnv(VecEnv):
             raise RuntimeError("step_wait called before step_async")
         obs, rewards, terminated, truncated, vinfo = self.venv.step(self._actions)
         self._actions = None
+        self._batched_info = vinfo
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{"TimeLimit.truncated": False} for _ in range(self.num_envs)]
         success = bool(getattr(self.venv, "termination_is_success", False))
@@ -100,6 +108,14 @@ class SB3VecEnv(VecEnv):
                 infos[i]["is_success"] = success and bool(terminated[i])
             infos[i]["terminal_observation"] = vinfo["final_obs"][i]
         return obs, rewards.astype(np.float32), dones, infos
+
+    @property
+    def batched_info(self) -> dict[str, Any]:
+        """The world's Gymnasium ``info`` of the last reset or step, as the world gave it:
+        batched (a leading env axis, ``_key`` masks, ``final_info`` for the episodes that
+        ended), before :meth:`step_wait` makes SB3's per-env dicts. Empty before the first
+        reset."""
+        return self._batched_info
 
     def close(self) -> None:
         """Close the vectorised world."""
@@ -150,19 +166,3 @@ class SB3VecEnv(VecEnv):
     def camera_spec(self) -> CameraSpec:
         """The world's bolt camera (forwarded)."""
         return self.venv.camera_spec  # type: ignore[attr-defined]
-
-    def bolt_images(self) -> np.ndarray:
-        """The world's noisy bolt images of the current states (forwarded)."""
-        return self.venv.bolt_images()  # type: ignore[attr-defined]
-
-    def true_fluents(self) -> np.ndarray:
-        """The world's ground-truth fluents of the current states (forwarded)."""
-        return self.venv.true_fluents()  # type: ignore[attr-defined]
-
-    def final_bolt_images(self) -> np.ndarray:
-        """Bolt images of the states the last step reached, before autoreset (forwarded)."""
-        return self.venv.final_bolt_images()  # type: ignore[attr-defined]
-
-    def final_true_fluents(self) -> np.ndarray:
-        """Ground truth of the states the last step reached, before autoreset (forwarded)."""
-        return self.venv.final_true_fluents()  # type: ignore[attr-defined]

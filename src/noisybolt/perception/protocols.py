@@ -1,24 +1,46 @@
 """The contracts between worlds, the bolt's eyes and its fluent detectors.
 
-The perception layer sits below ``envs``: it never imports a world. Worlds (and any user
-world) meet :class:`BoltObservable`; detectors meet :class:`FluentDetector`.
+The perception layer sits below ``envs``: it never imports a world. Detectors meet
+:class:`FluentDetector`; a world hands the bolt what it needs through ``info``, the one
+world–bolt contract, defined here and nowhere else.
 
-The world–bolt contract for a single Gymnasium env is its ``info``: a *labelled* env
-(one wrapped in :class:`noisybolt.FluentLabels`, or a shipped world) names its fluents in
-an attribute ``fluent_names`` (read through ``env.get_wrapper_attr``) and puts, at reset
-and at every step, for the state just reached:
+**A single env** is *labelled* (wrapped in :class:`noisybolt.FluentLabels`, or a shipped
+world) when it names its fluents in an attribute ``fluent_names`` (read through
+``env.get_wrapper_attr``) and puts, at reset and at every step, for the state just reached:
 
 - ``info["bolt_image"]`` (:data:`BOLT_IMAGE_KEY`): uint8 ``[H, W, 3]``, what the bolt's
   camera sees, noise included;
 - ``info["true_fluents"]`` (:data:`TRUE_FLUENTS_KEY`): bool ``[n_fluents]``, the ground
-  truth in the order of ``fluent_names`` (labels and metrics only, never the agent's).
+  truth in the order of ``fluent_names`` (labels and metrics only, never the agent's);
+- optionally, for a world that declares a ``grid_layout`` attribute
+  (:class:`noisybolt.envs.layout.GridLayout`), ``info["grid_position"]``
+  (:data:`GRID_POSITION_KEY`): the agent's cell ``(x, y)``, for pictures of where a policy
+  goes.
 
-A world on a grid may also declare a ``grid_layout`` attribute
-(:class:`noisybolt.envs.layout.GridLayout`) and put the agent's cell ``(x, y)`` in
-``info["grid_position"]`` (:data:`GRID_POSITION_KEY`), for pictures of where a policy goes.
+**A vector env** (what the batched bolt, :class:`noisybolt.wrappers.BoltVecEnv`, trains
+on) has ``fluent_names`` and ``num_envs``, resets an ended episode in the same step
+(Gymnasium's ``AutoresetMode.SAME_STEP``), and puts the same keys into its batched
+``info`` as Gymnasium's ``SyncVectorEnv`` batches the infos of single labelled envs:
 
-A vector env with same-step autoreset reports the ended episodes' last views in
-``info["final_info"]`` under the same keys (Gymnasium's convention).
+- ``info["bolt_image"]``: uint8 ``[num_envs, H, W, 3]``; ``info["true_fluents"]``: bool
+  ``[num_envs, n_fluents]``; ``info["grid_position"]``: int ``[num_envs, 2]`` (optional),
+  each with its mask ``info["_" + key]`` (bool ``[num_envs]``, True: the row is there),
+  at reset and at every step. After a step that ends episodes they describe the *new*
+  episodes' first states;
+- ``info["final_info"]`` (:data:`FINAL_INFO_KEY`, with mask ``info["_final_info"]``) on a
+  step that ended episodes: the same keys for the states those episodes *reached*, before
+  the reset, in the ended rows (masks True there; other rows are not the bolt's to read).
+  The bolt needs them to take an episode's last transition.
+
+A value is an array or anything ``np.asarray`` turns into one: the shipped worlds put
+:class:`~noisybolt.envs.deferred.DeferredArray` s there, which render the camera only when
+read, and only until the world's next reset or step. The batched bolt reads these keys and
+nothing else of the world (no methods, no attributes but ``fluent_names``), straight from
+the Gymnasium vector env's ``info``, before :class:`noisybolt.envs.SB3VecEnv` turns it into
+SB3's list of per-env dicts.
+
+:class:`BoltObservable` is the narrower view that sample collection
+(:mod:`noisybolt.perception.dataset`) reads after moving a world to scripted states.
 """
 
 from __future__ import annotations
@@ -30,9 +52,9 @@ import numpy as np
 
 __all__ = [
     "BOLT_IMAGE_KEY",
+    "FINAL_INFO_KEY",
     "GRID_POSITION_KEY",
     "TRUE_FLUENTS_KEY",
-    "AutoresetBoltObservable",
     "BoltObservable",
     "CameraSpec",
     "FluentDetector",
@@ -44,6 +66,8 @@ BOLT_IMAGE_KEY = "bolt_image"
 TRUE_FLUENTS_KEY = "true_fluents"
 #: ``info`` key of the agent's grid cell ``(x, y)``, for worlds that declare a grid layout.
 GRID_POSITION_KEY = "grid_position"
+#: A vector env's ``info`` key of the ended episodes' last labels (Gymnasium's name).
+FINAL_INFO_KEY = "final_info"
 
 
 @dataclass(frozen=True)
@@ -74,10 +98,12 @@ class CameraSpec:
 
 @runtime_checkable
 class BoltObservable(Protocol):
-    """A (vectorised) world as the restraining bolt sees it.
+    """A vectorised world as sample collection sees it: its camera and its ground truth now.
 
     ``bolt_images`` is the bolt's camera *with its noise*, ``true_fluents`` the ground truth
-    used for labels and metrics only: it must never reach the agent.
+    used for labels and metrics only: it must never reach the agent. For the shipped
+    worlds both are views of the ``info`` of their last reset or step (see the module
+    docs); the bolt itself reads ``info``, not these.
     """
 
     @property
@@ -101,24 +127,6 @@ class BoltObservable(Protocol):
 
     def true_fluents(self) -> np.ndarray:
         """bool ``[num_envs, n_fluents]``: the ground-truth fluents now."""
-        ...
-
-
-@runtime_checkable
-class AutoresetBoltObservable(BoltObservable, Protocol):
-    """A batched world that starts an ended episode's successor in the same step (what
-    the batched bolt trains on), and still shows the bolt the ended episode's last view.
-
-    Rows of environments whose episode did not end equal the current view.
-    """
-
-    def final_bolt_images(self) -> np.ndarray:
-        """uint8 ``[num_envs, H, W, C]``: the bolt's view of the states the last step
-        reached, before the autoreset."""
-        ...
-
-    def final_true_fluents(self) -> np.ndarray:
-        """bool ``[num_envs, n_fluents]``: the ground truth of those states."""
         ...
 
 

@@ -1,18 +1,24 @@
 """The restraining bolt over a batch of environments, for training (SB3 ``VecEnv``).
 
-One step renders every environment's bolt view, runs the fluent detector once on the
+One step reads every environment's bolt view, runs the fluent detector once on the
 whole batch, and moves every DFA with the vectorised Algorithm 1. It gives exactly the
 rewards and observations of ``n_envs`` separate :class:`RestrainingBoltWrapper` s (tested).
 
-Auto-reset: an SB3 ``VecEnv`` returns, for an environment whose episode just ended, the
-*next* episode's first observation, and the old episode's last one in
-``infos[i]["terminal_observation"]``. The bolt must read that last observation to finish
-the old episode's trace, so the world must also show it: through methods
-``final_bolt_images()`` and ``final_true_fluents()`` (batched, rows of environments that
-did not end equal to the current view; see
-:class:`~noisybolt.perception.protocols.AutoresetBoltObservable`).
-The DFAs then restart on the new episode's first observation, and the reward of that
-first transition is paid with the environment's next step.
+What the bolt sees is the world's batched ``info`` and nothing else (the contract of
+:mod:`noisybolt.perception.protocols`): ``info["bolt_image"]`` and
+``info["true_fluents"]`` at reset and step. The world is a Gymnasium vector env under an
+:class:`~noisybolt.envs.sb3.SB3VecEnv`, whose :attr:`~noisybolt.envs.sb3.SB3VecEnv.batched_info`
+hands the bolt that ``info`` as the world gave it, before SB3's per-env dicts are made:
+the images stay one array (no split and restack each step), and a world's deferred camera
+renders once, when the bolt reads it. SB3 wrappers in between (``VecMonitor``, reward
+clipping) see the SB3 side as usual.
+
+Auto-reset: the world starts an ended episode's successor in the same step (SB3's
+convention too: the old episode's last observation is in
+``infos[i]["terminal_observation"]``). The bolt must read that episode's last view to
+finish its trace: it is in ``info["final_info"]`` under the same keys. The DFAs then
+restart on the new episode's first view, and the reward of that first transition is paid
+with the environment's next step.
 """
 
 from __future__ import annotations
@@ -33,9 +39,11 @@ from noisybolt.bolt import (
     Tracking,
     confidence_bands,
 )
-from noisybolt.errors import ConfigError
+from noisybolt.envs.labels import batched_labels_from_info
+from noisybolt.envs.sb3 import SB3VecEnv
+from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.logic.dfa import DFA
-from noisybolt.perception.protocols import AutoresetBoltObservable, FluentDetector
+from noisybolt.perception.protocols import FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
     build_bolt,
@@ -51,12 +59,13 @@ class BoltVecEnv(VecEnvWrapper):
     """Adds a restraining bolt to a vectorised world (see the module docstring).
 
     Args:
-        venv: the world as an SB3 ``VecEnv`` (possibly wrapped, e.g. in ``VecMonitor``:
+        venv: the world as an SB3 ``VecEnv``: an :class:`~noisybolt.envs.sb3.SB3VecEnv`
+            over a labelled Gymnasium vector env, possibly wrapped (e.g. in ``VecMonitor``:
             put monitors *below* the bolt so they record environment returns).
         specs: the bolt's specifications.
         detector: fluent detector, called once per step on the whole batch.
-        world: the object meeting :class:`AutoresetBoltObservable` (default
-            ``venv.unwrapped``).
+        world: the Gymnasium vector env under ``venv``'s ``SB3VecEnv``, if the caller
+            wants it checked (None: taken from ``venv``).
         dfas, thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
         progress_gamma, shaping, world_letters, pay_at_truncation: the compliance scheme's
             progress terms and its ending (see
@@ -64,6 +73,12 @@ class BoltVecEnv(VecEnvWrapper):
         end_on_violation: must be False here (see the error it raises).
         tracking, belief: ``"threshold"`` (Algorithm 1) or ``"belief"`` tracking and its
             settings, as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
+
+    Raises:
+        ConfigError: ``venv`` is not an ``SB3VecEnv`` (possibly wrapped), or ``world`` is
+            not the world under it.
+        UnlabelledEnvError: the world names no ``fluent_names`` (or, at reset or step, its
+            ``info`` lacks the labels).
     """
 
     def __init__(
@@ -72,7 +87,7 @@ class BoltVecEnv(VecEnvWrapper):
         specs: Sequence[Spec],
         detector: FluentDetector,
         *,
-        world: AutoresetBoltObservable | None = None,
+        world: object | None = None,
         dfas: Sequence[DFA] | None = None,
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
@@ -91,18 +106,32 @@ class BoltVecEnv(VecEnvWrapper):
                 "end_on_violation is not supported by the batched bolt; use "
                 "RestrainingBoltWrapper around single environments for it"
             )
-        world = world if world is not None else venv.unwrapped  # type: ignore[assignment]
-        if not isinstance(world, AutoresetBoltObservable):
+        source = venv.unwrapped
+        if not isinstance(source, SB3VecEnv):
             raise ConfigError(
-                f"{type(world).__name__} cannot be bolted: it needs fluent_names, num_envs, "
-                "camera_spec, bolt_images(), true_fluents(), final_bolt_images() and "
-                "final_true_fluents() (see AutoresetBoltObservable); for your own Gymnasium "
-                "env use noisybolt.make_bolted_vec_env"
+                f"the batched bolt reads a Gymnasium vector env's batched info through "
+                f"SB3VecEnv, but {type(source).__name__} is at the bottom of venv: build it as "
+                "SB3VecEnv(world) (SB3 wrappers on top are fine); for your own Gymnasium env "
+                "use noisybolt.make_bolted_vec_env"
             )
+        if world is not None and world is not source.venv:
+            raise ConfigError(
+                f"world ({type(world).__name__}) is not the vector env under venv's SB3VecEnv "
+                f"({type(source.venv).__name__}); leave it out"
+            )
+        try:
+            fluent_names = tuple(source.fluent_names)
+        except AttributeError:
+            raise UnlabelledEnvError(
+                f"{type(source.venv).__name__} names no fluent_names: a bolted vector env "
+                "names its fluents and puts the bolt's labels in its info (see "
+                "noisybolt.perception.protocols); for your own Gymnasium env use "
+                "noisybolt.make_bolted_vec_env"
+            ) from None
         parts = build_bolt(
             specs,
             detector,
-            world.fluent_names,
+            fluent_names,
             n_envs=venv.num_envs,
             dfas=dfas,
             thresholds=thresholds,
@@ -117,7 +146,7 @@ class BoltVecEnv(VecEnvWrapper):
         )
         self.bolt = parts.bolt
         self._truth = parts.truth
-        self._world = world
+        self._source = source
         self._detector = detector
         self._thresholds = thresholds
         super().__init__(
@@ -128,9 +157,17 @@ class BoltVecEnv(VecEnvWrapper):
         )
 
     @property
-    def world(self) -> AutoresetBoltObservable:
-        """The bolted world."""
-        return self._world
+    def world(self) -> Any:
+        """The bolted world: the Gymnasium vector env under the ``SB3VecEnv``."""
+        return self._source.venv
+
+    def _labels(self, where: str, rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The world's labels in its info of this reset or step (with ``rows``: the ended
+        episodes' last ones, from ``final_info``)."""
+        info = self._source.batched_info
+        if rows is not None:
+            info = info.get(FINAL_INFO_KEY, {})
+        return batched_labels_from_info(info, self.num_envs, where=where, rows=rows)
 
     def _probs(self, images: np.ndarray, truth: np.ndarray) -> np.ndarray:
         return self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
@@ -141,8 +178,8 @@ class BoltVecEnv(VecEnvWrapper):
     def reset(self) -> VecEnvObs:
         """Resets every environment; every DFA reads its first observation."""
         obs = self.venv.reset()
-        truth = np.asarray(self._world.true_fluents(), dtype=bool)
-        probs = self._probs(self._world.bolt_images(), truth)
+        images, truth = self._labels("reset")
+        probs = self._probs(images, truth)
         self.bolt.reset(probs)
         self._truth.reset(truth)
         return self._obs(obs, dfa_view(self.bolt))
@@ -151,15 +188,16 @@ class BoltVecEnv(VecEnvWrapper):
         """Steps the world, moves the DFAs, shapes rewards, restarts ended episodes."""
         obs, env_rewards, dones, infos = self.venv.step_wait()
         dones = np.asarray(dones, dtype=bool)
-        images = self._world.bolt_images()
-        truth = np.asarray(self._world.true_fluents(), dtype=bool)
+        images, truth = self._labels("step")
         ended = np.flatnonzero(dones)
         # The step's transition reads each ended episode's last observation, not the new
         # episode's first; keep the new ones for the restart below.
         first_images, first_truth = images, truth
         if ended.size:
-            images = self._world.final_bolt_images()
-            truth = np.asarray(self._world.final_true_fluents(), dtype=bool)
+            last_images, last_truth = self._labels("step", rows=ended)
+            images, truth = images.copy(), truth.copy()
+            images[ended] = last_images[ended]
+            truth[ended] = last_truth[ended]
             # One detector call for the ended episodes' last views and the new episodes'
             # first views together: a call on a few images costs mostly its overhead.
             both = self._probs(
