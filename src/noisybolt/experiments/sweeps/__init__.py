@@ -1,12 +1,11 @@
 """Sweeps: a grid of training runs (rows x settings x seeds) from one YAML file.
 
-A sweep is base settings, named *rows* overriding them, seeds and optional *settings*
-axes; every setting is a field of :class:`~noisybolt.agents.training.TrainConfig` (see
-:mod:`~.config` and the README's section on sweeps). Each trial trains into
-``trials/<row>[/<axis>=<value>,...]/seed-<n>/`` of the sweep directory, beside
-``sweep.json``, ``command.txt`` and the tables, ``results.json/md/csv``. Running a sweep
-again resumes it: finished trials are kept, interrupted ones resume from their last
-checkpoint, failed ones are tried again.
+A sweep is base settings, named *rows* overriding them, seeds, and optional *settings*
+axes, each setting a :class:`~noisybolt.agents.training.TrainConfig` field (:mod:`~.config`;
+the README's section on sweeps). Each trial trains into ``trials/<trial id>/`` of the
+sweep directory, beside ``sweep.json``, ``command.txt`` and ``results.json/md/csv``.
+Running a sweep again resumes it: finished trials are kept, interrupted ones resume from
+their last checkpoint, failed ones are tried again.
 
 Example:
     >>> sweep = SweepConfig.from_dict({

@@ -1,17 +1,12 @@
-"""The ``ray`` backend: Ray Tune runs the trials, retries them, resumes them and returns
-their records.
-
-Each pending trial is a Tune trial of a grid over trial ids, running
-:func:`~noisybolt.experiments.sweeps.trials.run_trial` with ``resources: {cpus: N}``.
-Tune retries a failed attempt (``FailureConfig(max_failures=retries)``; the attempt
-resumes from the run's last checkpoint); running the sweep again after an interruption
-(Ctrl-C, a lost driver) restores its experiment, kept in ``<sweep>/ray/``
-(``Tuner.restore(..., resume_errored=True)``); the records come from Tune's ``ResultGrid``.
+"""The ``ray`` backend: Ray Tune runs the pending trials (one Tune trial each, with the
+sweep's ``resources: {cpus: N}``), retries a failed attempt (``FailureConfig``; it resumes
+from the run's last checkpoint), resumes an interrupted sweep (``Tuner.restore(...,
+resume_errored=True)`` on the experiment in ``<sweep>/ray/``) and returns the records of
+its ``ResultGrid``.
 
 Without ``address`` a local Ray is started for the sweep (unless this process joined one);
-with one (``auto``, ``HOST:PORT``) the trials go to that cluster. Everything is written
-at the sweep directory's absolute path: on several machines it must be on storage that
-every node mounts at that path.
+with one (``auto``, ``HOST:PORT``) the trials go to that cluster. Everything is written at
+the sweep directory's absolute path: on several machines, storage every node mounts there.
 """
 
 from __future__ import annotations
@@ -24,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from noisybolt.errors import BackendUnavailableError
+from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import TrialRecord
 from noisybolt.experiments.sweeps.trials import TrialTask, attempt, read_json
 from noisybolt.io import atomic_write_json
@@ -49,9 +45,7 @@ def require_ray() -> Any:
     return ray
 
 
-def _trainable(
-    config: dict[str, Any], *, tasks: Mapping[str, TrialTask], runner: Callable[..., Any]
-) -> None:
+def _trainable(config: dict[str, Any], *, tasks: Mapping[str, TrialTask], runner: Any) -> None:
     """A Tune trial: one attempt at a sweep trial, reporting its record."""
     from ray import tune
 
@@ -60,26 +54,20 @@ def _trainable(
     tune.report({"record": json.dumps(record.to_dict())})
 
 
-def _dirname(trial: Any) -> str:
-    return str(trial.config["trial"]).replace("/", "__")[:120]
-
-
 def run_ray(
+    sweep: SweepConfig,
+    sweep_dir: Path,
     tasks: Sequence[TrialTask],
     pending: Sequence[str],
     *,
-    sweep_dir: Path,
-    name: str,
     address: str | None,
-    cpus_per_trial: float,
-    retries: int,
     max_concurrent: int,
     runner: Callable[[TrialTask], TrialRecord],
     callbacks: Sequence[Any] = (),
     log: Callable[[str], None] = print,
 ) -> list[TrialRecord]:
     """Runs the ``pending`` trials with Ray Tune, or resumes their interrupted experiment;
-    returns the records its ``ResultGrid`` holds (those of the trials that finished)."""
+    returns the records in its ``ResultGrid`` (the trials that finished)."""
     ray = require_ray()
     from ray import tune
 
@@ -88,12 +76,12 @@ def run_ray(
         ray.init(
             address=address, include_dashboard=False, log_to_driver=False, logging_level="error"
         )
-    parameters = tune.with_parameters(
-        _trainable, tasks={t.trial_id: t for t in tasks}, runner=runner
+    trainable = tune.with_resources(
+        tune.with_parameters(_trainable, tasks={t.trial_id: t for t in tasks}, runner=runner),
+        {"cpu": sweep.cpus_per_trial},
     )
-    trainable = tune.with_resources(parameters, {"cpu": cpus_per_trial})
-    # The experiment this sweep started last is resumed when it holds every pending trial
-    # (it was interrupted); otherwise the sweep grew, or finished: a new experiment.
+    # The experiment started last is resumed when it holds every pending trial (it was
+    # interrupted); otherwise the sweep grew, or finished: a new experiment.
     state = read_json(sweep_dir / "ray.json") or {}
     path = state.get("experiment")
     # Tune's newer console output ignores verbose=0: our own progress lines say what matters.
@@ -104,30 +92,22 @@ def run_ray(
             log(f"ray: resuming the interrupted experiment {path}")
             tuner = tune.Tuner.restore(path, trainable=trainable, resume_errored=True)
         else:
-            storage, experiment = (
-                sweep_dir.resolve() / "ray",
-                f"{name}-{time.strftime('%Y%m%d-%H%M%S')}",
-            )
+            path = sweep_dir.resolve() / "ray" / f"{sweep.name}-{time.strftime('%Y%m%d-%H%M%S')}"
             tuner = tune.Tuner(
                 trainable,
                 param_space={"trial": tune.grid_search(list(pending))},
-                tune_config=tune.TuneConfig(
-                    max_concurrent_trials=max_concurrent or None,
-                    trial_name_creator=_dirname,
-                    trial_dirname_creator=_dirname,
-                ),
+                tune_config=tune.TuneConfig(max_concurrent_trials=max_concurrent or None),
                 run_config=tune.RunConfig(
-                    name=experiment,
-                    storage_path=str(storage),
-                    failure_config=tune.FailureConfig(max_failures=retries),
+                    name=path.name,
+                    storage_path=str(path.parent),
+                    failure_config=tune.FailureConfig(max_failures=sweep.retries),
                     callbacks=list(callbacks),
                     verbose=0,
                 ),
             )
-            state = {"experiment": str(storage / experiment), "trials": list(pending)}
-            atomic_write_json(sweep_dir / "ray.json", state)
+            atomic_write_json(sweep_dir / "ray.json", {"experiment": str(path), "trials": pending})
         cpus = ray.cluster_resources().get("CPU", 0)
-        log(f"ray: {len(pending)} trials on {cpus:.0f} CPUs, {cpus_per_trial:g} per trial")
+        log(f"ray: {len(pending)} trials on {cpus:.0f} CPUs, {sweep.cpus_per_trial:g} per trial")
         grid = tuner.fit()
     finally:
         if ours:

@@ -91,6 +91,10 @@ class TrialRecord:
 
 #: GroupSummary's statistics over seeds, in the CSV's order.
 _STATS = ("env_return", "length", "goal_rate", "success_rate", "frames_to_comply", "frames")
+#: Its means of the final evaluations (the evaluation's key of each).
+_FINAL_MEANS = {"env_return": "env_return_mean", "length": "length_mean"} | {
+    k: k for k in ("goal_rate", "success_rate")
+}
 
 
 @dataclass(frozen=True)
@@ -119,6 +123,31 @@ class GroupSummary:
     frames_to_comply: Stat | None
     n_reached: int
     frames: Stat | None
+
+    @classmethod
+    def of(cls, members: Sequence[TrialRecord]) -> GroupSummary:
+        """The summary of one group's trials."""
+        done = [r for r in members if r.status == "done" and r.final]
+        finals = [r.final for r in done if r.final is not None]
+        first, reached = members[0], [r.frames_to_comply for r in done if r.frames_to_comply]
+        rates = {s: [f["compliance"].get(s, math.nan) for f in finals] for s in first.spec_names}
+        means = {k: Stat.of(f[key] for f in finals) for k, key in _FINAL_MEANS.items()}
+        return cls(
+            **means,
+            group=first.group,
+            row=first.row,
+            settings=dict(first.settings),
+            algo=first.algo,
+            spec_names=first.spec_names,
+            n_trials=len(members),
+            n_done=len(done),
+            n_failed=sum(r.status == "failed" for r in members),
+            compliance={s: stat for s, v in rates.items() if (stat := Stat.of(v))},
+            compliance_min={s: min(v) for s, v in rates.items() if v},
+            frames_to_comply=Stat.of(reached),
+            n_reached=len(reached),
+            frames=Stat.of(r.frames for r in done if r.frames is not None),
+        )
 
     def n_frames_text(self) -> str:
         """N_frames, with a count unless every finished seed reached it (``12.0k (2/3)``)."""
@@ -244,34 +273,4 @@ def summarise_trials(records: Sequence[TrialRecord]) -> tuple[GroupSummary, ...]
     groups: dict[str, list[TrialRecord]] = {}
     for record in records:
         groups.setdefault(record.group, []).append(record)
-    summaries = []
-    for group, members in groups.items():
-        done = [r for r in members if r.status == "done" and r.final]
-        finals = [r.final for r in done if r.final is not None]
-        first = members[0]
-        rates = {
-            s: [float(f["compliance"].get(s, math.nan)) for f in finals] for s in first.spec_names
-        }
-        reached = [float(r.frames_to_comply) for r in done if r.frames_to_comply is not None]
-        summaries.append(
-            GroupSummary(
-                group,
-                first.row,
-                dict(first.settings),
-                first.algo,
-                first.spec_names,
-                n_trials=len(members),
-                n_done=len(done),
-                n_failed=sum(r.status == "failed" for r in members),
-                env_return=Stat.of(f["env_return_mean"] for f in finals),
-                length=Stat.of(f["length_mean"] for f in finals),
-                goal_rate=Stat.of(f["goal_rate"] for f in finals),
-                success_rate=Stat.of(f["success_rate"] for f in finals),
-                compliance={s: stat for s, v in rates.items() if (stat := Stat.of(v))},
-                compliance_min={s: min(v) for s, v in rates.items() if v},
-                frames_to_comply=Stat.of(reached),
-                n_reached=len(reached),
-                frames=Stat.of(float(r.frames) for r in done if r.frames is not None),
-            )
-        )
-    return tuple(summaries)
+    return tuple(GroupSummary.of(members) for members in groups.values())

@@ -1,5 +1,6 @@
-"""Running a sweep: what is on disk checked, the pending trials run by a backend (``local``:
-this process, or ``workers`` processes; ``ray``: :mod:`~.ray_tune`), the results written."""
+"""Running a sweep: the trial directories checked, the pending trials run by a backend
+(``local``: this process, or ``workers`` processes; ``ray``: :mod:`~.ray_tune`), the tables
+written from the trials' records."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from noisybolt.errors import ConfigError
-from noisybolt.experiments.sweeps.config import SweepConfig, Trial
+from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord, summarise_trials
 from noisybolt.experiments.sweeps.trials import (
     TrialDirectory,
@@ -48,21 +49,14 @@ def run_sweep(
 ) -> SweepResult:
     """Runs (or resumes) every trial of a sweep into ``out_dir`` and writes its tables.
 
-    Args:
-        sweep: the validated sweep.
-        out_dir: the sweep directory (running into it again resumes).
-        backend: ``"local"`` or ``"ray"``.
-        workers: local: trials at once (default 1: one after the other, in this process);
-            Ray: the most trials at once (default 0: as the CPUs allow).
-        address: a Ray cluster's address (None: a local Ray).
-        argv: the command line saved in ``command.txt`` (default: this process's).
-        log: receives progress lines.
-        runner: runs one attempt at a trial (tests wrap it to inject failures).
-        callbacks: Ray Tune callbacks.
+    ``workers``: trials at once (local: default 1, one after the other in this process;
+    Ray: default 0, as the CPUs allow). ``address``: a Ray cluster's (None: a local Ray).
+    ``argv``: the command saved in ``command.txt`` (default: this process's). ``runner``
+    runs one attempt at a trial (a test may inject failures); ``callbacks``: Tune's.
 
     Raises:
-        ConfigError: an unknown backend, Ray options without Ray, or trial directories
-            holding runs with other settings; raised before any trial runs.
+        ConfigError: an unknown backend, Ray options without Ray, or a trial directory
+            holding a run with other settings; raised before any trial runs.
         BackendUnavailableError: ``backend="ray"`` and Ray is not installed.
     """
     if backend not in BACKENDS:
@@ -88,20 +82,19 @@ def run_sweep(
         f"sweep {sweep.name}: {len(tasks)} trials, {len(tasks) - len(pending)} already "
         f"finished, {len(pending)} to run ({backend} backend) in {sweep_dir}"
     )
-    start, ran = time.perf_counter(), {}
+    start, ran = time.perf_counter(), []
     if pending:
-        ids = {t.trial_id for t in pending}
-        _prepare_detectors([t for t in sweep.trials if t.trial_id in ids], log)
-        if backend == "ray":
-            records = run_ray(
-                tasks, [t.trial_id for t in pending], sweep_dir=sweep_dir, name=sweep.name,
-                address=address, cpus_per_trial=sweep.cpus_per_trial, retries=sweep.retries,
-                max_concurrent=workers, runner=runner, callbacks=callbacks, log=log,
-            )  # fmt: skip
-            ran = {r.trial_id: r for r in records}
-        else:
-            _run_local(pending, retries=sweep.retries, workers=workers, runner=runner)
-    result = _result(sweep_dir, sweep.name, [ran.get(t.trial_id) or t.record() for t in tasks])
+        _prepare_detectors(pending, log)
+    if pending and backend == "ray":
+        ids = [t.trial_id for t in pending]
+        ran = run_ray(
+            sweep, sweep_dir, tasks, ids, address=address, max_concurrent=workers,
+            runner=runner, callbacks=callbacks, log=log,
+        )  # fmt: skip
+    elif pending:
+        _run_local(pending, retries=sweep.retries, workers=workers, runner=runner)
+    records = {t.trial_id: t.record() for t in tasks} | {r.trial_id: r for r in ran}
+    result = _result(sweep_dir, sweep.name, list(records.values()))
     unfinished = len(tasks) - result.n_done - result.n_failed
     log(
         f"sweep {sweep.name}: {result.n_done} done, {result.n_failed} failed"
@@ -129,10 +122,8 @@ def collect_sweep(sweep_dir: str | os.PathLike[str], *, write: bool = True) -> S
 def _tasks(root: Path, sweep: Mapping[str, Any], argv: Sequence[str] = ()) -> list[TrialTask]:
     """The trials of a sweep (``sweep.json``'s content) in the sweep directory ``root``."""
     final_eval = int(sweep.get("final_eval_episodes", 0))
-    return [
-        TrialTask(t, str(root / "trials" / t["id"]), final_eval, tuple(argv))
-        for t in sweep["trials"]
-    ]
+    trials = sweep["trials"]
+    return [TrialTask(t, str(root / "trials" / t["id"]), final_eval, tuple(argv)) for t in trials]
 
 
 def _result(root: Path, name: str, records: list[TrialRecord], write: bool = True) -> SweepResult:
@@ -151,16 +142,14 @@ def _check_clashes(tasks: Sequence[TrialTask]) -> None:
             folder.check_same_config(config, ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
 
 
-def _prepare_detectors(trials: Sequence[Trial], log: Callable[[str], None]) -> None:
+def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -> None:
     """Trains each cached classifier once, before trials run in parallel."""
     from noisybolt.agents.training import prepare_bolt
 
-    detectors = {
-        repr((t.config.world, t.config.world_kwargs, t.config.detector)): t.config for t in trials
-    }
-    for config in detectors.values():
-        if config.detector.kind == "classifier" and not config.detector.path:
-            prepare_bolt(config, seed=config.seed, log=log)
+    configs = [t.config for t in tasks]
+    for c in {repr((c.world, c.world_kwargs, c.detector)): c for c in configs}.values():
+        if c.detector.kind == "classifier" and not c.detector.path:
+            prepare_bolt(c, seed=c.seed, log=log)
 
 
 def _attempts(task: TrialTask, retries: int, runner: TrialRunner) -> None:
