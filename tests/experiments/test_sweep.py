@@ -77,10 +77,19 @@ def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
             {"rows": [{"name": "a", "specs": ["edge"], "hyperparams": {"n_stepz": 8}}]},
             "unknown hyperparameter 'n_stepz'",
         ),
-        ({"rows": [{"name": "a", "specs": ["edge"], "frames": 0}]}, "frames must be an integer >= 1"),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "frames": 0}]},
+            "frames must be an integer >= 1",
+        ),
         ({"rows": [{"name": "a", "specs": ["edge"], "frames": "lots"}]}, "not a frame count"),
-        ({"rows": [{"name": "a", "specs": ["edge"], "frames": True}]}, "config key frames must be an integer"),
-        ({"rows": [{"name": "a", "specs": ["edge"], "eval_freq": -1}]}, "evaluation.freq must be an integer >= 0"),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "frames": True}]},
+            "config key frames must be an integer",
+        ),
+        (
+            {"rows": [{"name": "a", "specs": ["edge"], "eval_freq": -1}]},
+            "evaluation.freq must be an integer >= 0",
+        ),
         ({"rows": [{"name": "a", "specs": ["F(flying)"]}]}, "flying"),
         (
             {"rows": [{"name": "a", "specs": ["edge"], "world_kwargs": {"noise": "fog"}}]},
@@ -331,7 +340,8 @@ def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
 def test_trial_directory_trained_with_other_settings_is_refused(grid_dir: Path) -> None:
     changed = _sweep(base={**TINY_BASE, "eval_episodes": 6})
     with pytest.raises(
-        ConfigError, match=r"edge-ppo/seed-0: the config differs in \['evaluation.episodes'\]"
+        ConfigError,
+        match=r"edge-ppo/seed-0 holds a run with other settings \(evaluation.episodes\)",
     ):
         run_sweep(changed, grid_dir, log=_quiet)
 

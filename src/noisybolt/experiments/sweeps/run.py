@@ -25,7 +25,7 @@ from noisybolt.experiments.sweeps.trials import (
     run_trial,
 )
 from noisybolt.io import atomic_write_json
-from noisybolt.rundir import RunDirectory
+from noisybolt.rundir import RunDirectory, config_differences
 
 __all__ = ["BACKENDS", "SWEEP_FILE", "collect_sweep", "run_sweep"]
 
@@ -134,12 +134,19 @@ def _result(root: Path, name: str, records: list[TrialRecord], write: bool = Tru
 
 
 def _check_clashes(tasks: Sequence[TrialTask]) -> None:
-    """Refuses a trial directory holding a run with other settings (the frames aside)."""
-    from noisybolt.agents.training import LEGACY_DEFAULTS, RESUMABLE_KEYS
+    """Refuses a trial directory holding a run with other settings (the frames aside), its
+    saved config read as a resume reads it (older runs' through the legacy defaults)."""
+    from noisybolt.agents.training import RESUMABLE_KEYS, TrainConfig
 
-    for folder, config in ((TrialDirectory(t.run_dir), t.trial["config"]) for t in tasks):
-        if folder.exists():
-            folder.check_same_config(config, ignore=RESUMABLE_KEYS, defaults=LEGACY_DEFAULTS)
+    for task, folder in ((t, TrialDirectory(t.run_dir)) for t in tasks):
+        saved = folder.exists() and TrainConfig.from_dict(folder.read_config()).to_dict()
+        if saved and (
+            diffs := config_differences(saved, task.trial["config"], ignore=RESUMABLE_KEYS)
+        ):
+            raise ConfigError(
+                f"{folder.path} holds a run with other settings ({', '.join(diffs)}): use "
+                "another output directory, or delete that trial"
+            )
 
 
 def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -> None:
