@@ -43,6 +43,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
     """Trains one trial (unless finished) and returns its record (None: collecting only)."""
     import torch
 
+    from noisybolt.agents.config import nested_config
     from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 
     torch.set_num_threads(1)
@@ -76,7 +77,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
         train(config, out, argv=[sys.executable, *sys.argv], log=lambda _: None)
     data = json.loads(summary.read_text())
     final = data["final"]
-    config = json.loads((out / "config.json").read_text())
+    config = nested_config(json.loads((out / "config.json").read_text()))  # older: flat
     return {
         "world": _name(world),
         "spec": spec,
@@ -88,7 +89,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
         "env_return": float(final["env_return_mean"]),
         "frames_to_comply": data.get("frames_to_comply"),
         "frames": data["frames"],
-        "reward_scale": config.get("reward_scale"),
+        "reward_scale": config["bolt"]["reward_scale"],
     }
 
 

@@ -124,14 +124,19 @@ def restore(name: str, runs: Path) -> None:
 
 
 def _agent(config: dict[str, Any]) -> str:
-    world = str(config.get("world", ""))
-    obs_mode = (config.get("world_kwargs") or {}).get("obs_mode")
+    from noisybolt.agents.config import nested_config
+
+    config = nested_config(config)  # the flat configs of older runs too
+    world = str(config["world"].get("name", ""))
+    obs_mode = (config["world"].get("kwargs") or {}).get("obs_mode")
     return "ram" if obs_mode == "ram" or (world.endswith("-ram") and obs_mode is None) else "image"
 
 
 def summary_entry(run: Path) -> dict[str, Any] | None:
     """One run's entry of ``summary.json`` (None for a run with no evaluation yet)."""
-    config = json.loads((run / "config.json").read_text())
+    from noisybolt.agents.config import nested_config
+
+    config = nested_config(json.loads((run / "config.json").read_text()))  # flat ones too
     metrics = (
         json.loads((run / "metrics.json").read_text()) if (run / "metrics.json").exists() else []
     )
@@ -144,16 +149,16 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
     return {
         "run": run.name,
         "agent": _agent(config),
-        "algo": config["algo"],
+        "algo": config["algorithm"]["name"],
         "seed": int(config["seed"]),
-        "bolted": bool(config.get("bolted", True)),
+        "bolted": bool(config["bolt"].get("bolted", True)),
         "frames": int(last["frames"]),
         "column_cleared_share": float(rates.get("clear_left_column", 0.0)),
         "left_bricks_gone": float(sum(rows.values())) if rows else None,
         "score": float(last["env_return_mean"]),
         "bolt_false_acceptance": max(false.values()) if false else None,
         "episodes": int(last["n_episodes"]),
-        "reward": config.get("reward", "paper"),
+        "reward": config["bolt"]["reward"],
     }
 
 

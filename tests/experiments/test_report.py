@@ -113,7 +113,7 @@ def test_run_report_holds_config_command_evaluation_curves_and_pictures(sweep_di
     assert "![learning curves](curves.png)" in markdown
     assert "![episode](episode.gif)" in markdown and "![heatmap](heatmap.png)" in markdown
     assert "## Evaluations during training" in markdown and "| 1,024 |" in markdown
-    assert '"algo": "ppo"' in markdown
+    assert '"schema": 2' in markdown and '"name": "ppo"' in markdown  # config.json
     assert (run / "curves.png").read_bytes()[:8] == PNG
     page = files.html.read_text()
     # Self-contained: every picture embedded, nothing fetched from elsewhere.

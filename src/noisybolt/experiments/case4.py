@@ -248,23 +248,24 @@ def case4_sweep(
     return SweepConfig.from_dict(
         {
             "name": "case4",
+            # paths of the run config schema; each row overrides the base's world
             "base": {
-                "world": DEFAULT_WORLD,  # the paper's gridworld
-                "reward": "paper",  # Algorithm 1 as the paper pays it
-                "specs": [
+                "world.name": DEFAULT_WORLD,  # the paper's gridworld
+                "bolt.reward": "paper",  # Algorithm 1 as the paper pays it
+                "bolt.specs": [
                     "one_corner_once"
                     if low_confidence_cost is None
                     else {"name": "one_corner_once", "low_confidence_cost": low_confidence_cost}
                 ],
-                "algo": algo,
-                "detector": {"kind": detector},
+                "algorithm.name": algo,
+                "detector.kind": detector,
                 "frames": frames,
-                "eval_freq": every,
-                "eval_episodes": eval_episodes,
+                "evaluation.freq": every,
+                "evaluation.episodes": eval_episodes,
                 "checkpoint_freq": max(every, frames // 5),
             },
             "rows": [
-                {"name": name, "world_kwargs": _world_kwargs(noise, start_heading)}
+                {"name": name, "world.kwargs": _world_kwargs(noise, start_heading)}
                 for name, noise in CONDITIONS.items()
             ],
             "seeds": seeds if isinstance(seeds, int) else list(seeds),

@@ -197,18 +197,22 @@ def run_report(
     """
     run = Path(run_dir)
     saved = read_json(run / "config.json")
+    from noisybolt.agents.config import nested_config  # the flat configs of older runs too
+
     config = dict(saved if isinstance(saved, dict) else config or {})
     if not config:
         raise ConfigError(f"{run} holds no run (no readable config.json)")
+    config = nested_config(config)
+    world = config.get("world", {})
     specs = ", ".join(
         f"`{s.get('name') or s.get('formula')}` = `{s.get('formula')}`"
-        for s in config.get("specs", [])
+        for s in config["bolt"].get("specs", [])
     )
     blocks: list[Block] = [
         Heading(f"Run {run.name}"),
         Text(
-            f"**{str(config.get('algo', '?')).upper()}** on `{config.get('world')}` "
-            f"({json.dumps(config.get('world_kwargs', {}))}), detector "
+            f"**{str(config.get('algorithm', {}).get('name', '?')).upper()}** on "
+            f"`{world.get('name')}` ({json.dumps(world.get('kwargs', {}))}), detector "
             f"`{config.get('detector', {}).get('kind')}`, seed {config.get('seed')}; specs: "
             f"{specs}."
         ),

@@ -223,32 +223,33 @@ def table1_sweep(
             every = max(1, n // 10)
         else:
             every = row.eval_freq(frames_scale)
+        # Each row: overrides of the base below, by path of the run config schema.
         sweep_rows.append(
             {
                 "name": row.name,
-                "specs": [row.spec],
-                "algo": row.algo,
+                "bolt.specs": [row.spec],
+                "algorithm.name": row.algo,
                 "frames": n,
-                "eval_freq": every,
+                "evaluation.freq": every,
                 "checkpoint_freq": max(every, n // 5),
                 # DQN's policy is its greedy one: sampling its actions would add the
                 # training schedule's epsilon, measuring exploration rather than what was
                 # learned (PPO and A2C learn a distribution and are evaluated sampling it).
-                "eval_deterministic": row.algo == "dqn",
+                "evaluation.deterministic": row.algo == "dqn",
             }
         )
     return SweepConfig.from_dict(
         {
             "name": "table1",
             "base": {
-                "world": DEFAULT_WORLD,  # the paper's gridworld
-                "world_kwargs": {"noise": noise},
+                "world.name": DEFAULT_WORLD,  # the paper's gridworld
+                "world.kwargs.noise": noise,
                 # Algorithm 1 as the paper pays it (every accepting step +1, cost 0.5).
-                "reward": "paper",
-                "detector": {"kind": detector},
-                "eval_episodes": eval_episodes,
-                "keep_best": keep_best,
-                "stop_after": stop_after,
+                "bolt.reward": "paper",
+                "detector.kind": detector,
+                "evaluation.episodes": eval_episodes,
+                "evaluation.keep_best": keep_best,
+                "evaluation.stop_after": stop_after,
             },
             "rows": sweep_rows,
             "seeds": seeds if isinstance(seeds, int) else list(seeds),
@@ -385,6 +386,8 @@ def _rc_max(formula: str, world_kwargs: dict[str, Any]) -> float | None:
 
 def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
     """The table's entries from a collected sweep (rows in the paper's order)."""
+    from noisybolt.agents.config import nested_config  # flat configs of older runs too
+
     by_group = {g.group: g for g in sweep_result.groups}
     records = {r.trial_id: r for r in sweep_result.records}
     entries = []
@@ -393,8 +396,8 @@ def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
         if group is None:
             continue
         members = [r for r in records.values() if r.group == row.name]
-        config = read_json(members[0].run_dir / "config.json") or {}
-        world_kwargs = dict(config.get("world_kwargs") or {})
+        config = nested_config(read_json(members[0].run_dir / "config.json") or {})
+        world_kwargs = dict(config.get("world", {}).get("kwargs") or {})
         frames = int(config.get("frames") or 0)
         rates = [
             float((r.final or {}).get("compliance", {}).get(row.spec, 0.0))
@@ -612,13 +615,15 @@ def write_table1(
 
 
 def _settings_from(root: Path, result: Any) -> dict[str, Any]:
+    from noisybolt.agents.config import nested_config
+
     sweep = read_json(root / "sweep.json") or {}
     trials = sweep.get("trials") or [{}]
-    config = trials[0].get("config", {})
+    config = nested_config(trials[0].get("config", {}))
     return {
         "seeds": sorted({r.seed for r in result.records}),
         "detector": config.get("detector", {}).get("kind"),
-        "noise": config.get("world_kwargs", {}).get("noise", "none"),
+        "noise": config.get("world", {}).get("kwargs", {}).get("noise", "none"),
         "final_eval_episodes": sweep.get("final_eval_episodes", 0),
     }
 

@@ -1,0 +1,120 @@
+"""``noisybolt train``'s options are overrides of the run config schema: each flag stands
+for one schema path (FLAG_PATHS), ``--set PATH=VALUE`` for any, and nothing else
+describes a run."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from noisybolt.agents.config import TrainConfig, schema_paths
+from noisybolt.cli import build_parser, main
+from noisybolt.cli.train import FLAG_PATHS, train_overrides
+
+#: Options that do not describe the run (where it goes, what is resumed, files that
+#: resolve into the schema's values).
+NOT_SETTINGS = {
+    "--out", "--resume", "--restart", "--retrain-classifier", "--specs-file", "--hp-file",
+    "--set", "--spec-set", "--help",
+}  # fmt: skip
+BASE = ["--spec", "edge", "--reward", "paper", "--detector", "oracle"]
+
+
+def _train_parser() -> argparse.ArgumentParser:
+    subparsers = next(
+        a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)
+    )
+    return subparsers.choices["train"]
+
+
+def _config(*argv: str) -> TrainConfig:
+    args = build_parser().parse_args(["train", *BASE, *argv])
+    return TrainConfig.build(train_overrides(args), hp_file=args.hp_file)
+
+
+def test_every_train_option_is_a_schema_path_or_says_why_not() -> None:
+    paths = set(schema_paths())
+    for action in _train_parser()._actions:
+        for option in action.option_strings:
+            if not option.startswith("--") or option in NOT_SETTINGS:
+                continue
+            assert option in FLAG_PATHS, f"{option} describes the run but maps to no path"
+            path = FLAG_PATHS[option]
+            assert action.dest == path or option == "--hp", option  # --hp KEY=VALUE
+            assert path in paths or path.rsplit(".", 1)[0] in paths, (option, path)
+
+
+def _at(config: TrainConfig, path: str) -> Any:
+    node: Any = config.to_dict()
+    for part in path.split("."):
+        node = node.get(part)
+    return node
+
+
+@pytest.mark.parametrize(
+    ("argv", "path", "value"),
+    [
+        (["--world", "breakout"], "world.name", None),
+        (["--noise", "regional"], "world.kwargs.noise", "regional"),
+        (["--obs-mode", "view"], "world.kwargs.obs_mode", "view"),
+        (["--n-envs", "3"], "world.n_envs", 3),
+        (["--spec", "avoid_top_right"], "bolt.specs", None),
+        (["--reward", "compliance", "--reward-scale", "7"], "bolt.reward_scale", 7.0),
+        (["--tracking", "belief"], "bolt.tracking", "belief"),
+        (["--confidence", "0.95"], "bolt.confidence", 0.95),
+        (["--cost-mode", "proportional"], "bolt.cost_mode", "proportional"),
+        (["--unbolted"], "bolt.bolted", False),
+        (["--classifier", "cls.st"], "detector.path", "cls.st"),
+        (["--low-confidence", "on_edge"], "detector.low_confidence", ["on_edge"]),
+        (["--algo", "a2c"], "algorithm.name", "a2c"),
+        (["--hp", "gamma=0.9"], "algorithm.hyperparams.gamma", 0.9),
+        (["--frames", "5k"], "frames", 5000),
+        (["--seed", "4"], "seed", 4),
+        (["--seed", "4"], "detector.seed", 4),
+        (["--eval-freq", "0"], "evaluation.freq", 0),
+        (["--eval-episodes", "3"], "evaluation.episodes", 3),
+        (["--checkpoint-freq", "2k"], "checkpoint_freq", 2000),
+        (["--keep-best"], "evaluation.keep_best", True),
+        (["--no-progress"], "progress_bar", False),
+        (["--set", "evaluation.envs=8"], "evaluation.envs", 8),
+        (["--set", "bolt.thresholds.high=0.95"], "bolt.thresholds.high", 0.95),
+        (["--tracking", "belief", "--set", "bolt.tracking=threshold"], "bolt.tracking", None),
+    ],
+)
+def test_each_flag_sets_its_schema_path(argv: list[str], path: str, value: Any) -> None:
+    config = _config(*argv)
+    default = _config()
+    if path == "bolt.specs":
+        assert [s["name"] for s in _at(config, path)] == ["edge", "avoid_top_right"]
+    elif path == "world.name":
+        assert config.world == "breakout" and config.world_config.fire_on_reset
+    elif value is None:  # --set is applied after the flags
+        assert _at(config, path) == "threshold"
+    else:
+        assert _at(config, path) == value != _at(default, path)
+
+
+def test_the_flags_left_out_leave_the_schemas_defaults() -> None:
+    config = _config()
+    defaults = TrainConfig.build(
+        {"bolt.specs": ["edge"], "bolt.reward": "paper", "detector.kind": "oracle"}
+    )
+    assert config == defaults
+
+
+def test_a_bad_set_is_refused_by_path_and_leaves_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    for argv, message in [
+        (["--set", "evaluation.env=8"], "unknown config key evaluation.env"),
+        (["--set", "evaluation.envs=many"], "evaluation.envs must be an integer"),
+        (["--set", "evaluation.envs"], "is not of the form KEY=VALUE"),
+        (["--hp", "gamma=2"], "gamma=2 is out of range"),
+    ]:
+        assert main(["train", *BASE, *argv, "--out", str(out)]) == 2
+        assert message in capsys.readouterr().err
+        assert not out.exists()
