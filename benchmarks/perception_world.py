@@ -8,9 +8,11 @@ Measures, in one run, on the 6x6 gridworld:
   the ratio (issue 3's target: at least 10x);
 * **noise**: images/s of each noise model on batches of 64 camera frames;
 * **world**: env-steps/s of :class:`noisybolt.envs.gridworld_vec.VectorGridworld` at 8 and
-  64 envs, for each agent observation mode, without the camera and with it (every step:
-  ``bolt_images()`` and ``true_fluents()``, clean, with the default ``regional`` noise
-  and with ``gaussian`` noise); the target is >= 50k env-steps/s with the camera at 64 envs;
+  64 envs, for each agent observation mode, without the camera and with it (every step
+  the bolt's labels read from the step's batched ``info``, as the batched bolt reads them:
+  ``info["bolt_image"]`` and ``info["true_fluents"]``, clean, with the default
+  ``regional`` noise and with ``gaussian`` noise); the target is >= 50k env-steps/s with
+  the camera at 64 envs;
 * **SB3**: env-steps/s through SB3's ``VecEnv`` API (``step`` = ``step_async`` +
   ``step_wait``) for our adapter at 8 and 64 envs against ``DummyVecEnv`` over 8 MiniGrid
   envs, uniformly random actions.
@@ -124,16 +126,17 @@ def noise_rows(seconds: float, repeats: int) -> list[tuple[str, float]]:
 
 
 def stepper(world: VectorGridworld, n: int, *, with_camera: bool) -> Callable[[], int]:
-    """32 steps of uniformly random actions (and the bolt's camera and fluents if asked)."""
+    """32 steps of uniformly random actions (and, if asked, the bolt's camera and fluents
+    read from the step's info: the camera renders only when they are read)."""
     actions = np.random.default_rng(0).integers(0, 4, size=(1024, n))
     counter = iter(range(10**12))
 
     def work() -> int:
         for _ in range(32):
-            world.step(actions[next(counter) % 1024])
+            info = world.step(actions[next(counter) % 1024])[4]
             if with_camera:
-                world.bolt_images()
-                world.true_fluents()
+                np.asarray(info["bolt_image"])
+                np.asarray(info["true_fluents"])
         return 32 * n
 
     return work
@@ -203,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     for name, ips in noise_rows(args.seconds, args.repeats):
         print(f"{name:36s} {ips:12,.0f}")
 
-    print("\n## VectorGridworld, env-steps/s (camera: bolt_images() + true_fluents() per step)")
+    print("\n## VectorGridworld, env-steps/s (camera: info's bolt_image + true_fluents per step)")
     print(f"{'envs':>4s} {'obs':>5s} {'camera':>9s} {'env-steps/s':>14s}")
     world = world_rows(args.seconds, args.repeats)
     for n, mode, cam, sps in world:

@@ -191,8 +191,10 @@ def test_step_refuses_bad_actions() -> None:
     world = VectorGridworld(2)
     with pytest.raises(ValueError, match="shape"):
         world.step(np.array([1, 2, 3]))
-    with pytest.raises(ValueError, match=r"\[0, 4\)"):
-        world.step(np.array([0, 4]))
+    for bad in (np.array([0, 4]), np.array([-1, 0]), np.array([3, 255], dtype=np.uint8)):
+        with pytest.raises(ValueError, match=r"\[0, 4\)"):
+            world.step(bad)
+    world.step(np.array([3, 0], dtype=np.uint8))  # unsigned actions in range are fine
 
 
 # -------------------------------------------------------------------------- SB3

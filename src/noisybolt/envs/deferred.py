@@ -52,8 +52,9 @@ class DeferredArray:
         self._compute: Callable[[], np.ndarray] | None = compute
         self._value: np.ndarray | None = None
         self._expired = False
-        self.shape = tuple(shape)
-        self.dtype = np.dtype(dtype)
+        # Made every step by the shipped worlds: skip conversions that are not needed.
+        self.shape = shape if type(shape) is tuple else tuple(shape)
+        self.dtype = dtype if isinstance(dtype, np.dtype) else np.dtype(dtype)
 
     @property
     def computed(self) -> bool:
