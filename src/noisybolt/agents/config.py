@@ -42,20 +42,16 @@ Example:
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import json
 import os
-import types
-import typing
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any, Generic, NoReturn, TypeVar
+from typing import Any, Generic, TypeVar
 
 import gymnasium as gym
 import numpy as np
-import yaml
 
 from noisybolt.agents.hyperparams import (
     WORLD_KEYS,
@@ -64,6 +60,19 @@ from noisybolt.agents.hyperparams import (
     frame_schedules,
     known_hyperparameters,
     load_hyperparams,
+)
+from noisybolt.agents.schema import (
+    FrozenDict,
+    check,
+    defaults,
+    dump,
+    flatten,
+    freeze,
+    leaf_paths,
+    load,
+    parse_text,
+    section_types,
+    set_path,
 )
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.bolt import (
@@ -130,44 +139,6 @@ LEGACY_DEFAULTS: dict[str, Any] = {
 SEED_RANGE = (0, 2**32 - 1)
 
 
-class FrozenDict(dict):
-    """A ``dict`` that refuses changes: the mappings a frozen config holds.
-
-    It is still a ``dict`` (JSON, ``**`` and ``dict(...)`` work); change a config with
-    :meth:`TrainConfig.override` instead.
-
-    Example:
-        >>> d = FrozenDict({"truth": 0.5})
-        >>> d["truth"] = 0.7
-        Traceback (most recent call last):
-        ...
-        TypeError: a config's mappings are frozen: build a new config with TrainConfig.override
-    """
-
-    def _refuse(self, *args: Any, **kwargs: Any) -> NoReturn:
-        raise TypeError(
-            "a config's mappings are frozen: build a new config with TrainConfig.override"
-        )
-
-    __setitem__ = __delitem__ = __ior__ = _refuse
-    clear = pop = popitem = setdefault = update = _refuse
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        return (FrozenDict, (dict(self),))
-
-    def __deepcopy__(self, memo: dict[int, Any]) -> FrozenDict:
-        return FrozenDict({k: copy.deepcopy(v, memo) for k, v in self.items()})
-
-
-def _frozen(value: Any) -> Any:
-    """``value`` with every mapping inside it frozen (lists stay lists: JSON's form)."""
-    if isinstance(value, Mapping):
-        return FrozenDict({k: _frozen(v) for k, v in value.items()})
-    if isinstance(value, list):
-        return [_frozen(v) for v in value]
-    return value
-
-
 def _count(path: str, value: Any, low: int) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or value < low:
         raise ConfigError(f"{path} must be an integer >= {low}, got {value!r}")
@@ -202,7 +173,7 @@ class WorldConfig:
 
     def __post_init__(self) -> None:
         check_world(self.name)  # a registered name or an importable factory path
-        object.__setattr__(self, "kwargs", _frozen(dict(self.kwargs)))
+        object.__setattr__(self, "kwargs", freeze(dict(self.kwargs)))
         _count("world.n_envs", self.n_envs, 1)
 
 
@@ -243,8 +214,8 @@ class BoltConfig:
     bolted: bool = True
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "specs", tuple(_frozen(dict(s)) for s in self.specs))
-        object.__setattr__(self, "thresholds", _frozen(dict(self.thresholds)))
+        object.__setattr__(self, "specs", tuple(freeze(dict(s)) for s in self.specs))
+        object.__setattr__(self, "thresholds", freeze(dict(self.thresholds)))
         unknown = sorted(set(self.thresholds) - {"truth", "high"})
         if unknown:
             raise ConfigError(
@@ -314,7 +285,7 @@ class AlgorithmConfig:
 
     def __post_init__(self) -> None:
         algorithm_class(self.name)
-        object.__setattr__(self, "hyperparams", _frozen(dict(self.hyperparams)))
+        object.__setattr__(self, "hyperparams", freeze(dict(self.hyperparams)))
         known = known_hyperparameters(self.name) - WORLD_KEYS
         for key in self.hyperparams:
             if key in WORLD_KEYS:
@@ -468,7 +439,7 @@ class TrainConfig:
     keep_best = _Alias[bool]("evaluation.keep_best")
 
     def __post_init__(self) -> None:
-        for key, kind in _sections(TrainConfig).items():
+        for key, kind in section_types(TrainConfig).items():
             value = getattr(self, _ATTRIBUTES.get(key, key))
             if not isinstance(value, kind):
                 raise ConfigError(f"config key {key} must be a {kind.__name__}, got {value!r}")
@@ -534,13 +505,13 @@ class TrainConfig:
             >>> config.algorithm.hyperparams["gamma"], config.world_config.n_envs
             (0.9, 2)
         """
-        changes = _paths(overrides or {})
+        changes = override_paths(overrides or {})
         prefix = "algorithm.hyperparams."
         params_given = {k[len(prefix) :]: v for k, v in changes.items() if k.startswith(prefix)}
-        data = _defaults(cls)
+        data = defaults(cls)
         for path, value in changes.items():
             if not path.startswith(prefix):
-                _set(data, path, checked_value(path, value))
+                set_path(data, path, checked_value(path, value))
         world, algo = data["world"]["name"], data["algorithm"]["name"]
         params = load_hyperparams(world, algo, params_given, hp_file=hp_file)
         for key in sorted(WORLD_KEYS):
@@ -553,7 +524,7 @@ class TrainConfig:
         data["algorithm"]["hyperparams"] = params
         bolt = data["bolt"]
         bolt["specs"] = _resolved_specs(bolt["specs"], paper=bolt["reward"] == "paper")
-        return _load(cls, data, "")
+        return load(cls, data)
 
     @classmethod
     def create(
@@ -583,7 +554,7 @@ class TrainConfig:
             changes["world.n_envs"] = n_envs
         for key, value in settings.items():
             if dataclasses.is_dataclass(value) and not isinstance(value, type):
-                value = _dump(value)
+                value = dump(value)
             changes[FLAT_PATHS.get(key, key)] = value
         return cls.build(changes, hp_file=hp_file)
 
@@ -598,10 +569,10 @@ class TrainConfig:
             ConfigError: an unknown path or a value of the wrong type, naming the path.
         """
         data = self.to_dict()
-        for path, value in _paths(changes).items():
+        for path, value in override_paths(changes).items():
             if path == "bolt.specs":
                 value = _resolved_specs(checked_value(path, value), paper=self.reward == "paper")
-            _set(data, path, checked_value(path, value))
+            set_path(data, path, checked_value(path, value))
         return TrainConfig.from_dict(data)
 
     # ------------------------------------------------------------------ reading
@@ -648,7 +619,7 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able nested form (what ``config.json`` holds), with its schema version."""
-        return {"schema": SCHEMA_VERSION, **_dump(self)}
+        return {"schema": SCHEMA_VERSION, **dump(self)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TrainConfig:
@@ -670,7 +641,7 @@ class TrainConfig:
         """
         data = nested_config(data)
         del data["schema"]
-        return _load(cls, data, "")
+        return load(cls, data)
 
 
 #: The flat name of each setting held in a section (``tracking`` -> ``bolt.tracking``):
@@ -681,161 +652,7 @@ FLAT_PATHS: dict[str, str] = {
 }
 
 
-# --------------------------------------------------------------------------- the schema
-
-
-def _keys(cls: type) -> dict[str, dataclasses.Field[Any]]:
-    """A section's fields by their ``config.json`` key."""
-    return {f.metadata.get("key", f.name): f for f in dataclasses.fields(cls)}
-
-
-def _hints(cls: type) -> dict[str, Any]:
-    return typing.get_type_hints(cls)
-
-
-def _sections(cls: type) -> dict[str, type]:
-    """The section fields of ``cls`` by key, with their classes."""
-    hints = _hints(cls)
-    return {
-        key: hints[f.name]
-        for key, f in _keys(cls).items()
-        if dataclasses.is_dataclass(hints[f.name])
-    }
-
-
-def _is_mapping(hint: Any) -> bool:
-    return hint is dict or typing.get_origin(hint) in (dict, Mapping)
-
-
-_TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false"}
-
-
-def _describe(hint: Any) -> str:
-    args = typing.get_args(hint)
-    if typing.get_origin(hint) in (typing.Union, types.UnionType):
-        return " or ".join("null" if a is type(None) else _describe(a) for a in args)
-    if typing.get_origin(hint) is tuple:
-        return "a list"
-    if _is_mapping(hint) or dataclasses.is_dataclass(hint):
-        return "a mapping"
-    return _TYPE_NAMES.get(hint, getattr(hint, "__name__", str(hint)))
-
-
-def _value(value: Any, hint: Any, path: str) -> Any:
-    """``value`` as the setting at ``path`` (of type ``hint``) holds it, or a ConfigError
-    naming the path."""
-    if dataclasses.is_dataclass(hint) and isinstance(hint, type):
-        return _load(hint, value, path + ".")
-    origin, args = typing.get_origin(hint), typing.get_args(hint)
-    if origin in (typing.Union, types.UnionType):
-        if value is None and type(None) in args:
-            return None
-        for arm in (a for a in args if a is not type(None)):
-            try:
-                return _value(value, arm, path)
-            except ConfigError:
-                pass
-    elif hint is Any:
-        return _frozen(value)
-    elif hint is bool:
-        if isinstance(value, bool):
-            return value
-    elif hint is int:
-        if isinstance(value, int) and not isinstance(value, bool):
-            return value
-    elif hint is float:
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            return float(value)
-    elif hint is str:
-        if isinstance(value, str):
-            return value
-    elif origin is tuple:
-        if isinstance(value, (list, tuple)):
-            return tuple(_value(v, args[0], f"{path}[{i}]") for i, v in enumerate(value))
-    elif _is_mapping(hint) and isinstance(value, Mapping):
-        return _frozen(dict(value))
-    raise ConfigError(f"config key {path} must be {_describe(hint)}, got {value!r}")
-
-
-def _load(cls: type[_T], data: Any, prefix: str) -> _T:
-    """Builds section ``cls`` from ``data`` strictly: unknown keys and wrong types are
-    refused with their path; missing keys take the field's default."""
-    if not isinstance(data, Mapping):
-        where = f"config key {prefix[:-1]}" if prefix else "a training config"
-        raise ConfigError(f"{where} must be a mapping, got {data!r}")
-    keys, hints = _keys(cls), _hints(cls)
-    unknown = sorted(set(data) - set(keys))
-    if unknown:
-        where = f" in {prefix[:-1]}" if prefix else ""
-        found = ", ".join(prefix + k for k in unknown)
-        raise ConfigError(f"unknown config key {found}; known{where}: {sorted(keys)}")
-    kwargs = {
-        keys[key].name: _value(value, hints[keys[key].name], prefix + key)
-        for key, value in data.items()
-    }
-    return cls(**kwargs)
-
-
-def _dump(section: Any) -> dict[str, Any]:
-    """A section as JSON-able data, by ``config.json`` keys."""
-    out = {}
-    for key, f in _keys(type(section)).items():
-        value = getattr(section, f.name)
-        out[key] = _dump(value) if dataclasses.is_dataclass(value) else value
-    return json.loads(json.dumps(out))
-
-
-def _defaults(cls: type) -> dict[str, Any]:
-    """The schema's defaults as ``config.json`` data (sections built from theirs)."""
-    sections = _sections(cls)
-    out: dict[str, Any] = {}
-    for key, f in _keys(cls).items():
-        if key in sections:
-            out[key] = _dump(sections[key]())
-        elif f.default is not dataclasses.MISSING:
-            out[key] = f.default
-        else:
-            out[key] = typing.cast(Callable[[], Any], f.default_factory)()
-    return json.loads(json.dumps(out))
-
-
-def _hint_at(path: str) -> Any:
-    """The type the setting at ``path`` holds (Any inside a mapping-typed setting).
-
-    Raises:
-        ConfigError: the path names no setting.
-    """
-    hint: Any = TrainConfig
-    parts = path.split(".")
-    for index, part in enumerate(parts):
-        where = ".".join(parts[:index])
-        if isinstance(hint, type) and dataclasses.is_dataclass(hint):
-            keys = _keys(hint)
-            if part not in keys:
-                known = f"known in {where}" if where else "known"
-                raise ConfigError(f"unknown config key {path}; {known}: {sorted(keys)}")
-            hint = _hints(hint)[keys[part].name]
-        elif _is_mapping(hint) or hint is Any:
-            return Any
-        else:
-            raise ConfigError(f"config key {where} is not a mapping: {path} cannot reach into it")
-    return hint
-
-
-def _paths(changes: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``changes`` as ``{schema path: value}``: a mapping given for a section or a
-    mapping-typed setting merges key by key."""
-    out: dict[str, Any] = {}
-    for key, value in changes.items():
-        path = f"{prefix}{key}"
-        hint = _hint_at(path)
-        if isinstance(value, Mapping) and (
-            dataclasses.is_dataclass(hint) or _is_mapping(hint) or hint is Any
-        ):
-            out.update(_paths(value, path + "."))
-        else:
-            out[path] = value
-    return out
+# --------------------------------------------------------------------------- paths
 
 
 def override_paths(changes: Mapping[str, Any]) -> dict[str, Any]:
@@ -854,10 +671,10 @@ def override_paths(changes: Mapping[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in changes.items():
         head, dot, rest = str(key).partition(".")
-        section = head in _sections(TrainConfig) and (dot or isinstance(value, Mapping))
+        section = head in section_types(TrainConfig) and (dot or isinstance(value, Mapping))
         if head in FLAT_PATHS and not section:
             key = FLAT_PATHS[head] + dot + rest
-        out.update(_paths({key: value}))
+        out.update(flatten(TrainConfig, {key: value}))
     return out
 
 
@@ -874,29 +691,17 @@ def checked_value(path: str, value: Any) -> Any:
         ...
         noisybolt.errors.ConfigError: config key evaluation.episodes must be an integer, got 'many'
     """
-    hint = _hint_at(path)
-    if path == "bolt.specs":  # names and formulas are resolved after the overrides
-        specs = [value] if isinstance(value, str) else value
-        if not isinstance(specs, (list, tuple)) or not all(
-            isinstance(s, (str, Mapping)) for s in specs
-        ):
-            raise ConfigError(
-                f"config key bolt.specs must be a list of spec names, formulas or mappings, "
-                f"got {value!r}"
-            )
-        return list(specs)
-    return json.loads(json.dumps(_value(value, hint, path)))
-
-
-def _set(data: dict[str, Any], path: str, value: Any) -> None:
-    *heads, last = path.split(".")
-    node = data
-    for head in heads:
-        child = node.get(head)
-        if not isinstance(child, dict):
-            child = node[head] = {}
-        node = child
-    node[last] = value
+    if path != "bolt.specs":
+        return check(TrainConfig, path, value)
+    specs = [value] if isinstance(value, str) else value  # resolved after the overrides
+    if not isinstance(specs, (list, tuple)) or not all(
+        isinstance(s, (str, Mapping)) for s in specs
+    ):
+        raise ConfigError(
+            f"config key bolt.specs must be a list of spec names, formulas or mappings, "
+            f"got {value!r}"
+        )
+    return list(specs)
 
 
 def schema_paths() -> tuple[str, ...]:
@@ -906,18 +711,7 @@ def schema_paths() -> tuple[str, ...]:
         >>> "bolt.tracking" in schema_paths(), "algorithm.hyperparams" in schema_paths()
         (True, True)
     """
-
-    def walk(cls: type, prefix: str) -> list[str]:
-        hints, out = _hints(cls), []
-        for key, f in _keys(cls).items():
-            hint = hints[f.name]
-            if dataclasses.is_dataclass(hint) and isinstance(hint, type):
-                out += walk(hint, f"{prefix}{key}.")
-            else:
-                out.append(prefix + key)
-        return out
-
-    return tuple(walk(TrainConfig, ""))
+    return leaf_paths(TrainConfig)
 
 
 def value_from_text(path: str, text: str) -> Any:
@@ -931,20 +725,7 @@ def value_from_text(path: str, text: str) -> Any:
         >>> value_from_text("algorithm.hyperparams.learning_rate", "3e-4")
         0.0003
     """
-    hint = _hint_at(path)
-    arms = typing.get_args(hint) if typing.get_origin(hint) is types.UnionType else (hint,)
-    if str in arms and not (type(None) in arms and text.strip() in ("null", "~")):
-        return text
-    try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        raise ConfigError(f"cannot read the value of {path}={text!r}: {error}") from None
-    if isinstance(value, str):  # YAML 1.1 reads "3e-4" as a string
-        try:
-            return float(value)
-        except ValueError:
-            return value
-    return value
+    return parse_text(TrainConfig, path, text)
 
 
 def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
@@ -984,8 +765,8 @@ def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
                 for name in sorted(WORLD_KEYS & set(value)):
                     setting = value.pop(name)
                     if setting is not None:
-                        _set(out, f"world.{name}", setting)
-            _set(out, FLAT_PATHS.get(key, key), value)
+                        set_path(out, f"world.{name}", setting)
+            set_path(out, FLAT_PATHS.get(key, key), value)
     for path, value in LEGACY_DEFAULTS.items():
         section, key = path.split(".")
         if not isinstance(out.get(section), dict):
