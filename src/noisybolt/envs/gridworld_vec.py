@@ -296,7 +296,7 @@ class VectorGridworld(VectorEnv):
         self._final = (x, y, d)
         self._done = done
         final_obs = None
-        ended = np.count_nonzero(done) > 0
+        ended = bool(np.count_nonzero(done))
         if ended:
             idx = np.flatnonzero(done)
             final_obs = np.full(self.num_envs, None, dtype=object)

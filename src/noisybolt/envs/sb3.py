@@ -155,11 +155,12 @@ class SB3VecEnv(VecEnv):
             return [indices]
         return list(indices)
 
-    # ------------------------------------------------------------ BoltObservable
+    # ------------------------------------------- what the world declares besides its info
 
     @property
     def fluent_names(self) -> tuple[str, ...]:
-        """The world's fluents (forwarded)."""
+        """The world's fluents, in the column order of its ``info["true_fluents"]``
+        (forwarded)."""
         return self.venv.fluent_names  # type: ignore[attr-defined]
 
     @property
