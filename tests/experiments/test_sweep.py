@@ -63,7 +63,7 @@ def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.parametrize(
     ("changes", "match"),
     [
-        ({"rowz": []}, r"unknown sweep key\(s\) \['rowz'\]"),
+        ({"rowz": []}, r"unknown config key rowz; known: \["),
         ({"rows": []}, "non-empty list"),
         ({"rows": [{"specs": ["edge"]}]}, "needs a 'name'"),
         ({"rows": [{"name": "a b", "specs": ["edge"]}]}, "needs a 'name' matching"),
@@ -117,10 +117,10 @@ def grid_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
             "no classifier file",
         ),
         ({"seeds": 0}, "seeds must be >= 1"),
-        ({"seeds": [0, 0]}, "seeds repeat"),
+        ({"seeds": [0, 0]}, "seeds must be distinct"),
         ({"seeds": [-1]}, "non-negative"),
         ({"retries": -1}, "retries must be an integer >= 0"),
-        ({"resources": {"gpus": 1}}, r"resources: unknown key\(s\) in \{'gpus': 1\}"),
+        ({"resources": {"gpus": 1}}, r"unknown config key resources\.gpus"),
         ({"resources": {"cpus": 0}}, "cpus must be a number > 0"),
         ({"settings": {"seed": [1, 2]}}, "vary seeds with 'seeds'"),
         ({"settings": {"learning_rate": [1e-3]}}, "unknown config key learning_rate"),

@@ -4,8 +4,9 @@ The settings of ``base``, a row or an axis are paths of the run's config schema
 (:mod:`noisybolt.agents.config`: ``bolt.tracking``, ``world.kwargs.noise``,
 ``algorithm.hyperparams.gamma``), given dotted or as nested mappings; the flat names of
 older sweep files (``eval_freq``, ``world_kwargs.noise``, ``algo``) read as their paths.
-The schema types and checks them: a sweep holds no type table of its own. Seeds are an
-axis of their own (``seeds``), not a setting.
+The schema types and checks them, and the sweep file's own keys are a frozen dataclass
+loaded by the same strict loader (:mod:`noisybolt.agents.schema`): no type table here.
+Seeds are an axis of their own (``seeds``), not a setting.
 """
 
 from __future__ import annotations
@@ -29,20 +30,51 @@ if TYPE_CHECKING:  # training pulls in torch: imported only where trials are bui
 
 __all__ = ["SweepConfig", "Trial", "builtin_sweeps", "load_sweep", "sweep_settings"]
 
-_TOP_KEYS = (
-    "name",
-    "base",
-    "rows",
-    "seeds",
-    "settings",
-    "retries",
-    "final_eval_episodes",
-    "resources",
-)
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]*")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]")
 _FRAMES = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kKmM]?)\s*")
 _FRAME_PATHS = ("frames", "evaluation.freq", "checkpoint_freq")
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Resources:
+    cpus: float = 1.0  # per trial, on Ray
+
+    def __post_init__(self) -> None:
+        if not self.cpus > 0:
+            raise ConfigError(f"resources.cpus must be a number > 0, got {self.cpus!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class _SweepFile:
+    """A sweep file's keys (see :mod:`noisybolt.experiments.sweeps`)."""
+
+    name: str | None = None
+    base: dict[str, Any] = field(default_factory=dict)
+    rows: tuple[dict[str, Any], ...] = ()
+    seeds: int | tuple[int, ...] = 1
+    settings: dict[str, Any] = field(default_factory=dict)
+    retries: int = 1
+    final_eval_episodes: int = 0
+    resources: _Resources = field(default_factory=_Resources)
+
+    def __post_init__(self) -> None:
+        for key in ("retries", "final_eval_episodes"):
+            if getattr(self, key) < 0:
+                raise ConfigError(f"{key} must be an integer >= 0, got {getattr(self, key)!r}")
+        seeds = self.seeds
+        if (isinstance(seeds, int) and seeds < 1) or seeds == ():
+            raise ConfigError(f"seeds must be >= 1 (a count) or a non-empty list, got {seeds!r}")
+        if isinstance(seeds, tuple) and (min(seeds) < 0 or len(set(seeds)) != len(seeds)):
+            raise ConfigError(f"seeds must be distinct non-negative integers, got {list(seeds)}")
+        if not self.rows:
+            raise ConfigError("a sweep needs 'rows': a non-empty list of named settings")
+        names = [row.get("name") for row in self.rows]
+        for index, name in enumerate(names):
+            if not isinstance(name, str) or not _NAME.fullmatch(name):
+                raise ConfigError(f"rows[{index}] needs a 'name' matching {_NAME.pattern}")
+            if names.count(name) > 1:
+                raise ConfigError(f"two rows are named {name!r}")
 
 
 def sweep_settings() -> tuple[str, ...]:
@@ -58,37 +90,24 @@ def sweep_settings() -> tuple[str, ...]:
     return tuple(path for path in schema_paths() if path != "seed")
 
 
-def _block(block: Any, where: str) -> dict[str, Any]:
-    """A block of settings as ``{schema path: value}`` (frame counts such as ``60k`` read),
-    each value checked against the schema's type."""
+def _block(block: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """Settings as ``{schema path: value}`` (frame counts such as ``60k`` read), each
+    value checked against its path's type."""
     from noisybolt.agents.config import checked_value, override_paths
 
-    if not isinstance(block, Mapping):
-        raise ConfigError(f"{where} must be a mapping of training settings, got {block!r}")
     try:
         paths = override_paths(block)
-    except ConfigError as error:
-        raise ConfigError(f"{where}: {error}") from None
-    if "seed" in paths:
-        raise ConfigError(f"{where}: 'seed' is not a setting here; list seeds under 'seeds'")
-    for key in _FRAME_PATHS:
-        value = paths.get(key)
-        if isinstance(value, str):
-            match = _FRAMES.fullmatch(value)
-            if not match:
-                raise ConfigError(f"{where}: {key}: not a frame count: {value!r} (e.g. 60k)")
-            scale = {"": 1, "k": 1_000, "m": 1_000_000}[match[2].lower()]
-            paths[key] = int(float(match[1]) * scale)
-    try:
+        if "seed" in paths:
+            raise ConfigError("'seed' is not a setting here; list seeds under 'seeds'")
+        for key in set(_FRAME_PATHS) & set(paths):
+            if isinstance(paths[key], str):
+                match = _FRAMES.fullmatch(paths[key])
+                if not match:
+                    raise ConfigError(f"{key}: not a frame count: {paths[key]!r} (e.g. 60k)")
+                paths[key] = int(float(match[1]) * {"": 1, "k": 1e3, "m": 1e6}[match[2].lower()])
         return {path: checked_value(path, value) for path, value in paths.items()}
     except ConfigError as error:
         raise ConfigError(f"{where}: {error}") from None
-
-
-def _count(value: Any, key: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise ConfigError(f"{key} must be an integer >= 0, got {value!r}")
-    return value
 
 
 @dataclass(frozen=True)
@@ -100,7 +119,7 @@ class Trial:
         group: the trial id without the seed: trials of one group are averaged.
         row: the row's name.
         seed: the trial's seed.
-        settings: the values the settings axes give this trial (dotted key -> value).
+        settings: the values the settings axes give this trial (key as given -> value).
         config: the resolved training config.
     """
 
@@ -113,13 +132,9 @@ class Trial:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able description (``sweep.json`` lists these)."""
-        return {
-            "id": self.trial_id,
-            "group": self.group,
-            "row": self.row,
-            "seed": self.seed,
-            "settings": dict(self.settings),
-            "config": self.config.to_dict(),
+        fields = ("group", "row", "seed", "settings")
+        return {"id": self.trial_id, **{k: getattr(self, k) for k in fields}} | {
+            "config": self.config.to_dict()
         }
 
 
@@ -161,40 +176,23 @@ class SweepConfig:
         Raises:
             ConfigError: unknown keys, wrong types or impossible values, naming the row.
         """
-        if not isinstance(data, Mapping):
-            raise ConfigError(f"a sweep config must be a mapping, got {type(data).__name__}")
-        unknown = sorted(set(data) - set(_TOP_KEYS))
-        if unknown:
-            raise ConfigError(
-                f"unknown sweep key(s) {unknown}; known: {sorted(_TOP_KEYS)} (training "
-                "settings, paths of the run config schema, go under 'base' or a row)"
-            )
-        sweep_name = str(data.get("name") or name or "sweep")
+        from noisybolt.agents.schema import load
+
+        sweep = load(_SweepFile, data)
+        sweep_name = sweep.name or name or "sweep"
         if not _NAME.fullmatch(sweep_name):
             raise ConfigError(f"sweep name {sweep_name!r} must match {_NAME.pattern}")
-        base = _block(data.get("base") or {}, "base")
-        rows = data.get("rows")
-        if not isinstance(rows, list) or not rows:
-            raise ConfigError("a sweep needs 'rows': a non-empty list of named settings")
-        names = [r.get("name") if isinstance(r, Mapping) else None for r in rows]
-        for index, row_name in enumerate(names):
-            if not isinstance(row_name, str) or not _NAME.fullmatch(row_name):
-                raise ConfigError(f"rows[{index}] needs a 'name' matching {_NAME.pattern}")
-            if names.count(row_name) > 1:
-                raise ConfigError(f"two rows are named {row_name!r}")
-        seeds = _seeds(data.get("seeds", 1))
-        axes = _axes(data.get("settings") or {})
-        cpus = _cpus(data.get("resources") or {})
-        labels = [k.rsplit(".", 1)[-1] for k, _ in axes]
-        labels = [
-            lb if labels.count(lb) == 1 else k for lb, (k, _) in zip(labels, axes, strict=True)
-        ]
+        seeds = tuple(range(sweep.seeds)) if isinstance(sweep.seeds, int) else sweep.seeds
+        base = _block(sweep.base, "base")
+        axes = _axes(sweep.settings)
+        labels = [k.rsplit(".", 1)[-1] for k in axes]
+        labels = [lb if labels.count(lb) == 1 else k for lb, k in zip(labels, axes, strict=True)]
         trials: list[Trial] = []
-        for row, row_name in zip(rows, names, strict=True):
-            assert isinstance(row_name, str)
+        for row in sweep.rows:
+            row_name = str(row["name"])
             over = _block({k: v for k, v in row.items() if k != "name"}, f"row {row_name!r}")
-            for combo in itertools.product(*(values for _, values in axes)):
-                assignment = {k: v for (k, _), v in zip(axes, combo, strict=True)}
+            for combo in itertools.product(*axes.values()):
+                assignment = dict(zip(axes, combo, strict=True))
                 merged = {**base, **over}
                 for key, value in assignment.items():
                     merged.update(_block({key: value}, f"settings {key!r}"))
@@ -210,27 +208,24 @@ class SweepConfig:
         if len(set(ids)) != len(ids):
             twice = sorted({i for i in ids if ids.count(i) > 1})
             raise ConfigError(f"two trials would share the id(s) {twice}: make the values distinct")
-        sweep = cls(
+        result = cls(
             name=sweep_name,
             trials=tuple(trials),
             seeds=seeds,
-            retries=_count(data.get("retries", 1), "retries"),
-            final_eval_episodes=_count(data.get("final_eval_episodes", 0), "final_eval_episodes"),
-            cpus_per_trial=cpus,
+            retries=sweep.retries,
+            final_eval_episodes=sweep.final_eval_episodes,
+            cpus_per_trial=sweep.resources.cpus,
             source=json.loads(json.dumps(dict(data), default=str)),
         )
         if check_worlds:
-            _check_worlds(sweep)
-        return sweep
+            _check_worlds(result)
+        return result
 
     def to_dict(self) -> dict[str, Any]:
         """What ``sweep.json`` holds: the config as given and every trial."""
-        return {
-            "name": self.name,
+        fields = ("name", "retries", "final_eval_episodes", "cpus_per_trial")
+        return {k: getattr(self, k) for k in fields} | {
             "config": self.source,
-            "retries": self.retries,
-            "final_eval_episodes": self.final_eval_episodes,
-            "cpus_per_trial": self.cpus_per_trial,
             "trials": [t.to_dict() for t in self.trials],
         }
 
@@ -277,42 +272,18 @@ def load_sweep(path: str | os.PathLike[str], *, check_worlds: bool = True) -> Sw
     return SweepConfig.from_dict(data, name=_UNSAFE.sub("_", path.stem), check_worlds=check_worlds)
 
 
-def _seeds(value: Any) -> tuple[int, ...]:
-    if isinstance(value, int) and not isinstance(value, bool) and value >= 1:
-        return tuple(range(value))
-    if isinstance(value, list) and value:
-        if not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in value):
-            raise ConfigError(f"seeds must be non-negative integers, got {value!r}")
-        if len(set(value)) != len(value):
-            raise ConfigError(f"seeds repeat: {value!r}")
-        return tuple(value)
-    raise ConfigError(f"seeds must be >= 1 (a count) or a non-empty list of seeds, got {value!r}")
-
-
-def _axes(axes: Any) -> list[tuple[str, tuple[Any, ...]]]:
-    if not isinstance(axes, Mapping):
-        raise ConfigError(f"settings must map setting names to lists of values, got {axes!r}")
-    out = []
+def _axes(axes: Mapping[str, Any]) -> dict[str, tuple[Any, ...]]:
+    """Each settings axis (key as given) with its values, checked."""
     for key, values in axes.items():
-        if not isinstance(values, list) or not values:
-            raise ConfigError(f"settings: {key!r} needs a non-empty list of values")
         if str(key).partition(".")[0] == "seed":
             raise ConfigError("settings: vary seeds with 'seeds', not a settings axis")
+        if not isinstance(values, list) or not values:
+            raise ConfigError(f"settings: {key!r} needs a non-empty list of values")
         for value in values:  # an unknown key or a value of the wrong type, named
             _block({key: value}, f"settings {key!r}")
         if len({json.dumps(v, sort_keys=True, default=str) for v in values}) != len(values):
             raise ConfigError(f"settings: {key!r} lists a value twice")
-        out.append((str(key), tuple(values)))
-    return out
-
-
-def _cpus(value: Any) -> float:
-    if not isinstance(value, Mapping) or set(value) - {"cpus"}:
-        raise ConfigError(f"resources: unknown key(s) in {value!r}; known: ['cpus'] ({{cpus: 1}})")
-    cpus = value.get("cpus", 1)
-    if isinstance(cpus, bool) or not isinstance(cpus, int | float) or not cpus > 0:
-        raise ConfigError(f"resources.cpus must be a number > 0, got {cpus!r}")
-    return float(cpus)
+    return {str(key): tuple(values) for key, values in axes.items()}
 
 
 def _slug(value: Any) -> str:
@@ -345,10 +316,10 @@ def _check_worlds(sweep: SweepConfig) -> None:
     fluents: dict[str, tuple[str, ...]] = {}
     for trial in sweep.trials:
         config = trial.config
-        key = json.dumps([config.world, config.world_kwargs], sort_keys=True, default=str)
+        key = json.dumps([config.world, config.world_settings], sort_keys=True, default=str)
         try:
             if key not in fluents:
-                world = make_world(config.world, num_envs=1, seed=0, **config.world_kwargs)
+                world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
                 fluents[key] = tuple(world.fluent_names)
                 cast(Any, world).close()  # the contract types what the bolt reads
             for spec in config.spec_objects():
