@@ -85,3 +85,29 @@ def test_every_kept_flat_config_loads_and_round_trips(path: Path) -> None:
     assert config.tracking == saved.get("tracking", "threshold")
     assert TrainConfig.from_dict(config.to_dict()) == config
     assert nested_config(config.to_dict()) == config.to_dict()
+
+
+def test_a_run_saved_with_a_flat_config_resumes_and_evaluates(tmp_path: Path) -> None:
+    from noisybolt.agents.run_evaluation import evaluate_run
+    from noisybolt.agents.training import train
+
+    config = TrainConfig.build(
+        {"bolt.specs": ["edge"], "bolt.reward": "paper", "detector.kind": "oracle",
+         "frames": 64, "evaluation.freq": 0, "checkpoint_freq": 0, "evaluation.episodes": 1,
+         "progress_bar": False, "world.n_envs": 2}
+    )  # fmt: skip
+    run = tmp_path / "old"
+    train(config, run, log=lambda _: None)
+    (run / "config.json").write_text(json.dumps(_flat(config)))  # as saved before schema 2
+    assert evaluate_run(run, episodes=2).result.n_episodes == 2
+    result = train(config.override({"frames": 128}), run, resume=True, log=lambda _: None)
+    assert result.frames == 128
+    saved = json.loads((run / "config.json").read_text())
+    assert saved["schema"] == 2 and saved["frames"] == 128  # rewritten in today's form
+    with pytest.raises(ConfigError, match=r"algorithm\.hyperparams\.gamma"):
+        train(
+            config.override({"frames": 256, "algorithm.hyperparams.gamma": 0.5}),
+            run,
+            resume=True,
+            log=lambda _: None,
+        )
