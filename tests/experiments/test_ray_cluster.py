@@ -91,10 +91,16 @@ def test_the_cluster_script_runs_a_sweep_on_its_own_head_and_stops_only_it(
         logs = Path(temp_dir) / "session_latest" / "logs"
         assert list(logs.glob("worker-*")), sorted(p.name for p in logs.iterdir())
     finally:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            cluster += psutil.Process(head.pid).children(recursive=True)
         with contextlib.suppress(ProcessLookupError):
             os.killpg(head.pid, signal.SIGTERM)  # `ray start --block` stops what it started
-        head.wait(timeout=60)
-        _, alive = psutil.wait_procs(cluster, timeout=30)
+        try:
+            head.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(head.pid, signal.SIGKILL)
+            head.wait()
+        _, alive = psutil.wait_procs(set(cluster), timeout=30)
         for process in alive:  # only this head's processes
             process.kill()
         shutil.rmtree(temp_dir, ignore_errors=True)

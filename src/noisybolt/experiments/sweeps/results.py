@@ -91,9 +91,12 @@ class TrialRecord:
 
 #: GroupSummary's statistics over seeds, in the CSV's order.
 _STATS = ("env_return", "length", "goal_rate", "success_rate", "frames_to_comply", "frames")
-#: Its means of the final evaluations (the evaluation's key of each).
-_FINAL_MEANS = {"env_return": "env_return_mean", "length": "length_mean"} | {
-    k: k for k in ("goal_rate", "success_rate")
+#: Its means over the final evaluations: statistic -> the evaluation's key.
+_FINAL_MEANS = {
+    "env_return": "env_return_mean",
+    "length": "length_mean",
+    "goal_rate": "goal_rate",
+    "success_rate": "success_rate",
 }
 
 
@@ -179,13 +182,9 @@ class GroupSummary:
 
     def data(self, specs: Sequence[str]) -> tuple[Any, ...]:
         """The row as the CSV holds it (raw numbers; a mean and a std per statistic)."""
-        row: list[Any] = [
-            self.group,
-            self.row,
-            json.dumps(self.settings, sort_keys=True),
-            self.algo,
-        ]
-        row += [";".join(self.spec_names), self.n_trials, self.n_done, self.n_failed]
+        settings = json.dumps(self.settings, sort_keys=True)
+        row: list[Any] = [self.group, self.row, settings, self.algo, ";".join(self.spec_names)]
+        row += [self.n_trials, self.n_done, self.n_failed]
         for s in (getattr(self, name) for name in _STATS):
             row += ["", ""] if s is None else [f"{s.mean:.6g}", f"{s.std:.6g}"]
         row.append(self.n_reached)
