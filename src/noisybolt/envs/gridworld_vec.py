@@ -61,7 +61,6 @@ from noisybolt.envs.gridworld import (
     ENCODING_EMPTY,
     ENCODING_GOAL,
     ENCODING_WALL,
-    GRIDWORLD_FLUENTS,
     GridworldCamera,
     GridworldConfig,
     agent_sprite_ids,
@@ -192,9 +191,12 @@ class VectorGridworld(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._fluent_names, self._fluent_columns = resolve_fluents(fluents)
-        self._all_fluents_in_order = np.array_equal(
-            self._fluent_columns, np.arange(len(GRIDWORLD_FLUENTS))
-        )
+        # The selected fluents of every state (x, y, heading): [size, size, 4, n_fluents].
+        side = self.config.size
+        gx, gy, gd = np.meshgrid(np.arange(side), np.arange(side), np.arange(4), indexing="ij")
+        every_state = gridworld_fluents(gx.ravel(), gy.ravel(), gd.ravel(), size=side)
+        self._fluent_table = every_state[:, self._fluent_columns].reshape(side, side, 4, -1)
+        self._fluent_table.setflags(write=False)
         self._camera = GridworldCamera(size=size, tile_size=camera_tile_size, noise=noise)
         self._noise_rng = np.random.default_rng(seed)
 
@@ -483,10 +485,8 @@ class VectorGridworld(VectorEnv):
         }
 
     def _fluents(self, x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
-        full = gridworld_fluents(x, y, d, size=self.config.size)
-        if self._all_fluents_in_order:
-            return full
-        return full[:, self._fluent_columns]
+        # A look-up in gridworld_fluents' table of every state (a tenth of computing them).
+        return self._fluent_table[x, y, d]
 
     def _observe(self, x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
         if self._views is not None:
