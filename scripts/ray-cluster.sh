@@ -14,8 +14,17 @@
 # machine); running the same command again resumes the sweep. `stop` is `ray stop`: it
 # stops every Ray process of this user on the machine. tests/experiments/test_ray_cluster.py
 # runs head (--num-cpus 2 --temp-dir DIR --block) and sweep on one machine.
+#
+# Token authentication: `ray start` (Ray 2.60) turns it on when a token exists
+# (~/.ray/auth_token, $RAY_AUTH_TOKEN_PATH or $RAY_AUTH_TOKEN; a local ray.init() writes
+# one), but a driver joining with --address does not, and is refused. So every command
+# here turns it on likewise; on several machines, give every node the same token.
 set -eu
 VENV=${VENV:-.venv}
+if [ -z "${RAY_AUTH_MODE:-}" ] && { [ -n "${RAY_AUTH_TOKEN:-}" ] ||
+    [ -f "${RAY_AUTH_TOKEN_PATH:-${HOME:-~}/.ray/auth_token}" ]; }; then
+  export RAY_AUTH_MODE=token
+fi
 case "${1:-}" in
   head)
     port=${2:-6379}
@@ -36,6 +45,6 @@ case "${1:-}" in
     exec "$VENV/bin/ray" stop
     ;;
   *)
-    sed -n '2,16p' "$0"; exit 2
+    sed -n '2,21p' "$0"; exit 2
     ;;
 esac

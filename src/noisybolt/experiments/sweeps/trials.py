@@ -51,13 +51,15 @@ class TrialDirectory(RunDirectory):
         status = "done" if error is None else "failed"
         atomic_write_json(self.file("trial.json"), {"status": status, "seconds": seconds})
 
-    def finished(self, final_eval_episodes: int, frames: int) -> bool:
-        """Whether the trial is complete: trained (to ``frames`` at least) and evaluated."""
+    def trained(self, frames: int) -> bool:
+        """Whether the run trained to ``frames`` at least (and wrote its summary)."""
         saved = read_json(self.config_path) or {}
-        if not self.file("summary.json").exists() or int(saved.get("frames", 0)) < frames:
-            return False
+        return self.file("summary.json").exists() and int(saved.get("frames", 0)) >= frames
+
+    def evaluated(self, episodes: int) -> bool:
+        """Whether the final evaluation of ``episodes`` episodes is written (0: none asked)."""
         evaluation = read_json(self.file("evaluation.json")) or {}
-        return final_eval_episodes <= 0 or evaluation.get("episodes") == final_eval_episodes
+        return episodes <= 0 or evaluation.get("episodes") == episodes
 
 
 @dataclass(frozen=True)
@@ -83,10 +85,10 @@ class TrialTask:
 
         return TrainConfig.from_dict(self.trial["config"])
 
-    def finished(self, config: TrainConfig | None = None) -> bool:
-        """Whether the trial is complete (see :meth:`TrialDirectory.finished`)."""
-        frames = (config or self.config).frames
-        return TrialDirectory(self.run_dir).finished(self.final_eval_episodes, frames)
+    def finished(self) -> bool:
+        """Whether the trial trained to its frames and has its final evaluation."""
+        folder = TrialDirectory(self.run_dir)
+        return folder.trained(self.config.frames) and folder.evaluated(self.final_eval_episodes)
 
     def record(self) -> TrialRecord:
         """The trial's record, read from its directory."""
@@ -105,7 +107,7 @@ class TrialTask:
             failed_attempts=len(failures),
             error=failures[-1]["message"] if failures else None,
         )
-        if not self.finished(config):
+        if not self.finished():
             return record
         summary = read_json(folder.file("summary.json")) or {}
         final_eval = self.final_eval_episodes and read_json(folder.file("evaluation.json"))
@@ -141,7 +143,7 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
 
     torch.set_num_threads(1)  # one thread per trial: parallel trials share the cores
     folder, config = TrialDirectory(task.run_dir), task.config
-    if task.finished(config):
+    if task.finished():
         return task.record()
     start = time.perf_counter()
 
@@ -150,7 +152,7 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
         with open(folder.file("log.txt"), "a", encoding="utf-8") as handle:
             handle.write(line.rstrip("\n") + "\n")
 
-    if not folder.finished(0, config.frames):
+    if not folder.trained(config.frames):
         # A trial stopped before its first checkpoint has nothing to resume: start over.
         resume = folder.exists() and folder.file("checkpoints/latest.json").exists()
         argv, out = list(task.argv) or None, log or to_file
