@@ -85,7 +85,7 @@ class TrialRecord:
     def from_dict(cls, data: Mapping[str, Any]) -> TrialRecord:
         """Reads :meth:`to_dict`'s output back."""
         return cls(
-            **{**data, "run_dir": Path(data["run_dir"]), "spec_names": (*data["spec_names"],)}
+            **{**data, "run_dir": Path(data["run_dir"]), "spec_names": tuple(data["spec_names"])}
         )
 
 
