@@ -14,8 +14,16 @@ Trials run in ``--workers`` processes; each writes its run directory under ``--o
 a rerun skips trials already finished (their ``summary.json``), so a stopped suite
 resumes. Every trial's config and command are in its run directory.
 
+A suite outlives a session through ``--kept DIR`` (the committed copy is
+``results/spec_suite/trials``): finished trials found there and missing under ``--out``
+are put back before anything runs, and every finished trial's small files (summary,
+metrics, config, command: no models) are copied there, so a new machine whose ``runs/``
+is empty resumes where the last one stopped.
+
     .venv/bin/python benchmarks/spec_suite.py --algos ppo --seeds 1 --workers 2
     .venv/bin/python benchmarks/spec_suite.py                  # the whole suite (hours)
+    .venv/bin/python benchmarks/spec_suite.py --seeds 3 --plan compliance:ppo,compliance:a2c,\
+        compliance:dqn --out runs/spec_suite_final --kept results/spec_suite/trials
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import sys
 import time
@@ -104,6 +113,34 @@ def run_trial(
         # Episodes the bolt's noisy view accepted while the true trace did not.
         "falsely_accepted": float(next(iter((final.get("false_acceptance") or {0: 0.0}).values()))),
     }
+
+
+#: What ``--kept`` keeps of a finished trial: enough to tabulate it and to see how it ran.
+KEPT_FILES = ("summary.json", "metrics.json", "config.json", "command.txt")
+
+
+def sync_kept(out: Path, kept: Path) -> tuple[int, int]:
+    """Restores kept trials missing under ``out``, then keeps every finished trial of
+    ``out`` in ``kept``; returns (restored, kept) counts. Files are copied whole to a
+    temporary name and renamed, so an interrupted copy never looks finished."""
+    restored = saved = 0
+    for source, target in ((kept, out), (out, kept)):
+        for summary in sorted(source.glob("*/*/*/seed*/summary.json")):
+            trial = summary.parent.relative_to(source)
+            if (target / trial / "summary.json").exists():
+                continue
+            (target / trial).mkdir(parents=True, exist_ok=True)
+            # summary.json last: it is what marks the trial finished
+            for name in sorted(KEPT_FILES, key=lambda n: n == "summary.json"):
+                if (summary.parent / name).exists():
+                    tmp = target / trial / f".{name}.tmp"
+                    shutil.copyfile(summary.parent / name, tmp)
+                    os.replace(tmp, target / trial / name)
+            if source is kept:
+                restored += 1
+            else:
+                saved += 1
+    return restored, saved
 
 
 def _family(name: str) -> str:
@@ -234,6 +271,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="runs/spec_suite")
     parser.add_argument(
+        "--kept",
+        default=None,
+        help="a folder that keeps finished trials across machines (see the module docstring)",
+    )
+    parser.add_argument(
         "--collect",
         action="store_true",
         help="train nothing: tabulate the trials already finished under --out",
@@ -253,6 +295,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"unknown scheme(s) {unknown}; known: {sorted(SCHEMES)}")
     root = Path(args.out)
     root.mkdir(parents=True, exist_ok=True)
+    kept = Path(args.kept) if args.kept else None
+    if kept is not None:
+        restored, saved = sync_kept(root, kept)
+        print(f"kept trials: {restored} restored into {root}, {saved} kept in {kept}")
     (root / "suite.json").write_text(
         json.dumps([s.__dict__ for s in suite], indent=1) + "\n", encoding="utf-8"
     )
@@ -294,6 +340,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"goal {record['goal_rate']:.0%}, N_frames {record['frames_to_comply']}",
                 flush=True,
             )
+            if kept is not None:
+                sync_kept(root, kept)
     threshold = 0.95
     text = "\n".join(summarise(records, threshold))
     (root / "records.json").write_text(json.dumps(records, indent=1) + "\n", encoding="utf-8")
