@@ -1,0 +1,253 @@
+"""The sections of a run's config: world, bolt, detector, algorithm, evaluation.
+
+Each is a frozen, keyword-only dataclass that validates itself at construction (values,
+ranges, names), naming the setting by its path in ``config.json``. They compose
+:class:`~noisybolt.agents.config.TrainConfig`, which checks what spans sections.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from noisybolt.agents.hyperparams import (
+    WORLD_KEYS,
+    algorithm_class,
+    check_hyperparameter_values,
+    known_hyperparameters,
+)
+from noisybolt.agents.schema import freeze
+from noisybolt.bolt import COST_MODES, BeliefSettings, RewardScheme, Thresholds
+from noisybolt.bolt.belief import check_tracking
+from noisybolt.envs import DEFAULT_WORLD, check_world
+from noisybolt.errors import ConfigError, UnknownNameError
+
+__all__ = [
+    "DETECTORS",
+    "AlgorithmConfig",
+    "BoltConfig",
+    "DetectorConfig",
+    "EvaluationConfig",
+    "WorldConfig",
+    "check_count",
+]
+
+DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
+
+
+def check_count(path: str, value: Any, low: int) -> None:
+    """Refuses ``value`` unless it is an integer >= ``low``, naming the setting's path."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ConfigError(f"{path} must be an integer >= {low}, got {value!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class WorldConfig:
+    """The world the agent acts in (``world`` in ``config.json``).
+
+    Attributes:
+        name: a registered world (``gridworld``, ``breakout``, ...) or a factory path
+            ``package.module:factory`` returning a labelled env
+            (:mod:`noisybolt.envs.registry`).
+        kwargs: passed to :func:`noisybolt.envs.make_world` (e.g. ``noise``, ``obs_mode``).
+        n_envs: training environments (the world's hyperparameter file gives it).
+        fire_on_reset: Atari: the world serves the ball after every reset and lost life.
+        clip_reward: Atari: the learner sees the game's score clipped to its sign, below
+            the bolt (training only).
+        life_loss_terminal: Atari: a lost life ends the learner's episode, above the bolt
+            (training only).
+    """
+
+    name: str = DEFAULT_WORLD
+    kwargs: dict[str, Any] = field(default_factory=dict)
+    n_envs: int = 1
+    fire_on_reset: bool = False
+    clip_reward: bool = False
+    life_loss_terminal: bool = False
+
+    def __post_init__(self) -> None:
+        check_world(self.name)  # a registered name or an importable factory path
+        object.__setattr__(self, "kwargs", freeze(dict(self.kwargs)))
+        check_count("world.n_envs", self.n_envs, 1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoltConfig:
+    """The restraining bolt: its specs and how it pays (``bolt`` in ``config.json``).
+
+    Attributes:
+        specs: the specs as dicts of :class:`~noisybolt.bolt.Spec` fields, plus an
+            optional ``reward_scale`` (this spec's scale under the ``compliance`` scheme).
+        reward: the reward scheme (:mod:`noisybolt.bolt.schemes`): ``"compliance"``
+            (default: compliance first, then the world's return) or ``"paper"`` (each
+            spec's own terminal reward every accepting step: what ``reproduce`` uses).
+        reward_scale: ``compliance`` only: what a spec's acceptance is worth. None
+            computes it from the world's declared return bounds
+            (:func:`~noisybolt.bolt.compliance_scale`); the config holds the value used.
+        shaping: ``compliance`` only: potential-based progress shaping over each DFA
+            (:mod:`noisybolt.bolt.shaping`).
+        tracking: ``"threshold"`` (Algorithm 1, the default, what ``reproduce`` uses) or
+            ``"belief"`` (a distribution over each spec's DFA states,
+            :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
+        confidence: ``belief`` only: the probability of the paid-for condition at which a
+            spec counts as accepting and is paid, in (0.5, 1).
+        thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
+        cost_mode: ``"count"`` or ``"proportional"``.
+        bolted: False trains the same agent without a bolt (for comparison): specs are
+            still tracked for compliance metrics, with zero rewards.
+    """
+
+    specs: tuple[dict[str, Any], ...] = ()
+    reward: str = "compliance"
+    reward_scale: float | None = None
+    shaping: bool = True
+    tracking: str = "threshold"
+    confidence: float = 0.9
+    thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
+    cost_mode: str = "count"
+    bolted: bool = True
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "specs", tuple(freeze(dict(s)) for s in self.specs))
+        object.__setattr__(self, "thresholds", freeze(dict(self.thresholds)))
+        unknown = sorted(set(self.thresholds) - {"truth", "high"})
+        if unknown:
+            raise ConfigError(
+                f"unknown config key(s) bolt.thresholds.{unknown}; known: truth, high"
+            )
+        Thresholds(**self.thresholds)
+        if self.cost_mode not in COST_MODES:
+            raise ConfigError(
+                f"bolt.cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
+            )
+        check_tracking(self.tracking)
+        BeliefSettings(confidence=self.confidence)  # ConfidenceLevelError outside (0.5, 1)
+
+    @property
+    def scheme(self) -> RewardScheme:
+        """The reward scheme (validates ``reward``, ``reward_scale`` and ``shaping``)."""
+        if self.reward == "paper":
+            return RewardScheme("paper", scale=self.reward_scale)
+        return RewardScheme(self.reward, scale=self.reward_scale, shaping=self.shaping)
+
+
+@dataclass(frozen=True, kw_only=True)
+class DetectorConfig:
+    """Which fluent detector the bolt uses (``detector`` in ``config.json``).
+
+    Attributes:
+        kind: ``"classifier"`` (a trained CNN on the bolt's noisy camera), ``"oracle"``
+            (ground truth as 0/1) or ``"synthetic"`` (ground truth through seeded Beta noise).
+        path: the classifier file; None uses a cached one for this world and camera,
+            trained on the fly if missing.
+        low_confidence: fluents the synthetic detector sees with low confidence.
+        samples: images collected to train a classifier on the fly.
+        epochs: epochs to train it.
+        seed: seeds the synthetic detector and on-the-fly classifier training.
+    """
+
+    kind: str = "classifier"
+    path: str | None = None
+    low_confidence: tuple[str, ...] = ()
+    samples: int = 4000
+    epochs: int = 30
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.kind not in DETECTORS:
+            raise UnknownNameError(
+                f"unknown detector {self.kind!r}; known detectors: {list(DETECTORS)}",
+                name=self.kind,
+                known=DETECTORS,
+            )
+        object.__setattr__(self, "low_confidence", tuple(self.low_confidence))
+
+
+@dataclass(frozen=True, kw_only=True)
+class AlgorithmConfig:
+    """The learner (``algorithm`` in ``config.json``).
+
+    Attributes:
+        name: ``ppo``, ``a2c`` or ``dqn``.
+        hyperparams: resolved hyperparameters (:mod:`noisybolt.agents.hyperparams`): the
+            SB3 constructor's arguments and noisybolt's own agent settings
+            (:data:`~noisybolt.agents.hyperparams.META_KEYS`).
+    """
+
+    name: str = "ppo"
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        algorithm_class(self.name)
+        object.__setattr__(self, "hyperparams", freeze(dict(self.hyperparams)))
+        known = known_hyperparameters(self.name) - WORLD_KEYS
+        for key in self.hyperparams:
+            if key in WORLD_KEYS:
+                raise ConfigError(
+                    f"algorithm.hyperparams.{key} is a setting of the world: set world.{key}"
+                )
+            if key not in known:
+                raise ConfigError(
+                    f"unknown config key algorithm.hyperparams.{key} for {self.name}; "
+                    f"known: {sorted(known)}"
+                )
+        check_hyperparameter_values(
+            self.name, {k: v for k, v in self.hyperparams.items() if k != "policy_kwargs"}
+        )
+        if self.hyperparams.get("ent_coef_final") is not None and self.name not in ("ppo", "a2c"):
+            raise ConfigError(
+                f"ent_coef_final: {self.name.upper()} has no entropy bonus (only PPO and A2C); "
+                "remove the hyperparameter"
+            )
+
+
+@dataclass(frozen=True, kw_only=True)
+class EvaluationConfig:
+    """How the run is evaluated while it trains (``evaluation`` in ``config.json``).
+
+    Attributes:
+        freq: frames between evaluations (0: only at the end).
+        episodes: episodes per evaluation.
+        envs: environments used to evaluate.
+        deterministic: evaluate the greedy policy; by default actions are sampled, as
+            the paper's code base (rl-starter-files) evaluates: a half-trained greedy policy
+            on a grid often loops (turning on the spot) where its sampled one does not.
+        success_threshold: the share of evaluation episodes that must reach the goal and
+            comply with every spec for the run to count as compliant (N_frames).
+        stop_after: stop when solved: end training once this many periodic evaluations
+            in a row reach ``success_threshold``
+            (:class:`~noisybolt.agents.stopping.StopWhenSolved`); 0 trains the whole
+            ``frames`` budget.
+        keep_best: the run's final model is the one of the periodic evaluation with the
+            highest mean *shaped* return (environment + bolt rewards, as the bolt sees
+            them through its detector), not the last one, as RL Zoo keeps
+            ``best_model.zip``. Ground truth never chooses: compliance is measured on the
+            kept model afterwards.
+    """
+
+    freq: int = 10_000
+    episodes: int = 20
+    envs: int = 4
+    deterministic: bool = False
+    success_threshold: float = 0.95
+    stop_after: int = 0
+    keep_best: bool = False
+
+    def __post_init__(self) -> None:
+        check_count("evaluation.freq", self.freq, 0)
+        check_count("evaluation.episodes", self.episodes, 1)
+        check_count("evaluation.envs", self.envs, 1)
+        if not 0.0 < self.success_threshold <= 1.0:
+            raise ConfigError(
+                f"evaluation.success_threshold must be in (0, 1], got {self.success_threshold}"
+            )
+        if isinstance(self.stop_after, bool) or not isinstance(self.stop_after, int):
+            raise ConfigError(
+                f"evaluation.stop_after must be an integer >= 0, got {self.stop_after!r}"
+            )
+        if self.stop_after < 0 or (self.stop_after and not self.freq):
+            raise ConfigError(
+                f"evaluation.stop_after={self.stop_after}: stopping when solved counts "
+                "periodic evaluations; give stop_after >= 0 and, for stop_after > 0, "
+                "eval_freq > 0 (evaluation.freq)"
+            )
