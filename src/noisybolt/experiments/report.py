@@ -239,10 +239,11 @@ def run_report(
         blocks.append(Text("The run has not finished (no `summary.json`)."))
     if isinstance(summary, dict):
         reached = summary.get("frames_to_comply")
+        threshold = config["evaluation"].get("success_threshold", 0.95)
         blocks.append(
             Text(
                 f"Frames trained: {summary.get('frames', 0):,}. N_frames (first evaluation with "
-                f"≥ {config.get('success_threshold', 0.95):.0%} of episodes at the goal and "
+                f"≥ {threshold:.0%} of episodes at the goal and "
                 f"compliant): {f'{reached:,}' if reached is not None else 'not reached'}."
             )
         )
