@@ -31,20 +31,20 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     source = dict(table1_sweep(seeds=args.seeds).source)
-    source["base"] = {**source["base"], "tracking": "belief"}
+    source["base"] = {**source["base"], "bolt.tracking": "belief"}
     source["name"] = "table1-belief"
     sweep = SweepConfig.from_dict(source)
     started, load = time.perf_counter(), os.getloadavg()[0]
     run_sweep(sweep, args.out, backend="local", workers=args.workers, argv=sys.argv)
-    base = source["base"]
+    first = sweep.trials[0].config  # the base's settings, as every trial holds them
     settings = {
         "seeds": list(sweep.seeds),
-        "detector": base["detector"]["kind"],
-        "noise": base["world_kwargs"]["noise"],
+        "detector": first.detector.kind,
+        "noise": first.world_kwargs["noise"],
         "final_eval_episodes": sweep.final_eval_episodes,
-        "eval_episodes": base["eval_episodes"],
-        "keep_best": base["keep_best"],
-        "stop_after": base["stop_after"],
+        "eval_episodes": first.eval_episodes,
+        "keep_best": first.keep_best,
+        "stop_after": first.stop_after,
         "frames_scale": 1.0,
         "frames": {t.row: t.config.frames for t in sweep.trials},
         "eval_freq": {t.row: t.config.eval_freq for t in sweep.trials},
