@@ -291,7 +291,7 @@ class VectorGridworld(VectorEnv):
         truncated = self._steps >= self._step_limit
         x = np.where(move, front_x, x)
         y = np.where(move, front_y, y)
-        d = (d + (a == 1) - (a == 0)) % 4
+        d = _TURN[d, a]
         rewards = self.config.step_reward + self.config.goal_reward * terminated
 
         done = terminated | truncated
@@ -497,9 +497,7 @@ class VectorGridworld(VectorEnv):
             )
         obs = np.empty((len(x), *self._room.shape), dtype=np.uint8)
         obs[...] = self._room
-        obs[np.arange(len(x)), x, y] = np.stack(
-            [np.full_like(d, AGENT_OBJECT), np.full_like(d, AGENT_COLOUR), d], axis=1
-        )
+        obs[np.arange(len(x)), x, y] = _AGENT_ENCODING[d]
         return obs
 
     def __repr__(self) -> str:
@@ -510,6 +508,11 @@ class VectorGridworld(VectorEnv):
 
 
 _UINT8, _BOOL, _INT64 = np.dtype(np.uint8), np.dtype(bool), np.dtype(np.int64)
+#: The heading after each action from each heading: ``_TURN[heading, action]`` (0 turns
+#: left, 1 right, 2 and 3 keep it).
+_TURN = np.array([[(h - 1) % 4, (h + 1) % 4, h, h] for h in range(4)], dtype=np.intp)
+#: MiniGrid's encoding of the agent's cell, per heading: ``(agent, red, heading)``.
+_AGENT_ENCODING = np.array([[AGENT_OBJECT, AGENT_COLOUR, h] for h in range(4)], dtype=np.uint8)
 # The labels' masks in a batched info (Gymnasium's "_key" convention).
 _IMAGE_MASK, _FLUENTS_MASK, _CELLS_MASK = (
     f"_{key}" for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, GRID_POSITION_KEY)
