@@ -36,7 +36,7 @@ from noisybolt.errors import (
 )
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
 from noisybolt.perception.classifier import ClassifierDetector
-from noisybolt.perception.protocols import FluentDetector
+from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, FluentDetector
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
 __all__ = ["BoltSetup", "build_bolted_env", "make_env", "prepare_bolt"]
@@ -216,15 +216,16 @@ def prepare_bolt(
         UnknownFluentError: a spec names a fluent the world lacks (listing the world's).
         IncompatibleError: the detector's fluents or camera differ from the world's.
     """
-    probe = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
-    fluents = tuple(probe.fluent_names)
+    probe: Any = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
+    fluents, camera_spec = tuple(probe.fluent_names), probe.camera_spec
+    probe.close()
     dfas = _check_specs_against_world(config, fluents, log=log)
     detector = make_detector(
         config.detector,
         world=config.world,
         world_kwargs=config.world_kwargs,
         fluent_names=fluents,
-        camera_spec=probe.camera_spec,
+        camera_spec=camera_spec,
         progress=progress,
         log=log,
         retrain=retrain_classifier,
@@ -284,14 +285,14 @@ def belief_from_play(
         config.world, num_envs=n_envs, seed=config.seed + 1, **config.world_settings
     )
     try:
-        world.reset(seed=config.seed + 1)
+        info = world.reset(seed=config.seed + 1)[1]
         world.action_space.seed(config.seed + 1)
         frames = []
         for step in range(steps + 1):
             if step:
-                world.step(world.action_space.sample())
-            truth = np.asarray(world.true_fluents(), dtype=bool) if detector.needs_truth else None
-            frames.append(detector.predict(np.asarray(world.bolt_images()), truth=truth))
+                info = world.step(world.action_space.sample())[4]
+            truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool) if detector.needs_truth else None
+            frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=truth))
     finally:
         world.close()
     prior = detector.training_prior if isinstance(detector, ClassifierDetector) else None
@@ -309,12 +310,15 @@ def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 
     world: Any = make_world(
         config.world, num_envs=n_envs, seed=config.seed, **config.world_settings
     )
-    world.reset(seed=config.seed)
-    world.action_space.seed(config.seed)
-    seen = [np.asarray(world.true_fluents(), dtype=bool)]
-    for _ in range(steps):
-        world.step(world.action_space.sample())
-        seen.append(np.asarray(world.true_fluents(), dtype=bool))
+    try:
+        info = world.reset(seed=config.seed)[1]
+        world.action_space.seed(config.seed)
+        seen = [np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)]
+        for _ in range(steps):
+            info = world.step(world.action_space.sample())[4]
+            seen.append(np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool))
+    finally:
+        world.close()
     return np.unique(np.concatenate(seen), axis=0)
 
 
