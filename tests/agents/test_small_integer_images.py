@@ -30,7 +30,8 @@ def test_a_symbolic_grid_is_kept_as_integers_with_a_warning() -> None:
         config = TrainConfig.create(world=ROOM, specs=["F(at_goal)"], detector=ORACLE)
     assert _normalize(config) is False
     # what the run saves, and so evaluate and --resume read
-    assert config.to_dict()["algorithm"]["hyperparams"]["policy_kwargs"]["normalize_images"] is False
+    hyperparams = config.to_dict()["algorithm"]["hyperparams"]
+    assert hyperparams["policy_kwargs"]["normalize_images"] is False
 
 
 def test_an_explicit_choice_is_kept_and_not_warned_about() -> None:
