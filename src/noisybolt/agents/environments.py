@@ -17,7 +17,7 @@ here, so the stack is written once.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, overload
 
@@ -270,8 +270,7 @@ def belief_from_play(
     belief_settings_from_play`): no ground truth is read unless the detector itself reads
     it (the oracle and the synthetic detector). A trained classifier's probabilities carry
     the label frequencies of its training images (:attr:`ClassifierDetector.
-    training_prior`); the other detectors' are taken as balanced (0.5). A world's
-    ``monotone_fluents`` (a brick gone stays gone), where it declares them, are kept.
+    training_prior`); the other detectors' are taken as balanced (0.5).
 
     Random play is not the trained agent's play: a fluent random play rarely shows (a
     far corner) gets a small rate, floored at ``min_base_rate`` (0.01) so that the bolt
@@ -281,20 +280,10 @@ def belief_from_play(
 
     settings = config.belief_settings
     assert settings is not None, "belief_from_play is for belief tracking"
-    world: Any = make_world(
-        config.world, num_envs=n_envs, seed=config.seed + 1, **config.world_settings
-    )
-    try:
-        info = world.reset(seed=config.seed + 1)[1]
-        world.action_space.seed(config.seed + 1)
-        frames = []
-        for step in range(steps + 1):
-            if step:
-                info = world.step(world.action_space.sample())[4]
-            truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool) if detector.needs_truth else None
-            frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=truth))
-    finally:
-        world.close()
+    frames = []
+    for info in _random_play_infos(config, seed=config.seed + 1, n_envs=n_envs, steps=steps):
+        truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool) if detector.needs_truth else None
+        frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=truth))
     prior = detector.training_prior if isinstance(detector, ClassifierDetector) else None
     return belief_settings_from_play(
         [np.concatenate(frames)],
@@ -307,19 +296,27 @@ def belief_from_play(
 def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 128) -> np.ndarray:
     """The distinct true-fluent assignments a world shows in ``n_envs * steps`` random
     steps (seeded by the run's seed, so training and evaluation see the same)."""
-    world: Any = make_world(
-        config.world, num_envs=n_envs, seed=config.seed, **config.world_settings
-    )
+    seen = [
+        np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
+        for info in _random_play_infos(config, seed=config.seed, n_envs=n_envs, steps=steps)
+    ]
+    return np.unique(np.concatenate(seen), axis=0)
+
+
+def _random_play_infos(
+    config: TrainConfig, *, seed: int, n_envs: int, steps: int
+) -> Iterator[dict[str, Any]]:
+    """The batched ``info`` of the world's reset and of ``steps`` seeded random steps,
+    each to be read before the next is asked for (a deferred camera value is valid only
+    until the world moves on); the world is closed afterwards."""
+    world: Any = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
     try:
-        info = world.reset(seed=config.seed)[1]
-        world.action_space.seed(config.seed)
-        seen = [np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)]
+        yield world.reset(seed=seed)[1]
+        world.action_space.seed(seed)
         for _ in range(steps):
-            info = world.step(world.action_space.sample())[4]
-            seen.append(np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool))
+            yield world.step(world.action_space.sample())[4]
     finally:
         world.close()
-    return np.unique(np.concatenate(seen), axis=0)
 
 
 def _check_specs_against_world(
