@@ -6,7 +6,8 @@ Measured in one run, interleaved, so the machine's noise hits every variant alik
   (b) the bolt with the oracle detector (ground truth as probabilities),
   (c) the bolt with the trained noisy classifier (regional noise, the paper's case 4).
 
-Prints frames/s and the ratios (b)/(a), (c)/(a), and (c) against the paper's own stack
+Prints frames/s (by the wall clock and per CPU second of the process) and the ratios
+(b)/(a), (c)/(a), and (c) against the paper's own stack
 (torch-ac + rl-starter-files: 1.1-1.7k frames/s unbolted on this kind of machine).
 
     .venv/bin/python benchmarks/training_throughput.py [--frames 20000] [--rounds 3] [--n-envs 8]
@@ -16,9 +17,10 @@ Prints frames/s and the ratios (b)/(a), (c)/(a), and (c) against the paper's own
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import torch
@@ -26,7 +28,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor, VecNormalize
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
-from noisybolt.agents.hyperparams import META_KEYS, load_hyperparams
+from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
 from noisybolt.agents.specs import resolve_spec
 from noisybolt.agents.training import DetectorConfig, make_detector
 from noisybolt.envs import SB3VecEnv, make_world
@@ -75,7 +77,7 @@ def make_model(variant: str, seed: int, n_envs: int | None = None) -> PPO:
     """PPO with the gridworld's tuned hyperparameters on ``variant``'s environments."""
     params = load_hyperparams("gridworld", "ppo")
     env = build(variant, n_envs or int(params["n_envs"]), seed)
-    kwargs = {k: v for k, v in params.items() if k not in META_KEYS}
+    kwargs = {k: v for k, v in params.items() if k not in META_KEYS | WORLD_KEYS}
     policy_kwargs = dict(kwargs.pop("policy_kwargs"))
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
     return PPO(
@@ -83,29 +85,44 @@ def make_model(variant: str, seed: int, n_envs: int | None = None) -> PPO:
     )
 
 
-def fps(variant: str, frames: int, seed: int, n_envs: int | None = None) -> float:
+class Rate(NamedTuple):
+    """Training frames per second of wall clock and per CPU second of this process."""
+
+    wall: float
+    cpu: float
+
+
+def fps(variant: str, frames: int, seed: int, n_envs: int | None = None) -> Rate:
     model = make_model(variant, seed, n_envs)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     model.learn(frames)
-    return model.num_timesteps / (time.perf_counter() - start)
+    return Rate(
+        model.num_timesteps / (time.perf_counter() - start),
+        model.num_timesteps / (time.process_time() - cpu),
+    )
 
 
 def interleaved_fps(
     variants: tuple[str, ...], frames: int, seed: int, n_envs: int | None, chunk: int
-) -> dict[str, float]:
+) -> dict[str, Rate]:
     """Every variant's model trains ``chunk`` frames in turn until each has ``frames``:
     a load that comes and goes on a shared machine then hits every variant alike (whole
     runs one after another gave (c)/(a) from 0.50 to 0.75 on a busy machine)."""
     models = {v: make_model(v, seed, n_envs) for v in variants}
     seconds = dict.fromkeys(variants, 0.0)
+    cpu = dict.fromkeys(variants, 0.0)
     done = 0
     while done < frames:
         for v, model in models.items():
-            start = time.perf_counter()
+            start, cpu_start = time.perf_counter(), time.process_time()
             model.learn(chunk, reset_num_timesteps=done == 0)
             seconds[v] += time.perf_counter() - start
+            cpu[v] += time.process_time() - cpu_start
         done += chunk
-    return {v: models[v].num_timesteps / seconds[v] for v in variants}
+    return {
+        v: Rate(models[v].num_timesteps / seconds[v], models[v].num_timesteps / cpu[v])
+        for v in variants
+    }
 
 
 def main() -> None:
@@ -126,7 +143,7 @@ def main() -> None:
     # Train (or load) the classifier before timing anything.
     build("classifier", 1, 0)
     variants = ("bare", "oracle", "classifier")
-    results: dict[str, list[float]] = {v: [] for v in variants}
+    results: dict[str, list[Rate]] = {v: [] for v in variants}
     for r in range(args.rounds):
         if args.chunk:
             for v, value in interleaved_fps(
@@ -136,26 +153,33 @@ def main() -> None:
             continue
         for v in variants:
             results[v].append(fps(v, args.frames, seed=r, n_envs=args.n_envs))
-    med = {v: statistics.median(results[v]) for v in variants}
+    wall = {v: statistics.median(x.wall for x in results[v]) for v in variants}
+    cpu = {v: statistics.median(x.cpu for x in results[v]) for v in variants}
     print(
         f"PPO on the 6x6 gridworld, {args.n_envs or 8} envs, default hyperparameters, "
-        f"{args.frames} frames x "
-        f"{args.rounds} rounds (median), 1 torch thread"
+        f"{args.frames} frames x {args.rounds} rounds (median), 1 torch thread, "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs at the end"
     )
-    print(f"{'variant':<32} {'frames/s':>9}  {'vs (a)':>7}")
+    print(f"{'variant':<32} {'frames/s':>9}  {'vs (a)':>7}  {'per CPU s':>9}  {'vs (a)':>7}")
     labels = {
         "bare": "(a) bare world",
         "oracle": "(b) bolt, oracle detector",
         "classifier": "(c) bolt, noisy CNN classifier",
     }
     for v in variants:
-        print(f"{labels[v]:<32} {med[v]:>9,.0f}  {med[v] / med['bare']:>7.2f}")
+        print(
+            f"{labels[v]:<32} {wall[v]:>9,.0f}  {wall[v] / wall['bare']:>7.2f}  "
+            f"{cpu[v]:>9,.0f}  {cpu[v] / cpu['bare']:>7.2f}"
+        )
     lo, hi = PAPER_STACK_FPS
     print(
         f"(c) vs the paper's stack ({lo}-{hi} fps, unbolted): "
-        f"{med['classifier'] / hi:.1f}x-{med['classifier'] / lo:.1f}x"
+        f"{wall['classifier'] / hi:.1f}x-{wall['classifier'] / lo:.1f}x"
     )
-    print("all rounds:", {v: [round(x) for x in results[v]] for v in variants})
+    print(
+        "all rounds (wall, CPU):",
+        {v: [(round(x.wall), round(x.cpu)) for x in results[v]] for v in variants},
+    )
 
 
 if __name__ == "__main__":

@@ -318,14 +318,14 @@ def run_noisybolt(bolted: bool, seed: int, budget: int) -> Outcome:
     """noisybolt PPO, (a) unbolted or (c) with the classifier bolt, until solved."""
     from noisybolt.agents.evaluation import evaluate_bolted_policy
     from noisybolt.agents.extractor import BoltFeaturesExtractor
-    from noisybolt.agents.hyperparams import META_KEYS, load_hyperparams
+    from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
 
     params = load_hyperparams("gridworld", "ppo")
     env = VecNormalize(
         _noisybolt_env(bolted, int(params["n_envs"]), seed), norm_obs=False, norm_reward=True
     )
     eval_env = _noisybolt_env(bolted, 4, seed + 10_000)
-    kwargs = {k: v for k, v in params.items() if k not in META_KEYS}
+    kwargs = {k: v for k, v in params.items() if k not in META_KEYS | WORLD_KEYS}
     policy_kwargs = dict(kwargs.pop("policy_kwargs"))
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
     model = PPO(
