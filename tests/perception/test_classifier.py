@@ -72,6 +72,29 @@ def test_training_is_deterministic(make_line_world):
         assert torch.equal(a, b), name
 
 
+def test_training_does_not_depend_on_the_callers_thread_count(make_line_world):
+    # With two torch threads the convolutions' gradient sums are split differently and the
+    # weights came out different (by ~1e-8 after 3 epochs on this data) before training
+    # fixed its own thread count; a cached classifier then depended on its process.
+    data = collect_samples(make_line_world(num_envs=8), num_samples=1024, seed=0)
+    settings = {
+        "config": ClassifierConfig(channels=(16, 32), pool=2, hidden=32),
+        "training": TrainingConfig(epochs=3, seed=0, batch_size=128),
+        "progress": False,
+    }
+    before = torch.get_num_threads()
+    weights = []
+    try:
+        for threads in (1, 2):
+            torch.set_num_threads(threads)
+            weights.append(train_classifier(data, **settings).detector.model.state_dict())
+            assert torch.get_num_threads() == threads  # the caller's setting restored
+    finally:
+        torch.set_num_threads(before)
+    for name, a in weights[0].items():
+        assert torch.equal(a, weights[1][name]), name
+
+
 def test_predict_contract(detector):
     assert isinstance(detector, FluentDetector) and not detector.needs_truth
     probs = detector.predict(_images(5))
