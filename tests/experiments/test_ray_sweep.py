@@ -103,7 +103,7 @@ def test_ray_sweep_retries_resumes_and_tabulates_like_the_local_backend(
         # The failed first attempt is on record; the retry (Tune's) finished the trial.
         assert record.failed_attempts == (record.trial_id == FLAKY), record
     flaky = next(r for r in second.records if r.trial_id == FLAKY)
-    failure = json.loads((flaky.run_dir / "failure.json").read_text())["attempts"]
+    failure = json.loads((flaky.run_dir / "trial.json").read_text())["attempts"]
     assert [a["message"] for a in failure] == ["RuntimeError: injected: the first attempt dies"]
     for trial_id, stamp in stamps.items():  # finished before the interruption: not retrained
         assert (out / "trials" / trial_id / "summary.json").stat().st_mtime_ns == stamp

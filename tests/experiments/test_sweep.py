@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import doctest
 import json
@@ -235,7 +236,8 @@ def test_local_grid_writes_every_trial_and_one_table(grid_dir: Path) -> None:
         assert (run / "summary.json").exists() and (run / "model.zip").exists()
         config = json.loads((run / "config.json").read_text())
         assert config["seed"] == trial["seed"] and config["frames"] == 1024
-        assert json.loads((run / "trial.json").read_text())["status"] == "done"
+        outcome = json.loads((run / "trial.json").read_text())
+        assert outcome["status"] == "done" and outcome["attempts"] == []
     assert (grid_dir / "command.txt").read_text().startswith("noisybolt sweep ")
 
     results = json.loads((grid_dir / "results.json").read_text())
@@ -253,15 +255,23 @@ def test_local_grid_writes_every_trial_and_one_table(grid_dir: Path) -> None:
     returns = [f["env_return_mean"] for f in finals]
     assert edge["env_return"]["mean"] == pytest.approx(sum(returns) / 2)
     assert edge["env_return"]["std"] == pytest.approx(abs(returns[0] - returns[1]) / 2)
-    assert edge["compliance"]["edge"]["mean"] == pytest.approx(
+    assert edge["compliance_edge"]["mean"] == pytest.approx(
         sum(f["compliance"]["edge"] for f in finals) / 2
     )
     table = (grid_dir / "results.md").read_text()
     assert "| edge-ppo | ppo | edge | 2/2 | 0 |" in table
     assert "| avoid-a2c | a2c | avoid_top_right | 2/2 | 0 |" in table
-    csv_lines = (grid_dir / "results.csv").read_text().splitlines()
-    assert csv_lines[0].startswith("group,row,settings,algo,specs,n_trials,n_done,n_failed")
-    assert len(csv_lines) == 3
+    # The CSV holds results.json's groups, flattened: one form for both.
+    with open(grid_dir / "results.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert list(rows[0])[:10] == [
+        "group", "row", "algo", "specs", "n_trials", "n_done", "n_failed",
+        "env_return_mean", "env_return_std", "env_return_n",
+    ]  # fmt: skip
+    assert [r["group"] for r in rows] == ["edge-ppo", "avoid-a2c"]
+    assert float(rows[0]["env_return_mean"]) == edge["env_return"]["mean"]
+    assert float(rows[0]["compliance_edge_mean"]) == edge["compliance_edge"]["mean"]
+    assert rows[0]["compliance_avoid_top_right_mean"] == ""  # not a spec of edge-ppo
 
 
 def test_running_again_reuses_finished_trials_untouched(grid_dir: Path) -> None:
@@ -301,11 +311,12 @@ def test_crashing_trial_is_retried_then_reported_failed_while_others_are_kept(
     failed = result.records[1]
     assert failed.failed_attempts == 3
     assert failed.error == "RuntimeError: simulated crash in a2c"
-    failure = json.loads((failed.run_dir / "failure.json").read_text())
-    assert "Traceback" in failure["attempts"][-1]["traceback"]
+    outcome = json.loads((failed.run_dir / "trial.json").read_text())
+    assert outcome["status"] == "failed" and len(outcome["attempts"]) == 3
+    assert "Traceback" in outcome["attempts"][-1]["traceback"]
     groups = {g.group: g for g in result.groups}
-    assert groups["avoid-a2c"].n_failed == 1 and groups["avoid-a2c"].env_return is None
-    assert groups["edge-ppo"].n_done == 1 and groups["edge-ppo"].env_return is not None
+    assert groups["avoid-a2c"].n_failed == 1 and "env_return" not in groups["avoid-a2c"].stats
+    assert groups["edge-ppo"].n_done == 1 and "env_return" in groups["edge-ppo"].stats
     table = (tmp_path / "out" / "results.md").read_text()
     assert "| avoid-a2c | a2c | avoid_top_right | 0/1 | 1 |" in table
     assert "`avoid-a2c/seed-0`: RuntimeError: simulated crash in a2c" in table
@@ -340,8 +351,7 @@ def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
 def test_trial_directory_trained_with_other_settings_is_refused(grid_dir: Path) -> None:
     changed = _sweep(base={**TINY_BASE, "eval_episodes": 6})
     with pytest.raises(
-        ConfigError,
-        match=r"edge-ppo/seed-0 holds a run with other settings \(evaluation.episodes\)",
+        ConfigError, match=r"edge-ppo/seed-0: the config differs in \['evaluation.episodes'\]"
     ):
         run_sweep(changed, grid_dir, log=_quiet)
 
@@ -371,8 +381,16 @@ def test_the_readmes_sweep_example_is_a_valid_sweep() -> None:
     assert sweep.trials[-1].config.hyperparams["learning_rate"] == 0.0007
 
 
-def test_sweep_settings_are_the_run_configs_schema_paths() -> None:
-    from noisybolt.agents.config import schema_paths
-    from noisybolt.experiments.sweeps.config import sweep_settings
+def test_a_trial_that_kept_its_failures_in_failure_json_still_reads(tmp_path: Path) -> None:
+    from noisybolt.experiments.sweeps import TrialDirectory
 
-    assert set(sweep_settings()) == set(schema_paths()) - {"seed"}
+    folder = TrialDirectory(tmp_path / "trial")
+    folder.path.mkdir()
+    old = {"error": "RuntimeError", "message": "RuntimeError: old", "traceback": "Traceback"}
+    (folder.path / "failure.json").write_text(json.dumps({"attempts": [old]}))
+    (folder.path / "trial.json").write_text(json.dumps({"status": "failed", "seconds": 1.0}))
+    assert folder.outcome() == {"attempts": [old], "status": "failed", "seconds": 1.0}
+    folder.end(2.0, RuntimeError("new"))  # trial.json now holds every attempt
+    outcome = json.loads((folder.path / "trial.json").read_text())
+    assert [a["message"] for a in outcome["attempts"]] == ["RuntimeError: old", "RuntimeError: new"]
+    assert outcome["status"] == "failed" and outcome["seconds"] == 2.0

@@ -12,7 +12,8 @@ import pytest
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError
 from noisybolt.experiments import table1 as table1_module
-from noisybolt.experiments.sweeps import Stat, SweepResult, TrialRecord, summarise_trials
+from noisybolt.experiments.reporting import Stat
+from noisybolt.experiments.sweeps import SweepResult, TrialRecord
 from noisybolt.experiments.table1 import (
     TABLE1_ROWS,
     build_table1,
@@ -250,7 +251,7 @@ def test_followed_needs_95_percent_compliance_in_every_seed(
     rates: tuple[float | None, ...], followed: bool | None
 ) -> None:
     records = tuple(_record(seed, rate) for seed, rate in enumerate(rates))
-    result = SweepResult(Path("/nonexistent"), "table1", records, summarise_trials(records))
+    result = SweepResult.of(Path("/nonexistent"), "table1", records)
     (entry,) = build_table1(result)
     assert entry.followed is followed
     assert entry.rc_max == 89.5
@@ -258,6 +259,7 @@ def test_followed_needs_95_percent_compliance_in_every_seed(
     assert entry.r_pi == Stat.of(80.0 + s for s, r in enumerate(rates) if r is not None)
     assert entry.n_done == len(done) and entry.n_failed == len(rates) - len(done)
     assert entry.n_reached == sum(r >= 0.95 for r in done)
+    assert entry.compliance_min == min(done)
 
 
 def test_module_doctests_pass() -> None:

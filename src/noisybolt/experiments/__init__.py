@@ -50,10 +50,10 @@ if TYPE_CHECKING:
     )
     from noisybolt.experiments.plotting import plot_learning_curves
     from noisybolt.experiments.report import run_report, sweep_report, write_report
+    from noisybolt.experiments.reporting import Stat
     from noisybolt.experiments.spec_families import GeneratedSpec, generate_spec_suite
     from noisybolt.experiments.sweeps import (
         GroupSummary,
-        Stat,
         SweepConfig,
         SweepResult,
         Trial,
@@ -100,7 +100,7 @@ _SOURCES: dict[str, str] = {
     "sweep_report": "report",
     "write_report": "report",
     "GroupSummary": "sweeps",
-    "Stat": "sweeps",
+    "Stat": "reporting",
     "SweepConfig": "sweeps",
     "SweepResult": "sweeps",
     "Trial": "sweeps",

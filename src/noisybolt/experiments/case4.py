@@ -47,7 +47,7 @@ from noisybolt.experiments.reporting import (
     percent,
     render_markdown,
 )
-from noisybolt.experiments.sweeps.trials import read_json
+from noisybolt.io import read_json
 
 __all__ = [
     "CONDITIONS",
@@ -446,7 +446,7 @@ def _markdown(data: dict[str, Any]) -> str:
 
 def _report_section(root: Path) -> tuple[list[Block], dict[str, float | None]]:
     """The case-4 section of a sweep report."""
-    data = read_json(root / "case4.json")
+    data = read_json(root / "case4.json", kind=dict)
     blocks: list[Block] = [
         Heading("Case 4: corner preference, regional noise vs control", 2),
         Text(

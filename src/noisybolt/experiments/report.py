@@ -42,10 +42,8 @@ from noisybolt.experiments.reporting import (
     render_html,
     render_markdown,
 )
-from noisybolt.experiments.sweeps import SWEEP_FILE, collect_sweep
-from noisybolt.experiments.sweeps.trials import read_json
-from noisybolt.io import atomic_write_text
-from noisybolt.io import read_json as read_json_strictly
+from noisybolt.experiments.sweeps import SWEEP_FILE, TrialDirectory, collect_sweep
+from noisybolt.io import atomic_write_text, read_json
 from noisybolt.rundir import RunDirectory
 
 __all__ = [
@@ -118,7 +116,7 @@ def group_curves(
     root = Path(sweep_dir)
     by_group: dict[str, dict[str, list[dict[str, Any]]]] = {}
     for record in collect_sweep(root, write=False).records:
-        metrics = read_json(record.run_dir / "metrics.json") or []
+        metrics = RunDirectory(record.run_dir).read_metrics()
         by_group.setdefault(record.group, {})[f"seed {record.seed}"] = metrics
     paths = {}
     for group, curves in by_group.items():
@@ -196,7 +194,7 @@ def run_report(
         ConfigError: the directory holds no run (no ``config.json``) and no config was given.
     """
     run = Path(run_dir)
-    saved = read_json(run / "config.json")
+    saved = read_json(run / "config.json", default=None)
     from noisybolt.agents.config import nested_config  # the flat configs of older runs too
 
     config = dict(saved if isinstance(saved, dict) else config or {})
@@ -220,8 +218,8 @@ def run_report(
     if (run / "command.txt").exists():
         blocks.append(Text(f"Command: `{(run / 'command.txt').read_text().strip()}`"))
     # A damaged result is refused by name, not reported as "not finished" (CorruptFileError).
-    summary = read_json_strictly(run / "summary.json", default=None, kind=dict)
-    evaluation = read_json_strictly(run / "evaluation.json", default=None, kind=dict)
+    summary = read_json(run / "summary.json", default=None, kind=dict)
+    evaluation = read_json(run / "evaluation.json", default=None, kind=dict)
     blocks.append(Heading("Final evaluation", 2))
     if isinstance(evaluation, dict):
         blocks.append(
@@ -260,13 +258,12 @@ def run_report(
         blocks += [Heading("Policy", 2), *(Image(p.name, p.stem) for p in pictures)]
     if metrics:
         blocks += [Heading("Evaluations during training", 2), _metrics_table(metrics)]
-    failure = read_json(run / "failure.json")
-    if isinstance(failure, dict) and failure.get("attempts"):
-        last = failure["attempts"][-1]
+    attempts = TrialDirectory(run).outcome()["attempts"]  # a sweep trial's failed attempts
+    if attempts:
         blocks += [
             Heading("Failed attempts", 2),
-            Text(f"{len(failure['attempts'])} failed attempt(s); the last: `{last['message']}`"),
-            Code(last.get("traceback", "")),
+            Text(f"{len(attempts)} failed attempt(s); the last: `{attempts[-1]['message']}`"),
+            Code(attempts[-1].get("traceback", "")),
         ]
     blocks += [Heading("Config", 2), Code(json.dumps(config, indent=2, sort_keys=True), "json")]
     return _write(blocks, run, f"noisybolt run {run.name}", write_html=html_page)

@@ -48,18 +48,20 @@ from noisybolt.experiments.report import ReportSection, group_curves, register_s
 from noisybolt.experiments.reporting import (
     Block,
     Heading,
+    Stat,
     Table,
     Text,
     format_frames,
     format_number,
+    frames_reached,
     mark,
     percent,
     pm,
     render_csv,
     render_markdown,
 )
-from noisybolt.experiments.sweeps import Stat, collect_sweep
-from noisybolt.experiments.sweeps.trials import read_json
+from noisybolt.experiments.sweeps import collect_sweep
+from noisybolt.io import read_json
 
 __all__ = [
     "FRAMES_FACTOR",
@@ -389,16 +391,14 @@ def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
     from noisybolt.agents.config import nested_config  # flat configs of older runs too
 
     by_group = {g.group: g for g in sweep_result.groups}
-    records = {r.trial_id: r for r in sweep_result.records}
     entries = []
     for row in TABLE1_ROWS:
         group = by_group.get(row.name)
         if group is None:
             continue
-        members = [r for r in records.values() if r.group == row.name]
-        config = nested_config(read_json(members[0].run_dir / "config.json") or {})
+        members = [r for r in sweep_result.records if r.group == row.name]
+        config = nested_config(read_json(members[0].run_dir / "config.json", default={}))
         world_kwargs = dict(config.get("world", {}).get("kwargs") or {})
-        frames = int(config.get("frames") or 0)
         rates = [
             float((r.final or {}).get("compliance", {}).get(row.spec, 0.0))
             for r in members
@@ -410,23 +410,24 @@ def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
             followed = True
         else:
             followed = None
+        stats = group.stats
         entries.append(
             Table1Entry(
                 row=row,
                 rc_max=_rc_max(row.formula, world_kwargs),
-                r_pi=group.env_return,
-                n_steps=group.length,
-                n_frames=group.frames_to_comply,
-                n_reached=group.n_reached,
-                compliance=group.compliance.get(row.spec),
-                compliance_min=group.compliance_min.get(row.spec),
-                goal_rate=group.goal_rate,
+                r_pi=stats.get("env_return"),
+                n_steps=stats.get("length"),
+                n_frames=stats.get("frames_to_comply"),
+                n_reached=n_frames.n if (n_frames := stats.get("frames_to_comply")) else 0,
+                compliance=stats.get(f"compliance_{row.spec}"),
+                compliance_min=min(rates) if rates else None,
+                goal_rate=stats.get("goal_rate"),
                 followed=followed,
                 n_seeds=group.n_trials,
                 n_done=group.n_done,
                 n_failed=group.n_failed,
-                frames=frames,
-                frames_trained=group.frames,
+                frames=int(config.get("frames") or 0),
+                frames_trained=stats.get("frames"),
             )
         )
     return tuple(entries)
@@ -463,12 +464,6 @@ def table1_table(entries: Sequence[Table1Entry]) -> Table:
     """The reproduced Table 1 beside the paper's numbers: the cells shown (Markdown, HTML)
     and, for CSV, every mean and std in a column of its own."""
 
-    def n_frames(e: Table1Entry) -> str:
-        text = format_frames(e.n_frames.mean if e.n_frames is not None else None)
-        return (
-            text if e.n_done and e.n_reached == e.n_done else f"{text} ({e.n_reached}/{e.n_done})"
-        )
-
     def num(stat: Any, part: str) -> str:
         return "" if stat is None else f"{getattr(stat, part):.6g}"
 
@@ -480,7 +475,8 @@ def table1_table(entries: Sequence[Table1Entry]) -> Table:
             (
                 f"`{e.row.formula}`", e.row.algo.upper(), format_number(e.rc_max),
                 format_number(paper.rc_max), pm(e.r_pi), format_number(paper.r_pi),
-                pm(e.n_steps, 1), format_number(paper.n_steps), n_frames(e),
+                pm(e.n_steps, 1), format_number(paper.n_steps),
+                frames_reached(e.n_frames, e.n_reached, e.n_done),
                 format_frames(paper.n_frames), percent(e.compliance and e.compliance.mean),
                 percent(e.goal_rate and e.goal_rate.mean), mark(e.followed), mark(paper.followed),
                 f"{format_frames(e.frames_trained and e.frames_trained.mean)} / "
@@ -571,7 +567,7 @@ def regenerate_table1(results_dir: str | os.PathLike[str]) -> dict[str, Path]:
         ConfigError: the directory has no readable ``table1.json``.
     """
     root = Path(results_dir)
-    data = read_json(root / "table1.json")
+    data = read_json(root / "table1.json", default=None)
     if not isinstance(data, dict) or "rows" not in data:
         raise ConfigError(f"{root} holds no readable table1.json (noisybolt reproduce table1)")
     return _write_tables(root, data)
@@ -596,7 +592,7 @@ def write_table1(
     if not entries:
         raise ConfigError(f"{root} holds no Table 1 rows")
     if settings is None:
-        previous = read_json(root / "table1.json") or {}
+        previous = read_json(root / "table1.json", default={})
         settings = previous.get("settings") or _settings_from(root, result)
     command_file = root / "command.txt"
     command = command_file.read_text().strip() if command_file.exists() else ""
@@ -617,7 +613,7 @@ def write_table1(
 def _settings_from(root: Path, result: Any) -> dict[str, Any]:
     from noisybolt.agents.config import nested_config
 
-    sweep = read_json(root / "sweep.json") or {}
+    sweep = read_json(root / "sweep.json", default={})
     trials = sweep.get("trials") or [{}]
     config = nested_config(trials[0].get("config", {}))
     return {
@@ -696,7 +692,7 @@ def reproduce_table1(
 
 def _report_section(sweep_dir: Path) -> tuple[list[Block], dict[str, float | None]]:
     """The Table 1 section of a report, and R^c_max per row for the learning curves."""
-    data = read_json(sweep_dir / "table1.json") or {}
+    data = read_json(sweep_dir / "table1.json", default={})
     entries = [Table1Entry.from_dict(row) for row in data.get("rows", [])]
     blocks: list[Block] = [
         Heading("Table 1, reproduced", 2),

@@ -6,11 +6,11 @@ Markdown, HTML, CSV or plain text; results build their tables once, as :class:`T
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Block", "Code", "Heading", "Image", "Link", "Table", "Text"]
+__all__ = ["Block", "Code", "Heading", "Image", "Link", "Table", "Text", "flat"]
 
 
 @dataclass(frozen=True)
@@ -58,6 +58,17 @@ class Table:
     data_header: tuple[str, ...] = ()
     data_rows: tuple[tuple[Any, ...], ...] = ()
 
+    @classmethod
+    def of(
+        cls, header: tuple[str, ...], rows: tuple[tuple[str | Link, ...], ...],
+        records: Sequence[Mapping[str, Any]],
+    ) -> Table:  # fmt: skip
+        """The table shown as ``rows`` whose machine-readable form is ``records`` (JSON
+        data: one per row) flattened by :func:`flat`, a column per key any record has."""
+        flats = [flat(r) for r in records]
+        keys = tuple(dict.fromkeys(k for f in flats for k in f))
+        return cls(header, rows, keys, tuple(tuple(f.get(k, "") for k in keys) for f in flats))
+
     def data(self) -> tuple[tuple[str, ...], Sequence[tuple[Any, ...]]]:
         """The machine-readable header and rows (the displayed ones when none were given)."""
         if self.data_header:
@@ -80,6 +91,22 @@ class Image:
 
     path: str
     alt: str = ""
+
+
+def flat(record: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """JSON data as one CSV row: nested keys joined by ``_``, lists by ``;``.
+
+    Example:
+        >>> flat({"group": "a", "r": {"mean": 2.0, "n": 2}, "specs": ["x", "y"]})
+        {'group': 'a', 'r_mean': 2.0, 'r_n': 2, 'specs': 'x;y'}
+    """
+    out: dict[str, Any] = {}
+    for key, value in record.items():
+        if isinstance(value, Mapping):
+            out.update(flat(value, f"{prefix}{key}_"))
+        else:
+            out[prefix + key] = ";".join(map(str, value)) if isinstance(value, list) else value
+    return out
 
 
 Block = Heading | Text | Table | Code | Image

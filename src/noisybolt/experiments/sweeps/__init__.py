@@ -22,18 +22,12 @@ Example:
 from __future__ import annotations
 
 from noisybolt.experiments.sweeps.config import SweepConfig, Trial, builtin_sweeps, load_sweep
-from noisybolt.experiments.sweeps.results import (
-    GroupSummary,
-    Stat,
-    SweepResult,
-    TrialRecord,
-    summarise_trials,
-)
+from noisybolt.experiments.sweeps.results import GroupSummary, SweepResult, TrialRecord
 from noisybolt.experiments.sweeps.run import BACKENDS, SWEEP_FILE, collect_sweep, run_sweep
 from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, run_trial
 
 __all__ = [
-    "BACKENDS", "SWEEP_FILE", "GroupSummary", "Stat", "SweepConfig", "SweepResult", "Trial",
+    "BACKENDS", "SWEEP_FILE", "GroupSummary", "SweepConfig", "SweepResult", "Trial",
     "TrialDirectory", "TrialRecord", "TrialTask", "builtin_sweeps", "collect_sweep",
-    "load_sweep", "run_sweep", "run_trial", "summarise_trials",
+    "load_sweep", "run_sweep", "run_trial",
 ]  # fmt: skip

@@ -15,8 +15,8 @@ import itertools
 import json
 import os
 import re
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -28,7 +28,7 @@ from noisybolt.errors import ConfigError, NoisyboltError
 if TYPE_CHECKING:  # training pulls in torch: imported only where trials are built
     from noisybolt.agents.training import TrainConfig
 
-__all__ = ["SweepConfig", "Trial", "builtin_sweeps", "load_sweep", "sweep_settings"]
+__all__ = ["SweepConfig", "Trial", "builtin_sweeps", "load_sweep"]
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]*")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]")
@@ -75,19 +75,13 @@ class _SweepFile:
                 raise ConfigError(f"rows[{index}] needs a 'name' matching {_NAME.pattern}")
             if names.count(name) > 1:
                 raise ConfigError(f"two rows are named {name!r}")
-
-
-def sweep_settings() -> tuple[str, ...]:
-    """The settings a sweep may set: every path of the run's config schema but ``seed``.
-
-    Example:
-        >>> settings = sweep_settings()
-        >>> "bolt.tracking" in settings, "seed" in settings, "world.n_envs" in settings
-        (True, False, True)
-    """
-    from noisybolt.agents.config import schema_paths
-
-    return tuple(path for path in schema_paths() if path != "seed")
+        for key, values in self.settings.items():
+            if key.partition(".")[0] == "seed":
+                raise ConfigError("settings: vary seeds with 'seeds', not a settings axis")
+            if not isinstance(values, list) or not values:
+                raise ConfigError(f"settings: {key!r} needs a non-empty list of values")
+            if len({json.dumps(v, sort_keys=True, default=str) for v in values}) < len(values):
+                raise ConfigError(f"settings: {key!r} lists a value twice")
 
 
 def _block(block: Mapping[str, Any], where: str) -> dict[str, Any]:
@@ -183,26 +177,30 @@ class SweepConfig:
         if not _NAME.fullmatch(sweep_name):
             raise ConfigError(f"sweep name {sweep_name!r} must match {_NAME.pattern}")
         seeds = tuple(range(sweep.seeds)) if isinstance(sweep.seeds, int) else sweep.seeds
-        base = _block(sweep.base, "base")
-        axes = _axes(sweep.settings)
-        labels = [k.rsplit(".", 1)[-1] for k in axes]
-        labels = [lb if labels.count(lb) == 1 else k for lb, k in zip(labels, axes, strict=True)]
-        trials: list[Trial] = []
+        base, trials = _block(sweep.base, "base"), []
+        # Each axis value with its overrides (checked once here, so a bad one is named).
+        axes = [
+            [(v, _block({k: v}, f"settings {k!r}")) for v in vs] for k, vs in sweep.settings.items()
+        ]
+        labels = [k.rsplit(".", 1)[-1] for k in sweep.settings]
+        labels = [
+            lb if labels.count(lb) == 1 else k for lb, k in zip(labels, sweep.settings, strict=True)
+        ]
         for row in sweep.rows:
             row_name = str(row["name"])
             over = _block({k: v for k, v in row.items() if k != "name"}, f"row {row_name!r}")
-            for combo in itertools.product(*axes.values()):
-                assignment = dict(zip(axes, combo, strict=True))
-                merged = {**base, **over}
-                for key, value in assignment.items():
-                    merged.update(_block({key: value}, f"settings {key!r}"))
-                label = ",".join(f"{lb}={_slug(v)}" for lb, v in zip(labels, combo, strict=True))
+            for combo in itertools.product(*axes):
+                label = ",".join(
+                    f"{lb}={_slug(v)}" for lb, (v, _) in zip(labels, combo, strict=True)
+                )
                 group = f"{row_name}/{label}" if label else row_name
+                merged = {**base, **over, **{p: x for _, paths in combo for p, x in paths.items()}}
+                values = dict(zip(sweep.settings, (v for v, _ in combo), strict=True))
                 where = f"row {row_name!r}" + (f" with {label}" if label else "")
                 for seed in seeds:
                     config = _train_config(merged, seed, where)
                     trials.append(
-                        Trial(f"{group}/seed-{seed}", group, row_name, seed, assignment, config)
+                        Trial(f"{group}/seed-{seed}", group, row_name, seed, values, config)
                     )
         ids = [t.trial_id for t in trials]
         if len(set(ids)) != len(ids):
@@ -228,11 +226,6 @@ class SweepConfig:
             "config": self.source,
             "trials": [t.to_dict() for t in self.trials],
         }
-
-    def select(self, trial_ids: Iterable[str]) -> SweepConfig:
-        """The same sweep restricted to some trials (in the sweep's order)."""
-        wanted = set(trial_ids)
-        return replace(self, trials=tuple(t for t in self.trials if t.trial_id in wanted))
 
 
 def builtin_sweeps() -> tuple[str, ...]:
@@ -270,20 +263,6 @@ def load_sweep(path: str | os.PathLike[str], *, check_worlds: bool = True) -> Sw
     if data is None:
         raise ConfigError(f"{path} is empty: a sweep config needs at least 'rows'")
     return SweepConfig.from_dict(data, name=_UNSAFE.sub("_", path.stem), check_worlds=check_worlds)
-
-
-def _axes(axes: Mapping[str, Any]) -> dict[str, tuple[Any, ...]]:
-    """Each settings axis (key as given) with its values, checked."""
-    for key, values in axes.items():
-        if str(key).partition(".")[0] == "seed":
-            raise ConfigError("settings: vary seeds with 'seeds', not a settings axis")
-        if not isinstance(values, list) or not values:
-            raise ConfigError(f"settings: {key!r} needs a non-empty list of values")
-        for value in values:  # an unknown key or a value of the wrong type, named
-            _block({key: value}, f"settings {key!r}")
-        if len({json.dumps(v, sort_keys=True, default=str) for v in values}) != len(values):
-            raise ConfigError(f"settings: {key!r} lists a value twice")
-    return {str(key): tuple(values) for key, values in axes.items()}
 
 
 def _slug(value: Any) -> str:

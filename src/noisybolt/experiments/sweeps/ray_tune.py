@@ -21,8 +21,8 @@ from typing import Any
 from noisybolt.errors import BackendUnavailableError
 from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import TrialRecord
-from noisybolt.experiments.sweeps.trials import TrialTask, attempt, read_json
-from noisybolt.io import atomic_write_json
+from noisybolt.experiments.sweeps.trials import TrialTask, attempt
+from noisybolt.io import atomic_write_json, read_json
 
 __all__ = ["require_ray", "run_ray"]
 
@@ -82,7 +82,7 @@ def run_ray(
     )
     # The experiment started last is resumed when it holds every pending trial (it was
     # interrupted); otherwise the sweep grew, or finished: a new experiment.
-    state = read_json(sweep_dir / "ray.json") or {}
+    state = read_json(sweep_dir / "ray.json", default={})
     path = state.get("experiment")
     # Tune's newer console output ignores verbose=0: our own progress lines say what matters.
     ours = "RAY_AIR_NEW_OUTPUT" not in os.environ

@@ -2,55 +2,27 @@
 
 from __future__ import annotations
 
-import json
-import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
-
-import numpy as np
+from typing import Any
 
 from noisybolt.experiments.reporting import (
     Block,
     Heading,
+    Stat,
     Table,
     Text,
-    format_frames,
+    frames_reached,
     percent,
     pm,
     render_csv,
     render_markdown,
-)
+    summarise,
+)  # fmt: skip
 from noisybolt.io import atomic_write_json, atomic_write_text
 
-__all__ = ["GroupSummary", "Stat", "SweepResult", "TrialRecord", "summarise_trials"]
-
-
-class Stat(NamedTuple):
-    """Mean and standard deviation (numpy's, ddof=0) over ``n`` values."""
-
-    mean: float
-    std: float
-    n: int
-
-    @classmethod
-    def of(cls, values: Iterable[float]) -> Stat | None:
-        """The statistic of ``values``; None when there are none.
-
-        Example:
-            >>> Stat.of([1.0, 3.0])
-            Stat(mean=2.0, std=1.0, n=2)
-        """
-        a = np.asarray(list(values), dtype=np.float64)
-        return cls(float(a.mean()), float(a.std()), a.size) if a.size else None
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any] | None) -> Stat | None:
-        """Reads ``_asdict()``'s output back (None stays None)."""
-        if data is None:
-            return None
-        return cls(float(data["mean"]), float(data["std"]), int(data["n"]))
+__all__ = ["GroupSummary", "SweepResult", "TrialRecord"]
 
 
 @dataclass(frozen=True)
@@ -89,109 +61,65 @@ class TrialRecord:
         )
 
 
-#: GroupSummary's statistics over seeds, in the CSV's order.
-_STATS = ("env_return", "length", "goal_rate", "success_rate", "frames_to_comply", "frames")
-#: Its means over the final evaluations: statistic -> the evaluation's key.
-_FINAL_MEANS = {
-    "env_return": "env_return_mean",
-    "length": "length_mean",
-    "goal_rate": "goal_rate",
-    "success_rate": "success_rate",
-}
-
-
 @dataclass(frozen=True)
 class GroupSummary:
-    """A group's trials over seeds (one row of the table): the means of the final
+    """A group's trials over seeds: a row of the table. ``stats`` holds the mean ± std over
+    its finished seeds (:func:`~noisybolt.experiments.reporting.summarise`) of the final
     evaluations' ``env_return`` (R_π), ``length`` (N_steps), ``goal_rate``,
-    ``success_rate`` (goal and compliant) and per-spec ``compliance``; ``compliance_min``:
-    the lowest seed's; ``frames_to_comply``: N_frames over the ``n_reached`` seeds that
-    reached it; ``frames``: frames trained.
-    """
+    ``success_rate`` (goal and compliant) and ``compliance_<spec>``, of ``frames`` trained,
+    and of ``frames_to_comply`` (N_frames) over the seeds that reached it (its ``n``); a
+    statistic no seed has is left out."""
 
     group: str
     row: str
     settings: dict[str, Any]
     algo: str
-    spec_names: tuple[str, ...]
+    specs: tuple[str, ...]
     n_trials: int
     n_done: int
     n_failed: int
-    env_return: Stat | None
-    length: Stat | None
-    goal_rate: Stat | None
-    success_rate: Stat | None
-    compliance: dict[str, Stat]
-    compliance_min: dict[str, float]
-    frames_to_comply: Stat | None
-    n_reached: int
-    frames: Stat | None
+    stats: dict[str, Stat]
 
     @classmethod
     def of(cls, members: Sequence[TrialRecord]) -> GroupSummary:
         """The summary of one group's trials."""
-        done = [r for r in members if r.status == "done" and r.final]
-        finals = [r.final for r in done if r.final is not None]
-        first, reached = members[0], [r.frames_to_comply for r in done if r.frames_to_comply]
-        rates = {s: [f["compliance"].get(s, math.nan) for f in finals] for s in first.spec_names}
-        means = {k: Stat.of(f[key] for f in finals) for k, key in _FINAL_MEANS.items()}
-        return cls(
-            **means,
-            group=first.group,
-            row=first.row,
-            settings=dict(first.settings),
-            algo=first.algo,
-            spec_names=first.spec_names,
-            n_trials=len(members),
-            n_done=len(done),
-            n_failed=sum(r.status == "failed" for r in members),
-            compliance={s: stat for s, v in rates.items() if (stat := Stat.of(v))},
-            compliance_min={s: min(v) for s, v in rates.items() if v},
-            frames_to_comply=Stat.of(reached),
-            n_reached=len(reached),
-            frames=Stat.of(r.frames for r in done if r.frames is not None),
+        first, done = members[0], [r for r in members if r.status == "done" and r.final]
+        stats = summarise(
+            {
+                "env_return": f["env_return_mean"],
+                "length": f["length_mean"],
+                "goal_rate": f["goal_rate"],
+                "success_rate": f["success_rate"],
+                "frames_to_comply": r.frames_to_comply,
+                "frames": r.frames,
+                **{f"compliance_{s}": f["compliance"].get(s) for s in first.spec_names},
+            }
+            for r in done
+            if (f := r.final)
         )
-
-    def n_frames_text(self) -> str:
-        """N_frames, with a count unless every finished seed reached it (``12.0k (2/3)``)."""
-        value = format_frames(self.frames_to_comply and self.frames_to_comply.mean)
-        full = self.n_done and self.n_reached == self.n_done
-        return value if full else f"{value} ({self.n_reached}/{self.n_done})"
+        return cls(
+            group=first.group, row=first.row, settings=first.settings, algo=first.algo,
+            specs=first.spec_names, n_trials=len(members), n_done=len(done),
+            n_failed=sum(r.status == "failed" for r in members), stats=stats,
+        )  # fmt: skip
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (statistics as ``{"mean", "std", "n"}``)."""
-        data = {k: v._asdict() if isinstance(v, Stat) else v for k, v in self.__dict__.items()}
-        data["compliance"] = {k: v._asdict() for k, v in self.compliance.items()}
-        return {**data, "spec_names": list(self.spec_names)}
+        """The group in ``results.json``: its statistics as ``{"mean", "std", "n"}`` beside
+        its counts; flattened, the CSV's row."""
+        data = {k: v for k, v in self.__dict__.items() if k != "stats"}
+        return data | {"specs": list(self.specs)} | {k: s._asdict() for k, s in self.stats.items()}
 
     def cells(self) -> tuple[str, ...]:
         """The row as the table shows it."""
+        stat, ftc = self.stats.get, self.stats.get("frames_to_comply")
+        compliance = [f"{s} {c.mean:.0%}" for s in self.specs if (c := stat(f"compliance_{s}"))]
         return (
-            self.group,
-            self.algo,
-            ", ".join(self.spec_names),
-            f"{self.n_done}/{self.n_trials}",
-            str(self.n_failed),
-            pm(self.env_return),
-            pm(self.length, 1),
-            percent(self.goal_rate and self.goal_rate.mean),
-            ", ".join(f"{k} {v.mean:.0%}" for k, v in self.compliance.items()) or "—",
-            percent(self.success_rate and self.success_rate.mean),
-            self.n_frames_text(),
-        )
-
-    def data(self, specs: Sequence[str]) -> tuple[Any, ...]:
-        """The row as the CSV holds it (raw numbers; a mean and a std per statistic)."""
-        settings = json.dumps(self.settings, sort_keys=True)
-        row: list[Any] = [self.group, self.row, settings, self.algo, ";".join(self.spec_names)]
-        row += [self.n_trials, self.n_done, self.n_failed]
-        for s in (getattr(self, name) for name in _STATS):
-            row += ["", ""] if s is None else [f"{s.mean:.6g}", f"{s.std:.6g}"]
-        row.append(self.n_reached)
-        for name in specs:
-            s, low = self.compliance.get(name), self.compliance_min.get(name)
-            row += ["", ""] if s is None else [f"{s.mean:.6g}", f"{low:.6g}"]
-        return tuple(row)
+            self.group, self.algo, ", ".join(self.specs), f"{self.n_done}/{self.n_trials}",
+            str(self.n_failed), pm(stat("env_return")), pm(stat("length"), 1),
+            percent(g.mean if (g := stat("goal_rate")) else None), ", ".join(compliance) or "—",
+            percent(s.mean if (s := stat("success_rate")) else None),
+            frames_reached(ftc, ftc.n if ftc else 0, self.n_done),
+        )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -205,6 +133,14 @@ class SweepResult:
     groups: tuple[GroupSummary, ...]
     files: dict[str, Path] = field(default_factory=dict)
 
+    @classmethod
+    def of(cls, sweep_dir: Path, name: str, records: Sequence[TrialRecord]) -> SweepResult:
+        """The result of a sweep's trials: a group for each group id, in first-seen order."""
+        groups: dict[str, list[TrialRecord]] = {}
+        for record in records:
+            groups.setdefault(record.group, []).append(record)
+        return cls(sweep_dir, name, tuple(records), tuple(map(GroupSummary.of, groups.values())))
+
     @property
     def n_failed(self) -> int:
         """Trials that failed."""
@@ -217,14 +153,10 @@ class SweepResult:
 
     def to_table(self) -> Table:
         """The results table: a row per group (mean ± std over its finished seeds)."""
-        specs = list(dict.fromkeys(s for g in self.groups for s in g.spec_names))
         header = ("group", "algo", "specs", "seeds done", "failed", "R_π (env return)",
                   "N_steps", "goal rate", "compliance", "goal & compliant", "N_frames")  # fmt: skip
-        data = ["group", "row", "settings", "algo", "specs", "n_trials", "n_done", "n_failed"]
-        data += [f"{s}_{part}" for s in _STATS for part in ("mean", "std")] + ["n_reached"]
-        data += [f"compliance_{s}_{part}" for s in specs for part in ("mean", "min")]
-        rows = tuple(g.cells() for g in self.groups)
-        return Table(header, rows, tuple(data), tuple(g.data(specs) for g in self.groups))
+        groups = self.groups
+        return Table.of(header, tuple(g.cells() for g in groups), [g.to_dict() for g in groups])
 
     def to_dict(self) -> dict[str, Any]:
         """What ``results.json`` holds."""
@@ -235,8 +167,8 @@ class SweepResult:
         """Writes ``results.json``, ``results.md`` (with the sweep's command and the failed
         trials' errors) and ``results.csv`` in the sweep directory."""
         files = {k: self.sweep_dir / f"results.{k}" for k in ("json", "md", "csv")}
-        command = self.sweep_dir / "command.txt"
-        table, failed = self.to_table(), [r for r in self.records if r.status == "failed"]
+        command, table = self.sweep_dir / "command.txt", self.to_table()
+        failed = [f"- `{r.trial_id}`: {r.error}" for r in self.records if r.status == "failed"]
         blocks: list[Block] = [
             Heading(f"Sweep {self.name}"),
             *([Text(f"Command: `{command.read_text().strip()}`")] if command.exists() else []),
@@ -247,29 +179,9 @@ class SweepResult:
                 "it."
             ),
             table,
-            *([Text("Failed trials:")] if failed else []),
-            *([Text("\n".join(f"- `{r.trial_id}`: {r.error}" for r in failed))] if failed else []),
+            *([Text("Failed trials:"), Text("\n".join(failed))] if failed else []),
         ]
         atomic_write_json(files["json"], self.to_dict())
         atomic_write_text(files["md"], render_markdown(blocks))
         atomic_write_text(files["csv"], render_csv(table))
         self.files.update(json=files["json"], markdown=files["md"], csv=files["csv"])
-
-
-def summarise_trials(records: Sequence[TrialRecord]) -> tuple[GroupSummary, ...]:
-    """One :class:`GroupSummary` per group, in first-seen order (statistics over seeds).
-
-    Example:
-        >>> rec = lambda seed, ret: TrialRecord(
-        ...     f"a/seed-{seed}", "a", "a", seed, {}, Path("."), "done", "ppo", ("edge",),
-        ...     final={"env_return_mean": ret, "length_mean": 7.0, "goal_rate": 1.0,
-        ...            "success_rate": 1.0, "compliance": {"edge": 1.0}},
-        ...     frames=2000, frames_to_comply=1000)
-        >>> (group,) = summarise_trials([rec(0, 80.0), rec(1, 90.0)])
-        >>> group.env_return, group.n_reached
-        (Stat(mean=85.0, std=5.0, n=2), 2)
-    """
-    groups: dict[str, list[TrialRecord]] = {}
-    for record in records:
-        groups.setdefault(record.group, []).append(record)
-    return tuple(GroupSummary.of(members) for members in groups.values())

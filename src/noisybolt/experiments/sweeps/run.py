@@ -16,16 +16,10 @@ from typing import Any
 
 from noisybolt.errors import ConfigError
 from noisybolt.experiments.sweeps.config import SweepConfig
-from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord, summarise_trials
-from noisybolt.experiments.sweeps.trials import (
-    TrialDirectory,
-    TrialTask,
-    attempt,
-    read_json,
-    run_trial,
-)
-from noisybolt.io import atomic_write_json
-from noisybolt.rundir import RunDirectory, config_differences
+from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord
+from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, attempt, run_trial
+from noisybolt.io import atomic_write_json, read_json
+from noisybolt.rundir import RunDirectory
 
 __all__ = ["BACKENDS", "SWEEP_FILE", "collect_sweep", "run_sweep"]
 
@@ -59,6 +53,8 @@ def run_sweep(
             holding a run with other settings; raised before any trial runs.
         BackendUnavailableError: ``backend="ray"`` and Ray is not installed.
     """
+    from noisybolt.agents.training import check_same_config
+
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; known backends: {list(BACKENDS)}")
     if (address is not None or callbacks) and backend != "ray":
@@ -70,10 +66,11 @@ def run_sweep(
         from noisybolt.experiments.sweeps.ray_tune import require_ray, run_ray
 
         require_ray()
-    argv = list(sys.argv if argv is None else argv)
-    sweep_dir = Path(out_dir)
+    argv, sweep_dir = list(sys.argv if argv is None else argv), Path(out_dir)
     tasks = _tasks(sweep_dir.resolve(), sweep.to_dict(), argv)
-    _check_clashes(tasks)
+    for folder, task in ((TrialDirectory(t.run_dir), t) for t in tasks):
+        if folder.exists():  # a run with other settings (its frames aside) is refused
+            check_same_config(folder, task.config)
     sweep_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_json(sweep_dir / SWEEP_FILE, sweep.to_dict())
     RunDirectory(sweep_dir).write_command(argv)
@@ -94,7 +91,8 @@ def run_sweep(
     elif pending:
         _run_local(pending, retries=sweep.retries, workers=workers, runner=runner)
     records = {t.trial_id: t.record() for t in tasks} | {r.trial_id: r for r in ran}
-    result = _result(sweep_dir, sweep.name, list(records.values()))
+    result = SweepResult.of(sweep_dir, sweep.name, list(records.values()))
+    result.write()
     unfinished = len(tasks) - result.n_done - result.n_failed
     log(
         f"sweep {sweep.name}: {result.n_done} done, {result.n_failed} failed"
@@ -112,11 +110,13 @@ def collect_sweep(sweep_dir: str | os.PathLike[str], *, write: bool = True) -> S
         ConfigError: the directory holds no sweep (no ``sweep.json``).
     """
     root = Path(sweep_dir)
-    data = read_json(root / SWEEP_FILE)
+    data = read_json(root / SWEEP_FILE, default=None)
     if not isinstance(data, dict) or "trials" not in data:
         raise ConfigError(f"{root} holds no sweep (no readable {SWEEP_FILE})")
-    records = [t.record() for t in _tasks(root, data)]
-    return _result(root, str(data.get("name")), records, write=write)
+    result = SweepResult.of(root, str(data.get("name")), [t.record() for t in _tasks(root, data)])
+    if write:
+        result.write()
+    return result
 
 
 def _tasks(root: Path, sweep: Mapping[str, Any], argv: Sequence[str] = ()) -> list[TrialTask]:
@@ -124,29 +124,6 @@ def _tasks(root: Path, sweep: Mapping[str, Any], argv: Sequence[str] = ()) -> li
     final_eval = int(sweep.get("final_eval_episodes", 0))
     trials = sweep["trials"]
     return [TrialTask(t, str(root / "trials" / t["id"]), final_eval, tuple(argv)) for t in trials]
-
-
-def _result(root: Path, name: str, records: list[TrialRecord], write: bool = True) -> SweepResult:
-    result = SweepResult(root, name, tuple(records), summarise_trials(records))
-    if write:
-        result.write()
-    return result
-
-
-def _check_clashes(tasks: Sequence[TrialTask]) -> None:
-    """Refuses a trial directory holding a run with other settings (the frames aside), its
-    saved config read as a resume reads it (older runs' through the legacy defaults)."""
-    from noisybolt.agents.training import RESUMABLE_KEYS, TrainConfig
-
-    for task, folder in ((t, TrialDirectory(t.run_dir)) for t in tasks):
-        saved = folder.exists() and TrainConfig.from_dict(folder.read_config()).to_dict()
-        if saved and (
-            diffs := config_differences(saved, task.trial["config"], ignore=RESUMABLE_KEYS)
-        ):
-            raise ConfigError(
-                f"{folder.path} holds a run with other settings ({', '.join(diffs)}): use "
-                "another output directory, or delete that trial"
-            )
 
 
 def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -> None:
@@ -162,7 +139,7 @@ def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -
 def _attempts(task: TrialTask, retries: int, runner: TrialRunner) -> None:
     """The local backend's attempts at a trial: ``retries`` more after a failure."""
     for _ in range(retries + 1):
-        with contextlib.suppress(Exception):  # recorded in the trial's failure.json
+        with contextlib.suppress(Exception):  # recorded in the trial's trial.json
             attempt(task, runner)
             return
 

@@ -1,65 +1,60 @@
-"""One trial: its run directory's files, and running it (train, evaluate, record)."""
+"""One trial: its run directory's files, its record, and running it (train, evaluate)."""
 
 from __future__ import annotations
 
-import json
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, replace
-from pathlib import Path
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from noisybolt.experiments.sweeps.results import TrialRecord
-from noisybolt.io import atomic_write_json
+from noisybolt.io import atomic_write_json, read_json
 from noisybolt.rundir import RunDirectory
 
 if TYPE_CHECKING:
     from noisybolt.agents.config import TrainConfig
 
-__all__ = ["TrialDirectory", "TrialTask", "attempt", "read_json", "run_trial"]
-
-
-def read_json(path: Path) -> Any:
-    """A JSON file's content; None when it is missing or unreadable (not yet written)."""
-    try:
-        return json.loads(path.read_text())
-    except (FileNotFoundError, json.JSONDecodeError, UnicodeDecodeError):
-        return None
+__all__ = ["TrialDirectory", "TrialTask", "attempt", "run_trial"]
 
 
 class TrialDirectory(RunDirectory):
-    """A sweep trial's run directory: the run's files, plus ``failure.json`` (every failed
-    attempt's error and traceback) and ``trial.json`` (how the last attempt ended)."""
+    """A sweep trial's run directory: the run's files, and ``trial.json``: how the last
+    attempt ended (``status``: ``done`` or ``failed``; ``seconds``) and every failed
+    attempt (``attempts``: its error, message and traceback), oldest first."""
 
-    def failures(self) -> list[dict[str, Any]]:
-        """Every failed attempt recorded here, oldest first."""
-        data = read_json(self.file("failure.json"))
-        return list(data.get("attempts", [])) if isinstance(data, dict) else []
+    def outcome(self) -> dict[str, Any]:
+        """``trial.json`` (``{"attempts": []}`` before an attempt ends); runs written
+        before it held the attempts kept them in ``failure.json``, read from there."""
+        old = read_json(self.file("failure.json"), default={}, kind=dict)
+        return {"attempts": old.get("attempts", [])} | read_json(
+            self.file("trial.json"), default={}, kind=dict
+        )
 
     def end(self, seconds: float, error: BaseException | None = None) -> None:
         """Records how an attempt ended: done, or failed with ``error``."""
+        attempts = self.outcome()["attempts"]
         if error is not None:
-            failure = {
-                "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
-                "error": type(error).__name__,
-                "message": f"{type(error).__name__}: {error}".splitlines()[0],
-                "traceback": "".join(traceback.format_exception(error)),
-            }
-            self.path.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(self.file("failure.json"), {"attempts": [*self.failures(), failure]})
+            attempts.append(
+                {
+                    "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                    "error": type(error).__name__,
+                    "message": f"{type(error).__name__}: {error}".splitlines()[0],
+                    "traceback": "".join(traceback.format_exception(error)),
+                }
+            )
+        self.path.mkdir(parents=True, exist_ok=True)
         status = "done" if error is None else "failed"
-        atomic_write_json(self.file("trial.json"), {"status": status, "seconds": seconds})
+        outcome = {"status": status, "seconds": seconds, "attempts": attempts}
+        atomic_write_json(self.file("trial.json"), outcome)
 
-    def trained(self, frames: int) -> bool:
-        """Whether the run trained to ``frames`` at least (and wrote its summary)."""
-        saved = read_json(self.config_path) or {}
-        return self.file("summary.json").exists() and int(saved.get("frames", 0)) >= frames
-
-    def evaluated(self, episodes: int) -> bool:
-        """Whether the final evaluation of ``episodes`` episodes is written (0: none asked)."""
-        evaluation = read_json(self.file("evaluation.json")) or {}
-        return episodes <= 0 or evaluation.get("episodes") == episodes
+    def finished(self, frames: int, episodes: int = 0) -> bool:
+        """Whether the run trained to ``frames`` at least (and wrote its summary) and has
+        its final evaluation of ``episodes`` episodes (0: none asked)."""
+        trained = read_json(self.config_path, default={}).get("frames", 0) >= frames
+        evaluation = read_json(self.file("evaluation.json"), default={})
+        evaluated = episodes <= 0 or evaluation.get("episodes") == episodes
+        return trained and self.file("summary.json").exists() and evaluated
 
 
 @dataclass(frozen=True)
@@ -88,42 +83,38 @@ class TrialTask:
     def finished(self) -> bool:
         """Whether the trial trained to its frames and has its final evaluation."""
         folder = TrialDirectory(self.run_dir)
-        return folder.trained(self.config.frames) and folder.evaluated(self.final_eval_episodes)
+        return folder.finished(self.config.frames, self.final_eval_episodes)
 
     def record(self) -> TrialRecord:
         """The trial's record, read from its directory."""
-        folder, config, trial = TrialDirectory(self.run_dir), self.config, self.trial
-        failures, outcome = folder.failures(), read_json(folder.file("trial.json")) or {}
-        record = TrialRecord(
+        folder, trial, finished = TrialDirectory(self.run_dir), self.trial, self.finished()
+        outcome = folder.outcome()
+        summary = read_json(folder.file("summary.json"), default={}) if finished else {}
+        if finished and self.final_eval_episodes:  # the final evaluation, not the last periodic
+            summary["final"] = read_json(folder.file("evaluation.json"))
+        failed = outcome.get("status") == "failed"
+        return TrialRecord(
             trial_id=self.trial_id,
             group=trial["group"],
             row=trial["row"],
             seed=trial["seed"],
             settings=dict(trial.get("settings") or {}),
             run_dir=folder.path,
-            status="failed" if outcome.get("status") == "failed" else "pending",
-            algo=config.algo,
-            spec_names=tuple(str(s.get("name") or s.get("formula")) for s in config.specs),
-            failed_attempts=len(failures),
-            error=failures[-1]["message"] if failures else None,
-        )
-        if not self.finished():
-            return record
-        summary = read_json(folder.file("summary.json")) or {}
-        final_eval = self.final_eval_episodes and read_json(folder.file("evaluation.json"))
-        return replace(
-            record,
-            status="done",
-            final=final_eval or summary.get("final"),
+            status="done" if finished else "failed" if failed else "pending",
+            algo=self.config.algo,
+            spec_names=tuple(str(s.get("name") or s.get("formula")) for s in self.config.specs),
+            final=summary.get("final"),
             frames=summary.get("frames"),
             frames_to_comply=summary.get("frames_to_comply"),
-            seconds=outcome.get("seconds"),
+            failed_attempts=len(outcome["attempts"]),
+            error=outcome["attempts"][-1]["message"] if outcome["attempts"] else None,
+            seconds=outcome.get("seconds") if finished else None,
         )
 
 
 def attempt(task: TrialTask, runner: Callable[[TrialTask], TrialRecord]) -> TrialRecord:
     """One attempt at a trial by ``runner`` (:func:`run_trial`): what it raises is recorded
-    in the trial's ``failure.json`` and raised again, for whoever retries (the local
+    in the trial's ``trial.json`` and raised again, for whoever retries (the local
     backend, or Ray Tune)."""
     start = time.perf_counter()
     try:
@@ -152,7 +143,7 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
         with open(folder.file("log.txt"), "a", encoding="utf-8") as handle:
             handle.write(line.rstrip("\n") + "\n")
 
-    if not folder.trained(config.frames):
+    if not folder.finished(config.frames):  # trained
         # A trial stopped before its first checkpoint has nothing to resume: start over.
         resume = folder.exists() and folder.file("checkpoints/latest.json").exists()
         argv, out = list(task.argv) or None, log or to_file
