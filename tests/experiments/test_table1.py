@@ -264,3 +264,12 @@ def test_followed_needs_95_percent_compliance_in_every_seed(
 
 def test_module_doctests_pass() -> None:
     assert doctest.testmod(table1_module).failed == 0
+
+
+def test_the_committed_table1_rows_read_back_to_the_same_json() -> None:
+    from noisybolt.experiments.table1 import Table1Entry
+
+    committed = Path(__file__).resolve().parents[2] / "results" / "table1" / "table1.json"
+    rows = json.loads(committed.read_text())["rows"]
+    assert [Table1Entry.from_dict(row).to_dict() for row in rows] == rows
+    assert isinstance(Table1Entry.from_dict(rows[0]).r_pi, Stat)

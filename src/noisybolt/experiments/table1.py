@@ -39,7 +39,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -287,75 +287,35 @@ class Table1Entry:
 
     row: Table1Row
     rc_max: float | None
-    r_pi: Any
-    n_steps: Any
-    n_frames: Any
+    r_pi: Stat | None
+    n_steps: Stat | None
+    n_frames: Stat | None
     n_reached: int
-    compliance: Any
+    compliance: Stat | None
     compliance_min: float | None
-    goal_rate: Any
+    goal_rate: Stat | None
     followed: bool | None
     n_seeds: int
     n_done: int
     n_failed: int
     frames: int
-    frames_trained: Any = None
+    frames_trained: Stat | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (statistics as ``{"mean", "std", "n"}``)."""
-
-        def stat(value: Any) -> dict[str, Any] | None:
-            return None if value is None else value._asdict()
-
-        return {
-            "row": self.row.name,
-            "spec": self.row.spec,
-            "formula": self.row.formula,
-            "algo": self.row.algo,
-            "rc_max": self.rc_max,
-            "r_pi": stat(self.r_pi),
-            "n_steps": stat(self.n_steps),
-            "n_frames": stat(self.n_frames),
-            "n_reached": self.n_reached,
-            "compliance": stat(self.compliance),
-            "compliance_min": self.compliance_min,
-            "goal_rate": stat(self.goal_rate),
-            "followed": self.followed,
-            "n_seeds": self.n_seeds,
-            "n_done": self.n_done,
-            "n_failed": self.n_failed,
-            "frames": self.frames,
-            "frames_trained": stat(self.frames_trained),
-            "paper": {
-                "rc_max": self.row.paper.rc_max,
-                "r_pi": self.row.paper.r_pi,
-                "n_steps": self.row.paper.n_steps,
-                "n_frames": self.row.paper.n_frames,
-                "followed": self.row.paper.followed,
-            },
-        }
+        row, data = self.row, {f.name: getattr(self, f.name) for f in fields(self)}
+        stats = {k: v._asdict() if isinstance(v, Stat) else v for k, v in data.items()}
+        names = {"row": row.name, "spec": row.spec, "formula": row.formula, "algo": row.algo}
+        return stats | names | {"paper": asdict(row.paper)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Table1Entry:
         """Reads :meth:`to_dict`'s output back (a committed ``table1.json``'s rows)."""
         row = Table1Row(data["row"], data["spec"], data["algo"], PaperNumbers(**data["paper"]))
-        return cls(
-            row=row,
-            rc_max=data["rc_max"],
-            r_pi=Stat.from_dict(data["r_pi"]),
-            n_steps=Stat.from_dict(data["n_steps"]),
-            n_frames=Stat.from_dict(data["n_frames"]),
-            n_reached=data["n_reached"],
-            compliance=Stat.from_dict(data["compliance"]),
-            compliance_min=data["compliance_min"],
-            goal_rate=Stat.from_dict(data["goal_rate"]),
-            followed=data["followed"],
-            n_seeds=data["n_seeds"],
-            n_done=data["n_done"],
-            n_failed=data["n_failed"],
-            frames=data["frames"],
-            frames_trained=Stat.from_dict(data.get("frames_trained")),
-        )
+        values: dict[str, Any] = {f.name: data.get(f.name) for f in fields(cls)}
+        for key in ("r_pi", "n_steps", "n_frames", "compliance", "goal_rate", "frames_trained"):
+            values[key] = Stat.from_dict(values[key])
+        return cls(**values | {"row": row})
 
 
 @dataclass(frozen=True)
@@ -477,8 +437,8 @@ def table1_table(entries: Sequence[Table1Entry]) -> Table:
                 format_number(paper.rc_max), pm(e.r_pi), format_number(paper.r_pi),
                 pm(e.n_steps, 1), format_number(paper.n_steps),
                 frames_reached(e.n_frames, e.n_reached, e.n_done),
-                format_frames(paper.n_frames), percent(e.compliance and e.compliance.mean),
-                percent(e.goal_rate and e.goal_rate.mean), mark(e.followed), mark(paper.followed),
+                format_frames(paper.n_frames), percent(e.compliance),
+                percent(e.goal_rate), mark(e.followed), mark(paper.followed),
                 f"{format_frames(e.frames_trained and e.frames_trained.mean)} / "
                 f"{format_frames(e.frames)}", seeds,
             )

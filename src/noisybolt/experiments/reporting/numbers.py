@@ -55,19 +55,19 @@ def summarise(rows: Iterable[Mapping[str, float | None]]) -> dict[str, Stat]:
     return {key: stat for key, v in values.items() if (stat := Stat.of(v))}
 
 
-def pm(stat: Any, digits: int = 2) -> str:
-    """``mean ± std`` of anything with ``mean`` and ``std`` (a ``Stat``); ``—`` for None.
+def pm(stat: Stat | None, digits: int = 2) -> str:
+    """``mean ± std``; ``—`` for None.
 
     Example:
-        >>> from types import SimpleNamespace
-        >>> pm(SimpleNamespace(mean=89.44, std=0.081)), pm(None)
+        >>> pm(Stat(89.44, 0.081, 3)), pm(None)
         ('89.44 ± 0.08', '—')
     """
     return "—" if stat is None else f"{stat.mean:.{digits}f} ± {stat.std:.{digits}f}"
 
 
-def percent(value: float | None) -> str:
-    """``0.95`` -> ``95%``; None -> ``—``."""
+def percent(value: float | Stat | None) -> str:
+    """``0.95`` -> ``95%`` (a statistic: its mean); None -> ``—``."""
+    value = value.mean if isinstance(value, Stat) else value
     return "—" if value is None else f"{value:.0%}"
 
 

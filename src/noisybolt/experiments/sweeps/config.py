@@ -32,7 +32,7 @@ __all__ = ["SweepConfig", "Trial", "builtin_sweeps", "load_sweep"]
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._+-]*")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]")
-_FRAMES = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kKmM]?)\s*")
+_FRAMES = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kKmM]?)\s*")  # 60k, 1.5M
 _FRAME_PATHS = ("frames", "evaluation.freq", "checkpoint_freq")
 
 
@@ -85,20 +85,17 @@ class _SweepFile:
 
 
 def _block(block: Mapping[str, Any], where: str) -> dict[str, Any]:
-    """Settings as ``{schema path: value}`` (frame counts such as ``60k`` read), each
-    value checked against its path's type."""
+    """Settings as ``{schema path: value}``, each checked against its path's type."""
     from noisybolt.agents.config import checked_value, override_paths
 
     try:
         paths = override_paths(block)
         if "seed" in paths:
             raise ConfigError("'seed' is not a setting here; list seeds under 'seeds'")
-        for key in set(_FRAME_PATHS) & set(paths):
-            if isinstance(paths[key], str):
-                match = _FRAMES.fullmatch(paths[key])
-                if not match:
-                    raise ConfigError(f"{key}: not a frame count: {paths[key]!r} (e.g. 60k)")
-                paths[key] = int(float(match[1]) * {"": 1, "k": 1e3, "m": 1e6}[match[2].lower()])
+        for key in (k for k in _FRAME_PATHS if isinstance(paths.get(k), str)):
+            if not (match := _FRAMES.fullmatch(paths[key])):
+                raise ConfigError(f"{key}: not a frame count: {paths[key]!r} (e.g. 60k)")
+            paths[key] = int(float(match[1]) * {"": 1, "k": 1e3, "m": 1e6}[match[2].lower()])
         return {path: checked_value(path, value) for path, value in paths.items()}
     except ConfigError as error:
         raise ConfigError(f"{where}: {error}") from None
@@ -106,16 +103,9 @@ def _block(block: Mapping[str, Any], where: str) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class Trial:
-    """One training run of a sweep.
-
-    Attributes:
-        trial_id: ``ROW[/AXIS=VALUE,...]/seed-N``; also its directory under ``trials/``.
-        group: the trial id without the seed: trials of one group are averaged.
-        row: the row's name.
-        seed: the trial's seed.
-        settings: the values the settings axes give this trial (key as given -> value).
-        config: the resolved training config.
-    """
+    """One training run of a sweep: ``trial_id`` is ``ROW[/AXIS=VALUE,...]/seed-N`` (its
+    directory under ``trials/``), ``group`` the id without the seed (a group's trials are
+    averaged), ``settings`` the values the axes give it, ``config`` its resolved config."""
 
     trial_id: str
     group: str
@@ -126,26 +116,17 @@ class Trial:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able description (``sweep.json`` lists these)."""
-        fields = ("group", "row", "seed", "settings")
-        return {"id": self.trial_id, **{k: getattr(self, k) for k in fields}} | {
-            "config": self.config.to_dict()
-        }
+        fields = {k: getattr(self, k) for k in ("group", "row", "seed", "settings")}
+        return {"id": self.trial_id, **fields, "config": self.config.to_dict()}
 
 
 @dataclass(frozen=True)
 class SweepConfig:
-    """A validated sweep: every trial's training config, resolved.
-
-    Attributes:
-        name: the sweep's name.
-        trials: every trial, rows outermost, then settings, then seeds.
-        seeds: the seeds.
-        retries: extra attempts of a trial that raises.
-        final_eval_episodes: episodes of a final evaluation of each finished trial
-            (``evaluation.json``); 0 reports the run's last periodic evaluation.
-        cpus_per_trial: CPUs reserved per trial (Ray backend).
-        source: the config as given, saved in ``sweep.json``.
-    """
+    """A validated sweep: its trials (rows outermost, then settings, then seeds), each with
+    its training config resolved; ``retries``: extra attempts of a trial that raises;
+    ``final_eval_episodes``: episodes of a final evaluation of each finished trial
+    (``evaluation.json``; 0: the run's last periodic evaluation is reported);
+    ``cpus_per_trial``: on Ray; ``source``: the config as given (``sweep.json``)."""
 
     name: str
     trials: tuple[Trial, ...]
@@ -159,13 +140,9 @@ class SweepConfig:
     def from_dict(
         cls, data: Mapping[str, Any], *, name: str | None = None, check_worlds: bool = True
     ) -> SweepConfig:
-        """Validates a sweep config (see :mod:`noisybolt.experiments.sweeps`).
-
-        Args:
-            data: the parsed YAML.
-            name: the sweep's name when ``data`` has none.
-            check_worlds: also build every world once and compile every spec over its
-                fluents (cheap; catches unknown noise models and fluents up front).
+        """Validates a sweep config (the parsed YAML; ``name`` when it has none). With
+        ``check_worlds``, builds every world once and compiles every spec over its fluents
+        (cheap; unknown noise models and fluents are found before anything runs).
 
         Raises:
             ConfigError: unknown keys, wrong types or impossible values, naming the row.
@@ -177,44 +154,35 @@ class SweepConfig:
         if not _NAME.fullmatch(sweep_name):
             raise ConfigError(f"sweep name {sweep_name!r} must match {_NAME.pattern}")
         seeds = tuple(range(sweep.seeds)) if isinstance(sweep.seeds, int) else sweep.seeds
-        base, trials = _block(sweep.base, "base"), []
+        base, trials, keys = _block(sweep.base, "base"), [], list(sweep.settings)
         # Each axis value with its overrides (checked once here, so a bad one is named).
-        axes = [
-            [(v, _block({k: v}, f"settings {k!r}")) for v in vs] for k, vs in sweep.settings.items()
-        ]
-        labels = [k.rsplit(".", 1)[-1] for k in sweep.settings]
-        labels = [
-            lb if labels.count(lb) == 1 else k for lb, k in zip(labels, sweep.settings, strict=True)
-        ]
+        axes = [[(v, _block({k: v}, f"settings {k!r}")) for v in sweep.settings[k]] for k in keys]
+        labels = [k.rsplit(".", 1)[-1] for k in keys]
+        labels = [lb if labels.count(lb) == 1 else k for lb, k in zip(labels, keys, strict=True)]
         for row in sweep.rows:
             row_name = str(row["name"])
             over = _block({k: v for k, v in row.items() if k != "name"}, f"row {row_name!r}")
             for combo in itertools.product(*axes):
-                label = ",".join(
-                    f"{lb}={_slug(v)}" for lb, (v, _) in zip(labels, combo, strict=True)
-                )
+                values = [v for v, _ in combo]
+                label = ",".join(f"{lb}={_slug(v)}" for lb, v in zip(labels, values, strict=True))
                 group = f"{row_name}/{label}" if label else row_name
                 merged = {**base, **over, **{p: x for _, paths in combo for p, x in paths.items()}}
-                values = dict(zip(sweep.settings, (v for v, _ in combo), strict=True))
                 where = f"row {row_name!r}" + (f" with {label}" if label else "")
                 for seed in seeds:
                     config = _train_config(merged, seed, where)
+                    settings = dict(zip(keys, values, strict=True))
                     trials.append(
-                        Trial(f"{group}/seed-{seed}", group, row_name, seed, values, config)
+                        Trial(f"{group}/seed-{seed}", group, row_name, seed, settings, config)
                     )
         ids = [t.trial_id for t in trials]
         if len(set(ids)) != len(ids):
             twice = sorted({i for i in ids if ids.count(i) > 1})
             raise ConfigError(f"two trials would share the id(s) {twice}: make the values distinct")
         result = cls(
-            name=sweep_name,
-            trials=tuple(trials),
-            seeds=seeds,
-            retries=sweep.retries,
-            final_eval_episodes=sweep.final_eval_episodes,
-            cpus_per_trial=sweep.resources.cpus,
+            name=sweep_name, trials=tuple(trials), seeds=seeds, retries=sweep.retries,
+            final_eval_episodes=sweep.final_eval_episodes, cpus_per_trial=sweep.resources.cpus,
             source=json.loads(json.dumps(dict(data), default=str)),
-        )
+        )  # fmt: skip
         if check_worlds:
             _check_worlds(result)
         return result
@@ -222,10 +190,8 @@ class SweepConfig:
     def to_dict(self) -> dict[str, Any]:
         """What ``sweep.json`` holds: the config as given and every trial."""
         fields = ("name", "retries", "final_eval_episodes", "cpus_per_trial")
-        return {k: getattr(self, k) for k in fields} | {
-            "config": self.source,
-            "trials": [t.to_dict() for t in self.trials],
-        }
+        trials = [t.to_dict() for t in self.trials]
+        return {k: getattr(self, k) for k in fields} | {"config": self.source, "trials": trials}
 
 
 def builtin_sweeps() -> tuple[str, ...]:
@@ -245,17 +211,13 @@ def load_sweep(path: str | os.PathLike[str], *, check_worlds: bool = True) -> Sw
     Raises:
         ConfigError: the file is missing, is not YAML, or is not a valid sweep config.
     """
-    path = Path(path)
+    path, builtin = Path(path), resources.files("noisybolt.configs") / f"sweeps/{path}.yaml"
     try:
-        if not path.exists() and str(path) in builtin_sweeps():
-            text = resources.files("noisybolt.configs").joinpath(f"sweeps/{path}.yaml").read_text()
-        else:
-            text = path.read_text()
-        data = yaml.safe_load(text)
+        file = builtin if not path.exists() and str(path) in builtin_sweeps() else path
+        data = yaml.safe_load(file.read_text())
     except FileNotFoundError:
-        raise ConfigError(
-            f"no sweep config at {path} (built-in sweeps: {list(builtin_sweeps())})"
-        ) from None
+        known = list(builtin_sweeps())
+        raise ConfigError(f"no sweep config at {path} (built-in sweeps: {known})") from None
     except (OSError, yaml.YAMLError) as error:
         raise ConfigError(
             f"{path} is not a readable sweep config (not valid YAML?): {error}"
@@ -271,6 +233,8 @@ def _slug(value: Any) -> str:
 
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
+    """A trial's config; its compliance scale computed on the world's product where that
+    can be explored, as ``noisybolt train`` chooses it (unless the settings give one)."""
     from noisybolt.agents.training import TrainConfig
     from noisybolt.experiments.checks import with_exact_scale
 
@@ -278,11 +242,7 @@ def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainCo
         raise ConfigError(f"{where}: no specs (set 'bolt.specs' in the row or in 'base')")
     try:
         config = TrainConfig.build({"progress_bar": False, **settings, "seed": seed})
-        # What `noisybolt train` would choose: the compliance scale computed on the
-        # world's product where it can be explored.
-        if "bolt.reward_scale" in settings:
-            return config
-        return with_exact_scale(config, log=None)
+        return config if "bolt.reward_scale" in settings else with_exact_scale(config, log=None)
     except (NoisyboltError, TypeError, ValueError) as error:
         raise ConfigError(f"{where}: {error}") from None
 
@@ -294,7 +254,7 @@ def _check_worlds(sweep: SweepConfig) -> None:
 
     fluents: dict[str, tuple[str, ...]] = {}
     for trial in sweep.trials:
-        config = trial.config
+        config, detector = trial.config, trial.config.detector
         key = json.dumps([config.world, config.world_settings], sort_keys=True, default=str)
         try:
             if key not in fluents:
@@ -305,6 +265,5 @@ def _check_worlds(sweep: SweepConfig) -> None:
                 compile_ltlf(spec.formula, fluents[key])  # cached: cheap after the first
         except (NoisyboltError, TypeError) as error:
             raise ConfigError(f"trial {trial.trial_id!r}: {error}") from None
-        path = config.detector.path
-        if config.detector.kind == "classifier" and path and not Path(path).exists():
-            raise ConfigError(f"trial {trial.trial_id!r}: no classifier file at {path}")
+        if detector.kind == "classifier" and detector.path and not Path(detector.path).exists():
+            raise ConfigError(f"trial {trial.trial_id!r}: no classifier file at {detector.path}")

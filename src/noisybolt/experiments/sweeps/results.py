@@ -116,8 +116,7 @@ class GroupSummary:
         return (
             self.group, self.algo, ", ".join(self.specs), f"{self.n_done}/{self.n_trials}",
             str(self.n_failed), pm(stat("env_return")), pm(stat("length"), 1),
-            percent(g.mean if (g := stat("goal_rate")) else None), ", ".join(compliance) or "—",
-            percent(s.mean if (s := stat("success_rate")) else None),
+            percent(stat("goal_rate")), ", ".join(compliance) or "—", percent(stat("success_rate")),
             frames_reached(ftc, ftc.n if ftc else 0, self.n_done),
         )  # fmt: skip
 
@@ -166,7 +165,6 @@ class SweepResult:
     def write(self) -> None:
         """Writes ``results.json``, ``results.md`` (with the sweep's command and the failed
         trials' errors) and ``results.csv`` in the sweep directory."""
-        files = {k: self.sweep_dir / f"results.{k}" for k in ("json", "md", "csv")}
         command, table = self.sweep_dir / "command.txt", self.to_table()
         failed = [f"- `{r.trial_id}`: {r.error}" for r in self.records if r.status == "failed"]
         blocks: list[Block] = [
@@ -181,7 +179,8 @@ class SweepResult:
             table,
             *([Text("Failed trials:"), Text("\n".join(failed))] if failed else []),
         ]
-        atomic_write_json(files["json"], self.to_dict())
-        atomic_write_text(files["md"], render_markdown(blocks))
-        atomic_write_text(files["csv"], render_csv(table))
-        self.files.update(json=files["json"], markdown=files["md"], csv=files["csv"])
+        suffixes = {"json": "json", "markdown": "md", "csv": "csv"}
+        self.files.update({k: self.sweep_dir / f"results.{s}" for k, s in suffixes.items()})
+        atomic_write_json(self.files["json"], self.to_dict())
+        atomic_write_text(self.files["markdown"], render_markdown(blocks))
+        atomic_write_text(self.files["csv"], render_csv(table))

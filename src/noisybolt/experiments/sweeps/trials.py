@@ -27,26 +27,23 @@ class TrialDirectory(RunDirectory):
         """``trial.json`` (``{"attempts": []}`` before an attempt ends); runs written
         before it held the attempts kept them in ``failure.json``, read from there."""
         old = read_json(self.file("failure.json"), default={}, kind=dict)
-        return {"attempts": old.get("attempts", [])} | read_json(
-            self.file("trial.json"), default={}, kind=dict
-        )
+        new = read_json(self.file("trial.json"), default={}, kind=dict)
+        return {"attempts": old.get("attempts", []), **new}
 
     def end(self, seconds: float, error: BaseException | None = None) -> None:
         """Records how an attempt ended: done, or failed with ``error``."""
         attempts = self.outcome()["attempts"]
         if error is not None:
-            attempts.append(
-                {
-                    "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
-                    "error": type(error).__name__,
-                    "message": f"{type(error).__name__}: {error}".splitlines()[0],
-                    "traceback": "".join(traceback.format_exception(error)),
-                }
-            )
+            name = type(error).__name__
+            message = f"{name}: {error}".splitlines()[0]
+            trace = "".join(traceback.format_exception(error))
+            when = time.strftime("%Y-%m-%dT%H:%M:%S")
+            attempts.append({"time": when, "error": name, "message": message, "traceback": trace})
         self.path.mkdir(parents=True, exist_ok=True)
         status = "done" if error is None else "failed"
-        outcome = {"status": status, "seconds": seconds, "attempts": attempts}
-        atomic_write_json(self.file("trial.json"), outcome)
+        atomic_write_json(
+            self.file("trial.json"), {"status": status, "seconds": seconds, "attempts": attempts}
+        )
 
     def finished(self, frames: int, episodes: int = 0) -> bool:
         """Whether the run trained to ``frames`` at least (and wrote its summary) and has
@@ -89,27 +86,22 @@ class TrialTask:
         """The trial's record, read from its directory."""
         folder, trial, finished = TrialDirectory(self.run_dir), self.trial, self.finished()
         outcome = folder.outcome()
+        attempts = outcome["attempts"]
         summary = read_json(folder.file("summary.json"), default={}) if finished else {}
         if finished and self.final_eval_episodes:  # the final evaluation, not the last periodic
             summary["final"] = read_json(folder.file("evaluation.json"))
         failed = outcome.get("status") == "failed"
         return TrialRecord(
-            trial_id=self.trial_id,
-            group=trial["group"],
-            row=trial["row"],
-            seed=trial["seed"],
-            settings=dict(trial.get("settings") or {}),
-            run_dir=folder.path,
+            trial_id=self.trial_id, group=trial["group"], row=trial["row"], seed=trial["seed"],
+            settings=dict(trial.get("settings") or {}), run_dir=folder.path,
             status="done" if finished else "failed" if failed else "pending",
             algo=self.config.algo,
             spec_names=tuple(str(s.get("name") or s.get("formula")) for s in self.config.specs),
-            final=summary.get("final"),
-            frames=summary.get("frames"),
-            frames_to_comply=summary.get("frames_to_comply"),
-            failed_attempts=len(outcome["attempts"]),
-            error=outcome["attempts"][-1]["message"] if outcome["attempts"] else None,
+            final=summary.get("final"), frames=summary.get("frames"),
+            frames_to_comply=summary.get("frames_to_comply"), failed_attempts=len(attempts),
+            error=attempts[-1]["message"] if attempts else None,
             seconds=outcome.get("seconds") if finished else None,
-        )
+        )  # fmt: skip
 
 
 def attempt(task: TrialTask, runner: Callable[[TrialTask], TrialRecord]) -> TrialRecord:
@@ -127,28 +119,28 @@ def attempt(task: TrialTask, runner: Callable[[TrialTask], TrialRecord]) -> Tria
 def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> TrialRecord:
     """Runs a trial to its end (safe to call again: it resumes): trains, resuming from the
     run's last checkpoint, then evaluates when the sweep asks for a final evaluation. A
-    finished trial is left untouched."""
+    finished trial is left untouched; ``log`` defaults to the run's ``log.txt``."""
     import torch
 
     from noisybolt.agents import run_evaluation, training
 
     torch.set_num_threads(1)  # one thread per trial: parallel trials share the cores
-    folder, config = TrialDirectory(task.run_dir), task.config
+    folder, config, start = TrialDirectory(task.run_dir), task.config, time.perf_counter()
     if task.finished():
         return task.record()
-    start = time.perf_counter()
 
     def to_file(line: str) -> None:
         folder.path.mkdir(parents=True, exist_ok=True)
         with open(folder.file("log.txt"), "a", encoding="utf-8") as handle:
             handle.write(line.rstrip("\n") + "\n")
 
-    if not folder.finished(config.frames):  # trained
+    if not folder.finished(config.frames):  # not trained yet
         # A trial stopped before its first checkpoint has nothing to resume: start over.
         resume = folder.exists() and folder.file("checkpoints/latest.json").exists()
-        argv, out = list(task.argv) or None, log or to_file
-        restart = folder.exists() and not resume
-        training.train(config, folder.path, resume=resume, restart=restart, argv=argv, log=out)
+        argv, restart = list(task.argv) or None, folder.exists() and not resume
+        training.train(
+            config, folder.path, resume=resume, restart=restart, argv=argv, log=log or to_file
+        )
     if task.final_eval_episodes > 0:
         run_evaluation.evaluate_run(folder.path, episodes=task.final_eval_episodes)
     folder.end(time.perf_counter() - start)
