@@ -188,37 +188,39 @@ class BoltVecEnv(VecEnvWrapper):
         """Steps the world, moves the DFAs, shapes rewards, restarts ended episodes."""
         obs, env_rewards, dones, infos = self.venv.step_wait()
         dones = np.asarray(dones, dtype=bool)
+        n = self.num_envs
         images, truth = self._labels("step")
         ended = np.flatnonzero(dones)
         # The step's transition reads each ended episode's last observation, not the new
         # episode's first; keep the new ones for the restart below.
-        first_images, first_truth = images, truth
+        first_truth = truth
+        truncated = np.zeros(n, dtype=bool)  # SB3 flags a time limit's cut in the info
         if ended.size:
             last_images, last_truth = self._labels("step", rows=ended)
-            images, truth = images.copy(), truth.copy()
-            images[ended] = last_images[ended]
-            truth[ended] = last_truth[ended]
             # One detector call for the ended episodes' last views and the new episodes'
-            # first views together: a call on a few images costs mostly its overhead.
-            both = self._probs(
-                np.concatenate([images, first_images[ended]]),
-                np.concatenate([truth, first_truth[ended]]),
-            )
-            probs, first_probs = both[: self.num_envs], both[self.num_envs :]
+            # first views together (a call on a few images costs mostly its overhead):
+            # rows [0, n) are the views the step's transition reads, rows n.. the first
+            # views of the new episodes. Assembled in one buffer, one copy of the images.
+            batch = np.empty((n + ended.size, *images.shape[1:]), dtype=images.dtype)
+            batch[:n] = images
+            batch[ended] = last_images[ended]
+            batch[n:] = images[ended]
+            truth = truth.copy()
+            truth[ended] = last_truth[ended]
+            both = self._probs(batch, np.concatenate([truth, first_truth[ended]]))
+            probs, first_probs = both[:n], both[n:]
+            for i in ended:
+                truncated[i] = bool(infos[i].get("TimeLimit.truncated"))
         else:
             probs = self._probs(images, truth)
-        # SB3's convention: a time limit's cut is flagged in the step's info.
-        truncated = np.array([bool(info.get("TimeLimit.truncated")) for info in infos])
-        out = self.bolt.step(probs, done=dones, truncated=truncated & dones)
-        final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
+        out = self.bolt.step(probs, done=dones, truncated=truncated)
         self._truth.step(truth)
-        true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
         rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
         bands = confidence_bands(probs, self._thresholds)
+        true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
         infos = list(infos)
-        for i in range(self.num_envs):
-            info = infos[i]  # the world's own dict for this step: extended in place
-            info.update(
+        for i, info in enumerate(infos):
+            info.update(  # the world's own dict for this step: extended in place
                 bolt_info(
                     i,
                     env_reward=float(env_rewards[i]),
@@ -230,11 +232,14 @@ class BoltVecEnv(VecEnvWrapper):
                     true_accepting=true_accepting,
                 )
             )
-            if dones[i] and "terminal_observation" in info:
-                info["terminal_observation"] = self._obs(
-                    info["terminal_observation"], final_view[i]
-                )
         if ended.size:
+            final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
+            for i in ended:
+                info = infos[i]
+                if "terminal_observation" in info:
+                    info["terminal_observation"] = self._obs(
+                        info["terminal_observation"], final_view[i]
+                    )
             # Rows outside the mask are checked but not read: zeros will do.
             full = np.zeros_like(probs)
             full[ended] = first_probs
