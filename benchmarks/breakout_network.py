@@ -55,7 +55,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecMonitor
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
-from noisybolt.agents.hyperparams import META_KEYS, load_hyperparams
+from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.agents.training import classifier_architecture
 from noisybolt.envs import SB3VecEnv, make_world
@@ -178,7 +178,7 @@ def training_fps(variant: str, frames: int, seed: int) -> Rate:
         world=world,
     )
     extractor = {k: params[k] for k in ("cnn", "image_features") if k in params}
-    kwargs = {k: v for k, v in params.items() if k not in META_KEYS}
+    kwargs = {k: v for k, v in params.items() if k not in META_KEYS | WORLD_KEYS}
     policy_kwargs = {
         **kwargs.pop("policy_kwargs", {}),
         "features_extractor_class": BoltFeaturesExtractor,

@@ -31,6 +31,7 @@ __all__ = [
     "UnsafeFileError",
     "UnsatisfiableSpecError",
     "WorldFactoryError",
+    "WorldWorkerError",
 ]
 
 
@@ -135,6 +136,13 @@ class WorldFactoryError(ConfigError):
     def __init__(self, message: str, *, path: str) -> None:
         super().__init__(message)
         self.path = path
+
+
+class WorldWorkerError(NoisyboltError, RuntimeError):
+    """A worker process of a world split across processes
+    (:class:`~noisybolt.envs.worker_world.WorkerWorld`) died or raised; the message names
+    the worker, its games and the cause (the worker's traceback, or its exit code). The
+    world has closed its other workers: build a new one to go on."""
 
 
 class UnsatisfiableSpecError(ConfigError):

@@ -122,7 +122,12 @@ __all__ = [
 #: config without it is the flat form of the runs saved before: version 1).
 SCHEMA_VERSION = 2
 #: Settings (schema paths) that may change when a run is resumed.
-RESUMABLE_KEYS: tuple[str, ...] = ("frames", "progress_bar", "evaluation.stop_after")
+RESUMABLE_KEYS: tuple[str, ...] = (
+    "frames",
+    "progress_bar",
+    "evaluation.stop_after",
+    "world.workers",  # where the world runs, not what it plays (the same games either way)
+)
 #: What a config saved before a setting existed meant by it, by schema path (read by
 #: :func:`nested_config`: a saved config that lacks the path gets this value).
 LEGACY_DEFAULTS: dict[str, Any] = {

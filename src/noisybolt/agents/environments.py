@@ -12,7 +12,8 @@ Bottom to top::
       -> VecNormalize        (training, ``normalize_reward``: rewards only)
 
 Training, evaluation (periodic and ``noisybolt evaluate``) and case 4 build their envs
-here, so the stack is written once.
+here, so the stack is written once. With ``world.workers`` the world at the bottom runs its
+games in worker processes (:func:`make_run_world`); everything above it stays here.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.detectors import make_detector
 from noisybolt.bolt import BeliefSettings, Thresholds
 from noisybolt.envs import SB3VecEnv, make_world
+from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import (
     ConfigError,
     SpecSyntaxError,
@@ -39,7 +41,7 @@ from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, FluentDetector
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
-__all__ = ["BoltSetup", "build_bolted_env", "make_env", "prepare_bolt"]
+__all__ = ["BoltSetup", "build_bolted_env", "make_env", "make_run_world", "prepare_bolt"]
 
 #: Evaluation worlds are seeded apart from the training ones.
 EVAL_SEED_OFFSET = 10_000
@@ -156,10 +158,10 @@ def build_bolted_env(
     its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
     above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
     ``letters``: the world's true fluents seen in random play (:class:`BoltSetup`), for
-    the compliance scheme's progress terms.
+    the compliance scheme's progress terms. ``world.workers``: see :func:`make_run_world`.
     """
-    world = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
-    venv: VecEnv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
+    world = make_run_world(config, n_envs=n_envs, seed=seed)
+    venv: VecEnv = VecMonitor(SB3VecEnv(world))
     if training and config.world_config.clip_reward:
         venv = ClipGameReward(venv)
     return BoltVecEnv(
@@ -175,6 +177,28 @@ def build_bolted_env(
         progress_gamma=config.progress_gamma,
         shaping=config.shaping,
         world_letters=letters,
+    )
+
+
+def make_run_world(config: TrainConfig, *, n_envs: int, seed: int) -> Any:
+    """The run's vectorised world: in this process, or with ``world.workers`` N >= 1 its
+    games split over N worker processes (at most one per game; a
+    :class:`~noisybolt.envs.worker_world.WorkerWorld`, which plays the same games as the
+    world in process).
+
+    Raises:
+        ConfigError: a world that cannot be split into worker processes (its factory
+            takes no ``shard``), or a bad world setting.
+    """
+    workers = config.world_config.workers
+    if not workers:
+        return make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
+    return WorkerWorld(
+        config.world,
+        num_envs=n_envs,
+        workers=min(workers, n_envs),
+        seed=seed,
+        **config.world_settings,
     )
 
 

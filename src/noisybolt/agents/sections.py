@@ -56,6 +56,10 @@ class WorldConfig:
             the bolt (training only).
         life_loss_terminal: Atari: a lost life ends the learner's episode, above the bolt
             (training only).
+        workers: 0 (default): the world runs in the training process; N >= 1: its games
+            run in N worker processes (:class:`~noisybolt.envs.worker_world.WorkerWorld`,
+            for worlds that split into shards, such as Breakout), the same games as in
+            process, while the training process runs the bolt and the agent.
     """
 
     name: str = DEFAULT_WORLD
@@ -64,11 +68,13 @@ class WorldConfig:
     fire_on_reset: bool = False
     clip_reward: bool = False
     life_loss_terminal: bool = False
+    workers: int = 0
 
     def __post_init__(self) -> None:
         check_world(self.name)  # a registered name or an importable factory path
         object.__setattr__(self, "kwargs", freeze(dict(self.kwargs)))
         check_count("world.n_envs", self.n_envs, 1)
+        check_count("world.workers", self.workers, 0)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -274,6 +274,12 @@ class BreakoutWorld(gym.vector.VectorEnv):
             grey frames altogether (``frame_stack`` and ``screen_size`` are then unused);
             the bolt's camera, fluents and everything else are the same in both, so a RAM
             agent is watched by the same noisy camera and classifier as an image agent.
+        shard: ``(first, total)``: these ``num_envs`` games are games ``first`` ..
+            ``first + num_envs - 1`` of a world of ``total`` games with this ``seed``, and
+            play exactly as those do there (each game's ALE, no-ops and camera noise are
+            seeded from the seed and the game's index in the whole world). None: the whole
+            world, ``(0, num_envs)``. For :class:`~noisybolt.envs.worker_world.WorkerWorld`,
+            which runs the shards in worker processes.
     """
 
     termination_is_success = False
@@ -295,6 +301,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         max_episode_frames: int = 108_000,
         fire_on_reset: bool = False,
         obs_mode: str = "stack",
+        shard: tuple[int, int] | None = None,
     ) -> None:
         if obs_mode not in OBS_MODES:
             raise ConfigError(
@@ -317,6 +324,15 @@ class BreakoutWorld(gym.vector.VectorEnv):
             raise ConfigError(
                 f"repeat_action_probability must be in [0, 1], got {repeat_action_probability}"
             )
+        if shard is None:
+            shard = (0, num_envs)
+        first, total = (int(v) for v in shard)
+        if not (first >= 0 and first + num_envs <= total):
+            raise ConfigError(
+                f"shard (first game, games in all) must hold this world's {num_envs} games, "
+                f"got {shard}"
+            )
+        self.shard = (first, total)
         self._fluent_names, self._fluent_columns = select_fluents("breakout", FLUENT_NAMES, fluents)
         noise_fn, noise_description = resolve_noise(noise)
         self.metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
@@ -343,7 +359,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self._rom = rom
         self._ales = [ale_py.ALEInterface() for _ in range(num_envs)]
         self._np_rngs = [np.random.default_rng() for _ in range(num_envs)]
-        self._camera_rng = np.random.default_rng()
+        self._camera_rngs = [np.random.default_rng() for _ in range(num_envs)]
         self._seed_all(seed)
         self._actions = self._ales[0].getMinimalActionSet()
 
@@ -392,17 +408,19 @@ class BreakoutWorld(gym.vector.VectorEnv):
 
     # -- seeding and resets ---------------------------------------------------------------
     def _seed_all(self, seed: int | None) -> None:
-        root = np.random.SeedSequence(seed)
-        children = root.spawn(self.num_envs + 1)
+        # Game g of the whole world (g = shard's first + i) draws from the g-th child of the
+        # seed, whichever process runs it: a world split into shards plays the same games.
+        first, total = self.shard
+        children = np.random.SeedSequence(seed).spawn(total + 1)[first : first + self.num_envs]
         for i, ale in enumerate(self._ales):
             np_seed, ale_seed = children[i].generate_state(2)
             self._np_rngs[i] = np.random.default_rng(int(np_seed))
+            self._camera_rngs[i] = np.random.default_rng(children[i].spawn(1)[0])
             ale.setInt("random_seed", int(np.int32(ale_seed)))
             ale.setFloat("repeat_action_probability", self.repeat_action_probability)
             ale.setInt("max_num_frames_per_episode", self.max_episode_frames)
             ale.setInt("frame_skip", 1)
             ale.loadROM(self._rom)
-        self._camera_rng = np.random.default_rng(children[-1])
 
     def _processed(self, i: int) -> np.ndarray:
         frame = self._grey[i, 0]
@@ -486,7 +504,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         n, k = self.num_envs, len(self._fluent_names)
         images_shape = (n, self.camera_size, self.camera_size, 3)
         images = DeferredArray(
-            lambda: self._capture([ale.getScreenRGB() for ale in self._ales]),
+            lambda: self._capture([ale.getScreenRGB() for ale in self._ales], range(n)),
             shape=images_shape,
             dtype=np.uint8,
         )
@@ -512,7 +530,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
             # noise draws keep that order however the values are read.
             out = images.value.copy()
             idx = sorted(final_rgb)
-            out[idx] = self._capture([final_rgb[i] for i in idx])
+            out[idx] = self._capture([final_rgb[i] for i in idx], idx)
             return out
 
         def final_fluents() -> np.ndarray:
@@ -633,11 +651,18 @@ class BreakoutWorld(gym.vector.VectorEnv):
         """bool ``[num_envs]``: which games ended an episode in the last step."""
         return self._done.copy()
 
-    def _capture(self, frames: list[np.ndarray]) -> np.ndarray:
+    def _capture(self, frames: list[np.ndarray], games: Sequence[int]) -> np.ndarray:
+        """The camera's images of ``frames``, those of ``games``: each game's noise comes
+        from its own generator, so a game looks the same in any shard of the world."""
         size = (self.camera_size, self.camera_size)
         images = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
         if self._noise is not None:
-            images = np.asarray(self._noise(images, self._camera_rng))
+            images = np.concatenate(
+                [
+                    np.asarray(self._noise(images[j : j + 1], self._camera_rngs[g]))
+                    for j, g in enumerate(games)
+                ]
+            )
             if images.dtype != np.uint8 or images.shape != (len(frames), *size, 3):
                 raise ValueError(
                     f"the camera noise returned {images.dtype} {images.shape}; it must "
@@ -825,6 +850,7 @@ def make_breakout_world(
     screen_size: int = 84,
     max_episode_frames: int = 108_000,
     fire_on_reset: bool = False,
+    shard: tuple[int, int] | None = None,
 ) -> BreakoutWorld:
     """The registry's factory for ``"breakout"`` (``make_world("breakout", ...)``).
 
@@ -845,6 +871,7 @@ def make_breakout_world(
         screen_size: side of the agent's frames.
         max_episode_frames: truncation limit in emulator frames.
         fire_on_reset: press FIRE after every reset and lost life.
+        shard: these games' place in a larger world (see :class:`BreakoutWorld`).
 
     Raises:
         ConfigError: for an unknown ``obs_mode`` or an out-of-range setting.
@@ -869,6 +896,7 @@ def make_breakout_world(
         screen_size=screen_size,
         max_episode_frames=max_episode_frames,
         fire_on_reset=fire_on_reset,
+        shard=shard,
     )
 
 

@@ -1,0 +1,219 @@
+"""A world split over worker processes (:class:`noisybolt.envs.worker_world.WorkerWorld`).
+
+It must play the very games of the world in process with the same seed — observations,
+rewards, ends, lives, the bolt's camera images and true fluents, and the ended games'
+last ones — and leave no process behind, however it ends.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import signal
+import time
+from typing import Any
+
+import numpy as np
+import pytest
+
+from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.environments import make_env, make_run_world
+from noisybolt.envs.breakout import FLUENT_NAMES, BreakoutWorld, make_breakout_world
+from noisybolt.envs.registry import make_world
+from noisybolt.envs.worker_world import WorkerWorld
+from noisybolt.errors import ConfigError, WorldWorkerError
+from noisybolt.perception.detectors import OracleDetector
+from noisybolt.wrappers import BoltVecEnv
+
+SETTINGS: dict[str, Any] = {
+    "noise": "gaussian:sigma=30",
+    "fire_on_reset": True,
+    "max_episode_frames": 320,  # 80 agent steps: every game is cut a few times
+}
+LABELS = ("bolt_image", "true_fluents")
+
+
+def _alive(pid: int | None) -> bool:
+    assert pid is not None
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def _gone(pids: tuple[int | None, ...], within_s: float = 5.0) -> bool:
+    deadline = time.monotonic() + within_s
+    while any(_alive(pid) for pid in pids):
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+def _assert_same_info(ours: dict[str, Any], theirs: dict[str, Any], step: int) -> None:
+    """The in-process world's info (``theirs``) and the worker world's agree on every key
+    the bolt and SB3 read, the ended games' final ones included."""
+    for key in (*LABELS, "lives"):
+        assert np.array_equal(np.asarray(theirs[key]), ours[key]), (step, key)
+    assert ("final_info" in ours) == ("final_info" in theirs), step
+    if "final_info" not in theirs:
+        return
+    assert np.array_equal(theirs["_final_obs"], ours["_final_obs"]), step
+    for mine, other in zip(ours["final_obs"], theirs["final_obs"], strict=True):
+        assert (mine is None and other is None) or np.array_equal(mine, other), step
+    for key in (*LABELS, *(f"_{k}" for k in LABELS)):
+        assert np.array_equal(np.asarray(theirs["final_info"][key]), ours["final_info"][key]), (
+            step,
+            key,
+        )
+
+
+@pytest.mark.parametrize(("name", "steps"), [("breakout-ram", 400), ("breakout", 120)])
+def test_workers_play_the_in_process_worlds_games(name: str, steps: int) -> None:
+    # 3 games over 2 workers: uneven shards (2 + 1).
+    inside: Any = make_world(name, num_envs=3, seed=5, **SETTINGS)
+    outside = WorkerWorld(name, num_envs=3, workers=2, seed=5, **SETTINGS)
+    try:
+        assert outside.shards == ((0, 2), (2, 1))
+        assert outside.fluent_names == FLUENT_NAMES and outside.camera_spec == inside.camera_spec
+        assert outside.single_observation_space == inside.single_observation_space
+        assert outside.return_bounds() == inside.return_bounds()
+        obs, info = inside.reset(seed=5)
+        ours, our_info = outside.reset(seed=5)
+        assert np.array_equal(obs, ours)
+        _assert_same_info(our_info, info, -1)
+        rng = np.random.default_rng(0)
+        ended = 0
+        for step in range(steps):
+            actions = rng.integers(0, 4, 3)
+            theirs = inside.step(actions)
+            mine = outside.step(actions)
+            for a, b in zip(theirs[:4], mine[:4], strict=True):
+                assert np.array_equal(a, b), step
+            _assert_same_info(mine[4], theirs[4], step)
+            assert np.array_equal(outside.lives(), inside.lives())
+            ended += int(np.sum(theirs[2] | theirs[3]))
+        assert ended >= 3  # the final_info path was exercised, across both shards
+        # A partial reset resets the same games.
+        mask = np.array([False, True, True])
+        obs, info = inside.reset(options={"reset_mask": mask})
+        ours, our_info = outside.reset(options={"reset_mask": mask})
+        assert np.array_equal(obs, ours)
+        _assert_same_info(our_info, info, steps)
+    finally:
+        outside.close()
+        inside.close()
+
+
+def test_a_shard_plays_its_games_of_the_whole_world() -> None:
+    whole = make_breakout_world(num_envs=3, seed=9, obs_mode="ram", **SETTINGS)
+    part = make_breakout_world(num_envs=2, seed=9, obs_mode="ram", shard=(1, 3), **SETTINGS)
+    obs, info = whole.reset(seed=9)
+    ours, our_info = part.reset(seed=9)
+    assert np.array_equal(obs[1:], ours)
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        actions = rng.integers(0, 4, 3)
+        obs, rewards, _, _, info = whole.step(actions)
+        ours, our_rewards, _, _, our_info = part.step(actions[1:])
+        assert np.array_equal(obs[1:], ours) and np.array_equal(rewards[1:], our_rewards)
+        for key in LABELS:
+            assert np.array_equal(np.asarray(info[key])[1:], np.asarray(our_info[key]))
+
+
+def test_bad_shards_and_worker_counts_are_refused() -> None:
+    with pytest.raises(ConfigError, match="shard"):
+        BreakoutWorld(num_envs=2, shard=(2, 3))
+    with pytest.raises(ConfigError, match="workers"):
+        WorkerWorld("breakout", num_envs=2, workers=3)
+    with pytest.raises(ConfigError, match="workers"):
+        WorkerWorld("breakout", num_envs=2, workers=0)
+    with pytest.raises(ConfigError, match=r"world\.workers"):
+        TrainConfig.build({"world.workers": -1})
+
+
+def test_a_world_that_does_not_split_is_refused_by_name() -> None:
+    with pytest.raises(ConfigError, match=r"'gridworld' cannot run in worker processes.*shard"):
+        WorkerWorld("gridworld", num_envs=2, workers=1)
+
+
+def test_close_and_garbage_collection_end_every_worker() -> None:
+    world = WorkerWorld("breakout-ram", num_envs=2, workers=2, seed=0)
+    pids = world.pids
+    assert all(_alive(pid) for pid in pids)
+    world.reset(seed=0)
+    world.close()
+    assert _gone(pids)
+    world.close()  # twice is fine
+    with pytest.raises(WorldWorkerError, match="closed"):
+        world.step(np.zeros(2, dtype=np.int64))
+
+    world = WorkerWorld("breakout-ram", num_envs=2, workers=2, seed=0)
+    pids = world.pids
+    del world
+    gc.collect()
+    assert _gone(pids)
+
+
+def test_a_dead_worker_is_named_and_the_others_are_closed() -> None:
+    world = WorkerWorld("breakout-ram", num_envs=4, workers=2, seed=0)
+    pids = world.pids
+    world.reset(seed=0)
+    assert pids[1] is not None
+    os.kill(pids[1], signal.SIGKILL)
+    with pytest.raises(WorldWorkerError, match=r"worker 1 .* games 2\.\.3, failed: it exited"):
+        world.step(np.zeros(4, dtype=np.int64))
+    assert _gone(pids)
+
+
+def test_an_error_in_a_worker_is_raised_with_its_traceback() -> None:
+    world = WorkerWorld("breakout-ram", num_envs=2, workers=2, seed=0)
+    pids = world.pids
+    world.reset(seed=0)
+    with pytest.raises(WorldWorkerError, match=r"(?s)worker 0 .*raised.*ValueError: actions"):
+        world.step(np.array([7, 0]))  # no such action: the shard's world refuses it
+    assert _gone(pids)
+
+
+def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
+    """``world.workers`` through the run's whole stack (SB3VecEnv, the bolt, the Atari
+    conventions): the same observations, rewards and ends as in process."""
+
+    def config(workers: int) -> TrainConfig:
+        return TrainConfig.build(
+            {
+                "world.name": "breakout-ram",
+                "world.workers": workers,
+                "world.kwargs": {"noise": "gaussian:sigma=30", "max_episode_frames": 320},
+                "bolt.specs": ["left_column_milestones"],
+                "bolt.reward": "paper",
+                "detector.kind": "oracle",
+                "seed": 3,
+            }
+        )
+
+    assert isinstance(make_run_world(config(0), n_envs=2, seed=0), BreakoutWorld)
+    detector = OracleDetector(FLUENT_NAMES)
+    inside = make_env(config(0), detector, training=True, n_envs=3)
+    outside = make_env(config(2), detector, training=True, n_envs=3)
+    try:
+        bolted = outside
+        while not isinstance(bolted, BoltVecEnv):
+            bolted = bolted.venv  # type: ignore[attr-defined]
+        assert isinstance(bolted.world, WorkerWorld)
+        inside.seed(3)
+        outside.seed(3)
+        a: Any = inside.reset()
+        b: Any = outside.reset()
+        rng = np.random.default_rng(2)
+        for step in range(200):
+            for key in a:
+                assert np.array_equal(a[key], b[key]), (step, key)
+            actions = rng.integers(0, 4, 3)
+            a, ra, da, _ = inside.step(actions)
+            b, rb, db, _ = outside.step(actions)
+            assert np.array_equal(ra, rb) and np.array_equal(da, db), step
+    finally:
+        outside.close()
+        inside.close()
