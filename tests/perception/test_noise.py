@@ -188,6 +188,56 @@ def test_regional_is_its_recipe_step_by_step(settings) -> None:
     assert (diff > 0).mean() < 1e-3
 
 
+def _regional_channels_last(
+    model: RegionalDegradation, images: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """The model as it was before issue 16 moved its per-pixel steps to a channels-first
+    layout: the same operations on a transposed view (the pixels Table 1 was made with)."""
+    out = images.copy()
+    for r0, c0, r1, c1 in model.pixel_boxes(*images.shape[1:3]):
+        clean = images[:, r0:r1, c0:c1]
+        smudge = model._displace_and_blur(clean, rng)
+        n, channels, bh, bw = smudge.shape
+        mean = smudge.reshape(n * channels, bh * bw).mean(axis=1)
+        smudge *= model.contrast
+        smudge += ((1.0 - model.contrast) * mean).reshape(n, channels, 1, 1)
+        smudge = smudge.transpose(0, 2, 3, 1)
+        if model.sigma > 0:
+            smudge += noise._scaled_quantiles(model.sigma).take(noise._uniform16(rng, clean.shape))
+        if model.strength < 1.0:
+            smudge = (1.0 - model.strength) * clean.astype(np.float32) + model.strength * smudge
+        out[:, r0:r1, c0:c1] = noise._to_uint8(smudge)
+    return out
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {},
+        {"boxes": ((0.1, 0.2, 0.9, 0.4),)},
+        {"strength": 0.4},
+        {"sigma": 0.0, "shift": 0.0},
+        {"boxes": ((0, 0, 1, 1), (0.5, 0.5, 0.6, 0.9)), "shift": 0.3},
+    ],
+)
+def test_regional_gives_the_same_pixels_as_before_its_layout_change(settings) -> None:
+    model = RegionalDegradation(**settings)
+    images = np.random.default_rng(1).integers(0, 256, (16, 48, 40, 3), dtype=np.uint8)
+    got = model.apply(images, np.random.default_rng(5))
+    assert np.array_equal(got, _regional_channels_last(model, images, np.random.default_rng(5)))
+
+
+def test_the_gridworld_camera_sees_the_same_pixels_as_before_the_layout_change() -> None:
+    camera = GridworldCamera(noise="regional")
+    rng = np.random.default_rng(0)
+    x, y, d = rng.integers(1, 5, 64), rng.integers(1, 5, 64), rng.integers(0, 4, 64)
+    got = camera.capture(x, y, d, rng=np.random.default_rng(7))
+    model = camera.noise
+    assert isinstance(model, RegionalDegradation)
+    want = _regional_channels_last(model, camera.render(x, y, d), np.random.default_rng(7))
+    assert np.array_equal(got, want)
+
+
 def test_default_region_makes_the_corner_and_its_neighbours_look_alike() -> None:
     # With only the displacement left, the corner agent and the agent one or two cells
     # east show the same set of pictures: position under the smudge is unknowable, while
