@@ -1,7 +1,7 @@
 """``noisybolt sweep``, ``noisybolt reproduce table1|case4`` and ``noisybolt report``.
 
 Exit codes: 0 when every trial finished, 1 when some failed (their errors are in the
-table and in each trial's ``failure.json``; the others' results are kept), 2 for bad
+table and in each trial's ``trial.json``; the others' results are kept), 2 for bad
 input (found before anything runs).
 """
 

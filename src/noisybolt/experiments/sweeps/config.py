@@ -164,13 +164,13 @@ class SweepConfig:
             over = _block({k: v for k, v in row.items() if k != "name"}, f"row {row_name!r}")
             for combo in itertools.product(*axes):
                 values = [v for v, _ in combo]
+                settings = dict(zip(keys, values, strict=True))
                 label = ",".join(f"{lb}={_slug(v)}" for lb, v in zip(labels, values, strict=True))
                 group = f"{row_name}/{label}" if label else row_name
                 merged = {**base, **over, **{p: x for _, paths in combo for p, x in paths.items()}}
                 where = f"row {row_name!r}" + (f" with {label}" if label else "")
                 for seed in seeds:
                     config = _train_config(merged, seed, where)
-                    settings = dict(zip(keys, values, strict=True))
                     trials.append(
                         Trial(f"{group}/seed-{seed}", group, row_name, seed, settings, config)
                     )

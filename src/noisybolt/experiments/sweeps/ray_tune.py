@@ -82,29 +82,28 @@ def run_ray(
     )
     # The experiment started last is resumed when it holds every pending trial (it was
     # interrupted); otherwise the sweep grew, or finished: a new experiment.
-    state = read_json(sweep_dir / "ray.json", default={})
+    state, ours = (
+        read_json(sweep_dir / "ray.json", default={}),
+        "RAY_AIR_NEW_OUTPUT" not in os.environ,
+    )
     path = state.get("experiment")
-    # Tune's newer console output ignores verbose=0: our own progress lines say what matters.
-    ours = "RAY_AIR_NEW_OUTPUT" not in os.environ
-    os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")
+    os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # the newer console output ignores verbose=0
     try:
         if path and set(pending) <= set(state.get("trials", ())) and tune.Tuner.can_restore(path):
             log(f"ray: resuming the interrupted experiment {path}")
             tuner = tune.Tuner.restore(path, trainable=trainable, resume_errored=True)
         else:
             path = sweep_dir.resolve() / "ray" / f"{sweep.name}-{time.strftime('%Y%m%d-%H%M%S')}"
+            retries = tune.FailureConfig(max_failures=sweep.retries)
             tuner = tune.Tuner(
                 trainable,
                 param_space={"trial": tune.grid_search(list(pending))},
                 tune_config=tune.TuneConfig(max_concurrent_trials=max_concurrent or None),
                 run_config=tune.RunConfig(
-                    name=path.name,
-                    storage_path=str(path.parent),
-                    failure_config=tune.FailureConfig(max_failures=sweep.retries),
-                    callbacks=list(callbacks),
-                    verbose=0,
+                    name=path.name, storage_path=str(path.parent), failure_config=retries,
+                    callbacks=list(callbacks), verbose=0,
                 ),
-            )
+            )  # fmt: skip
             atomic_write_json(sweep_dir / "ray.json", {"experiment": str(path), "trials": pending})
         cpus = ray.cluster_resources().get("CPU", 0)
         log(f"ray: {len(pending)} trials on {cpus:.0f} CPUs, {sweep.cpus_per_trial:g} per trial")
@@ -114,9 +113,8 @@ def run_ray(
             os.environ.pop("RAY_AIR_NEW_OUTPUT", None)
         if started_here:
             ray.shutdown()
-    results = (grid[i] for i in range(len(grid)))
-    return [
-        TrialRecord.from_dict(json.loads(metrics["record"]))
-        for r in results
-        if r.error is None and "record" in (metrics := r.metrics or {})
+    results = [grid[i] for i in range(len(grid))]
+    finished = [
+        r.metrics["record"] for r in results if r.error is None and "record" in (r.metrics or {})
     ]
+    return [TrialRecord.from_dict(json.loads(record)) for record in finished]

@@ -89,7 +89,7 @@ def run_sweep(
             runner=runner, callbacks=callbacks, log=log,
         )  # fmt: skip
     elif pending:
-        _run_local(pending, retries=sweep.retries, workers=workers, runner=runner)
+        _run_local(pending, sweep.retries, workers, runner)
     records = {t.trial_id: t.record() for t in tasks} | {r.trial_id: r for r in ran}
     result = SweepResult.of(sweep_dir, sweep.name, list(records.values()))
     result.write()
@@ -97,8 +97,8 @@ def run_sweep(
     log(
         f"sweep {sweep.name}: {result.n_done} done, {result.n_failed} failed"
         + (f", {unfinished} unfinished (run again to resume)" if unfinished else "")
-        + f" of {len(tasks)} in {time.perf_counter() - start:.0f} s; "
-        + f"table in {result.files['markdown']}"
+        + f" of {len(tasks)} in {time.perf_counter() - start:.0f} s; table in "
+        + str(result.files["markdown"])
     )
     return result
 
@@ -121,9 +121,8 @@ def collect_sweep(sweep_dir: str | os.PathLike[str], *, write: bool = True) -> S
 
 def _tasks(root: Path, sweep: Mapping[str, Any], argv: Sequence[str] = ()) -> list[TrialTask]:
     """The trials of a sweep (``sweep.json``'s content) in the sweep directory ``root``."""
-    final_eval = int(sweep.get("final_eval_episodes", 0))
-    trials = sweep["trials"]
-    return [TrialTask(t, str(root / "trials" / t["id"]), final_eval, tuple(argv)) for t in trials]
+    episodes, argv = int(sweep.get("final_eval_episodes", 0)), tuple(argv)
+    return [TrialTask(t, str(root / "trials" / t["id"]), episodes, argv) for t in sweep["trials"]]
 
 
 def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -> None:
@@ -144,9 +143,8 @@ def _attempts(task: TrialTask, retries: int, runner: TrialRunner) -> None:
             return
 
 
-def _run_local(
-    tasks: Sequence[TrialTask], *, retries: int, workers: int, runner: TrialRunner
-) -> None:
+def _run_local(tasks: Sequence[TrialTask], retries: int, workers: int, runner: TrialRunner) -> None:
+    """The local backend: the trials one after the other here, or in ``workers`` processes."""
     if workers <= 1:
         for task in tasks:
             _attempts(task, retries, runner)
