@@ -113,8 +113,5 @@ def run_ray(
             os.environ.pop("RAY_AIR_NEW_OUTPUT", None)
         if started_here:
             ray.shutdown()
-    results = [grid[i] for i in range(len(grid))]
-    finished = [
-        r.metrics["record"] for r in results if r.error is None and "record" in (r.metrics or {})
-    ]
-    return [TrialRecord.from_dict(json.loads(record)) for record in finished]
+    metrics = [grid[i].metrics or {} for i in range(len(grid)) if grid[i].error is None]
+    return [TrialRecord.from_dict(json.loads(m["record"])) for m in metrics if "record" in m]
