@@ -150,9 +150,9 @@ def test_report_command(
 
 
 def test_module_doctests_pass() -> None:
-    from noisybolt.experiments.reporting import numbers, render
+    from noisybolt.experiments.reporting import blocks, numbers, render
 
-    for module in (report_module, render, numbers):
+    for module in (report_module, render, numbers, blocks):
         assert doctest.testmod(module).failed == 0
 
 

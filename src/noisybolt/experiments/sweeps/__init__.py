@@ -1,9 +1,10 @@
 """Sweeps: a grid of training runs (rows x settings x seeds) from one YAML file.
 
 A sweep is base settings, named *rows* overriding them, seeds, and optional *settings*
-axes, each setting a :class:`~noisybolt.agents.training.TrainConfig` field (:mod:`~.config`;
-the README's section on sweeps). Each trial trains into ``trials/<trial id>/`` of the
-sweep directory, beside ``sweep.json``, ``command.txt`` and ``results.json/md/csv``.
+axes, each setting a path of the run's config schema (:mod:`~.config`; the README's
+section on sweeps). Each trial trains into ``trials/<trial id>/`` of the sweep directory
+(its run, and ``trial.json``: how its attempts ended), beside ``sweep.json``,
+``command.txt`` and ``results.json/md/csv``.
 Running a sweep again resumes it: finished trials are kept, interrupted ones resume from
 their last checkpoint, failed ones are tried again.
 

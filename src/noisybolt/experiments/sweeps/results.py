@@ -19,7 +19,7 @@ from noisybolt.experiments.reporting import (
     render_csv,
     render_markdown,
     summarise,
-)  # fmt: skip
+)
 from noisybolt.io import atomic_write_json, atomic_write_text
 
 __all__ = ["GroupSummary", "SweepResult", "TrialRecord"]
