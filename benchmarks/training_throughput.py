@@ -12,6 +12,7 @@ Prints frames/s (by the wall clock and per CPU second of the process) and the ra
 
     .venv/bin/python benchmarks/training_throughput.py [--frames 20000] [--rounds 3] [--n-envs 8]
         [--chunk 2048]   # variants take turns every 2,048 frames within each round
+        [--profile]      # with --chunk: CPU time in the bolt's, camera's, SB3's functions
 """
 
 from __future__ import annotations
@@ -92,6 +93,61 @@ class Rate(NamedTuple):
     cpu: float
 
 
+#: What ``--profile`` times inside training: (owner, attribute, label). The world's own
+#: step is under VecMonitor; the bolt's step_wait holds the detector and the camera.
+PROFILED = (
+    ("stable_baselines3.ppo.ppo:PPO", "train", "PPO.train"),
+    ("stable_baselines3.common.on_policy_algorithm:OnPolicyAlgorithm", "collect_rollouts",
+     "collect_rollouts"),
+    ("stable_baselines3.common.vec_env.vec_monitor:VecMonitor", "step_wait", "world step"),
+    ("noisybolt.wrappers.bolt_vec_env:BoltVecEnv", "step_wait", "BoltVecEnv.step_wait"),
+    ("noisybolt.perception.classifier:ClassifierDetector", "predict", "classifier"),
+    ("noisybolt.wrappers.bolt_vec_env:BoltVecEnv", "_labels", "camera (labels)"),
+    ("noisybolt.perception.noise:RegionalDegradation", "apply", "regional noise"),
+    ("noisybolt.bolt.restraining_bolt:RestrainingBolt", "step", "RestrainingBolt.step"),
+    ("noisybolt.bolt.restraining_bolt:RestrainingBolt", "reset", "RestrainingBolt.reset"),
+    ("noisybolt.wrappers.bolt_vec_env", "bolt_info", "info records"),
+    ("noisybolt.wrappers._common:TruthTracker", "step", "truth tracking"),
+    ("stable_baselines3.common.policies", "preprocess_obs", "SB3 preprocess_obs"),
+    ("stable_baselines3.common.buffers:DictRolloutBuffer", "add", "rollout buffer add"),
+)  # fmt: skip
+
+
+class Timers:
+    """CPU time (this thread's clock) spent in :data:`PROFILED`, while installed."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self._undo: list[tuple[Any, str, Any]] = []
+
+    def install(self) -> None:
+        import importlib
+
+        for target, name, label in PROFILED:
+            module, _, cls = target.partition(":")
+            owner: Any = importlib.import_module(module)
+            if cls:
+                owner = getattr(owner, cls)
+            original = owner.__dict__[name] if cls else getattr(owner, name)
+            self._undo.append((owner, name, original))
+            setattr(owner, name, self._timed(original, label))
+
+    def _timed(self, function: Any, label: str) -> Any:
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            start = time.thread_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds[label] = self.seconds.get(label, 0.0) + time.thread_time() - start
+
+        return timed
+
+    def uninstall(self) -> None:
+        for owner, name, original in reversed(self._undo):
+            setattr(owner, name, original)
+        self._undo.clear()
+
+
 def fps(variant: str, frames: int, seed: int, n_envs: int | None = None) -> Rate:
     model = make_model(variant, seed, n_envs)
     start, cpu = time.perf_counter(), time.process_time()
@@ -103,7 +159,12 @@ def fps(variant: str, frames: int, seed: int, n_envs: int | None = None) -> Rate
 
 
 def interleaved_fps(
-    variants: tuple[str, ...], frames: int, seed: int, n_envs: int | None, chunk: int
+    variants: tuple[str, ...],
+    frames: int,
+    seed: int,
+    n_envs: int | None,
+    chunk: int,
+    timers: dict[str, Timers] | None = None,
 ) -> dict[str, Rate]:
     """Every variant's model trains ``chunk`` frames in turn until each has ``frames``:
     a load that comes and goes on a shared machine then hits every variant alike (whole
@@ -114,10 +175,14 @@ def interleaved_fps(
     done = 0
     while done < frames:
         for v, model in models.items():
+            if timers is not None:
+                timers[v].install()
             start, cpu_start = time.perf_counter(), time.process_time()
             model.learn(chunk, reset_num_timesteps=done == 0)
             seconds[v] += time.perf_counter() - start
             cpu[v] += time.process_time() - cpu_start
+            if timers is not None:
+                timers[v].uninstall()
         done += chunk
     return {
         v: Rate(models[v].num_timesteps / seconds[v], models[v].num_timesteps / cpu[v])
@@ -138,16 +203,25 @@ def main() -> None:
         default=0,
         help="interleave the variants every CHUNK frames within a round (0: whole runs)",
     )
+    parser.add_argument(
+        "--profile",
+        action="store_true",
+        help="with --chunk: also print each variant's CPU seconds in the bolt's, the "
+        "camera's, the classifier's and SB3's functions (timers inside the real run)",
+    )
     args = parser.parse_args()
+    if args.profile and not args.chunk:
+        parser.error("--profile needs --chunk")
     torch.set_num_threads(1)
     # Train (or load) the classifier before timing anything.
     build("classifier", 1, 0)
     variants = ("bare", "oracle", "classifier")
     results: dict[str, list[Rate]] = {v: [] for v in variants}
+    timers = {v: Timers() for v in variants} if args.profile else None
     for r in range(args.rounds):
         if args.chunk:
             for v, value in interleaved_fps(
-                variants, args.frames, r, args.n_envs, args.chunk
+                variants, args.frames, r, args.n_envs, args.chunk, timers
             ).items():
                 results[v].append(value)
             continue
@@ -180,6 +254,14 @@ def main() -> None:
         "all rounds (wall, CPU):",
         {v: [(round(x.wall), round(x.cpu)) for x in results[v]] for v in variants},
     )
+    if timers is not None:
+        frames = args.frames * args.rounds
+        print(f"CPU seconds per {frames:,} frames inside training (all rounds):")
+        labels_seen = [label for _, _, label in PROFILED]
+        print(f"{'':<24}" + "".join(f"{labels[v][:4]:>10}" for v in variants))
+        for label in labels_seen:
+            row = [timers[v].seconds.get(label, 0.0) for v in variants]
+            print(f"{label:<24}" + "".join(f"{x:>10.3f}" for x in row))
 
 
 if __name__ == "__main__":
