@@ -67,3 +67,14 @@ def test_the_stopwatch_leaves_out_the_time_it_is_stopped(bench: ModuleType) -> N
     time.sleep(0.02)
     clock.stop()
     assert 0.04 <= clock.total < 0.09
+
+
+@pytest.mark.parametrize("n_envs", [None, 2])
+def test_noisybolt_learns_with_the_tuned_hyperparameters_on_any_env_count(
+    bench: ModuleType, n_envs
+) -> None:
+    # The tuned file holds world settings (n_envs) beside PPO's arguments; a budget below
+    # the first evaluation: one update, never solved.
+    outcome = bench.run_noisybolt(False, seed=0, budget=64, n_envs=n_envs)
+    assert outcome.frames >= 64 and outcome.solved_frames is None
+    assert outcome.seconds > 0 and outcome.cpu_seconds > 0
