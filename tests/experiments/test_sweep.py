@@ -356,11 +356,39 @@ def test_trial_directory_trained_with_other_settings_is_refused(grid_dir: Path) 
         run_sweep(changed, grid_dir, log=_quiet)
 
 
-def test_process_pool_runs_trials_in_workers(tmp_path: Path) -> None:
-    sweep = _sweep(rows=[GRID["rows"][1]], seeds=2)
-    result = run_sweep(sweep, tmp_path / "pool", workers=2, log=_quiet)
-    assert result.n_done == 2
-    assert {r.seed for r in result.records} == {0, 1}
+def test_workers_run_on_a_local_ray_like_one_after_the_other_and_leave_no_process(
+    grid_dir: Path, tmp_path: Path
+) -> None:
+    ray = pytest.importorskip("ray", reason="--workers > 1 runs on Ray Tune")
+    psutil = pytest.importorskip("psutil", reason="installed with Ray")
+    assert not ray.is_initialized()  # this test starts (and must stop) its own Ray
+    before = set(psutil.Process().children(recursive=True))
+    lines: list[str] = []
+    result = run_sweep(
+        _sweep(rows=[GRID["rows"][1]]), tmp_path / "two", workers=2, log=lines.append
+    )
+    assert "2 to run (Ray Tune, 2 at once)" in lines[0], lines
+    assert any("ray: 2 trials on 2 CPUs" in line for line in lines), lines
+    assert result.n_done == 2 and not ray.is_initialized()
+    # The same trials as the grid's, trained one after the other in this process.
+    sequential = [r for r in collect_sweep(grid_dir, write=False).records if r.row == "avoid-a2c"]
+    assert [r.final for r in result.records] == [r.final for r in sequential]
+    started = set(psutil.Process().children(recursive=True)) - before
+    _, alive = psutil.wait_procs(started, timeout=30)  # Ray's own processes, shut down
+    assert not alive, [p.cmdline() for p in alive]
+
+
+def test_workers_without_ray_say_how_to_install_it_before_anything_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sys
+
+    from noisybolt.errors import BackendUnavailableError
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # what `import ray` does where it is missing
+    with pytest.raises(BackendUnavailableError, match=r"noisybolt\[ray\].*--workers 1"):
+        run_sweep(_sweep(), tmp_path / "out", workers=2, log=_quiet)
+    assert not (tmp_path / "out").exists()
 
 
 def test_unknown_backend_is_a_config_error(tmp_path: Path) -> None:

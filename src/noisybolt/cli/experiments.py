@@ -63,8 +63,8 @@ def _add_backend_options(parser: argparse.ArgumentParser) -> None:
         "--workers",
         type=_count,
         default=None,
-        help="local: trials at once in their own processes (default 1); ray: most trials "
-        "at once (default: as CPUs allow)",
+        help="trials at once: local, default 1 (one after the other in this process), more on "
+        "a local Ray Tune; ray, default 0 (as the CPUs allow)",
     )
 
 

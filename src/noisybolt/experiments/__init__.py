@@ -6,8 +6,8 @@
 * :mod:`noisybolt.experiments.spec_families`: specs nobody tuned for, generated from
   Dwyer et al.'s specification patterns (the spec-family suite).
 * :mod:`noisybolt.experiments.sweeps`: grids of training runs from YAML (rows x settings x
-  seeds: overrides of the run's ``TrainConfig``), resumable, on local processes or Ray
-  Tune (which then owns retries, resume and results); mean ± std tables.
+  seeds: overrides of the run's ``TrainConfig``), resumable, one after the other or in
+  parallel on Ray Tune (which then owns retries, resume and results); mean ± std tables.
 * :mod:`noisybolt.experiments.table1`: the paper's gridworld Table 1, reproduced over
   seeds through a sweep, beside the paper's numbers.
 * :mod:`noisybolt.experiments.case4`: the paper's case 4 (corner preference under the

@@ -17,16 +17,20 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import json
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from noisybolt.errors import UnknownFluentError
+from noisybolt.errors import ConfigError, NoisyboltError, UnknownFluentError
 
 if TYPE_CHECKING:
     from noisybolt.agents.training import TrainConfig
     from noisybolt.experiments.optimal import OptimalResult
 
-__all__ = ["exact_scale", "goal_feasibility", "tabular_settings", "with_exact_scale"]
+__all__ = [
+    "check_worlds", "exact_scale", "goal_feasibility", "tabular_settings", "with_exact_scale",
+]  # fmt: skip
 
 
 def _world(config: TrainConfig) -> Any:
@@ -96,3 +100,30 @@ def with_exact_scale(config: TrainConfig, log: Callable[[str], None] | None = pr
             f"from its return range: {config.reward_scale:g})"
         )
     return config.override({"bolt.reward_scale": scale})
+
+
+def check_worlds(configs: Mapping[str, TrainConfig]) -> None:
+    """Builds each distinct world of ``configs`` once and compiles each config's specs over
+    its fluents (cheap: unknown worlds, noise models and fluents are found before a sweep
+    runs anything); a classifier file named must exist.
+
+    Raises:
+        ConfigError: naming the config (its key in ``configs``) and what is wrong.
+    """
+    from noisybolt.logic import compile_ltlf
+
+    fluents: dict[str, tuple[str, ...]] = {}
+    for name, config in configs.items():
+        key = json.dumps([config.world, config.world_settings], sort_keys=True, default=str)
+        try:
+            if key not in fluents:
+                world = _world(config)
+                fluents[key] = tuple(world.fluent_names)
+                world.close()
+            for spec in config.spec_objects():
+                compile_ltlf(spec.formula, fluents[key])  # cached: cheap after the first
+        except (NoisyboltError, TypeError) as error:
+            raise ConfigError(f"{name}: {error}") from None
+        path = config.detector.path
+        if config.detector.kind == "classifier" and path and not Path(path).exists():
+            raise ConfigError(f"{name}: no classifier file at {path}")

@@ -295,24 +295,16 @@ def sweep_report(
     """
     root = Path(sweep_dir)
     result = collect_sweep(root)
-    blocks: list[Block] = [Heading(f"Sweep {result.name}")]
-    if (root / "command.txt").exists():
-        blocks.append(Text(f"Command: `{(root / 'command.txt').read_text().strip()}`"))
     counts = {s: sum(r.status == s for r in result.records) for s in ("done", "failed", "pending")}
-    blocks.append(
+    sections, references = _sections(root)
+    blocks: list[Block] = [
+        *result.blocks(),
         Text(
             f"{len(result.records)} trials: {counts['done']} done, {counts['failed']} failed, "
-            f"{counts['pending']} pending."
-        )
-    )
-    sections, references = _sections(root)
-    blocks += [*sections, Heading("Results", 2), result.to_table()]
-    blocks.append(
-        Text(
-            "Mean ± std over seeds of each finished trial's final evaluation; compliance and "
-            "goal from ground truth. Tables: `results.md`, `results.csv`, `results.json`."
-        )
-    )
+            f"{counts['pending']} pending. Tables: `results.md`, `results.csv`, `results.json`."
+        ),
+        *sections,
+    ]
     curves = group_curves(root, references=references)
     if curves:
         blocks.append(Heading("Learning curves", 2))
@@ -341,9 +333,6 @@ def sweep_report(
         )
     header = ("trial", "status", "R_π", "compliance", "N_frames", "failed attempts", "time")
     blocks += [Heading("Trials", 2), Table(header, tuple(rows))]
-    failed = [r for r in result.records if r.status == "failed"]
-    if failed:
-        blocks += [Heading("Failures", 2), *(Text(f"`{r.trial_id}`: {r.error}") for r in failed)]
     return _write(blocks, root, f"noisybolt sweep {result.name}", write_html=html_page)
 
 

@@ -587,58 +587,35 @@ def _settings_from(root: Path, result: Any) -> dict[str, Any]:
 def reproduce_table1(
     out_dir: str | os.PathLike[str],
     *,
-    rows: Sequence[str] | None = None,
-    seeds: int | Sequence[int] = 3,
-    frames_scale: float = 1.0,
-    frames: int | None = None,
-    eval_freq: int | None = None,
-    detector: str = "classifier",
-    noise: str = "regional",
-    eval_episodes: int = 20,
-    final_eval_episodes: int = 100,
-    retries: int = 1,
-    keep_best: bool = True,
-    stop_after: int = 3,
     backend: str = "local",
     workers: int | None = None,
     address: str | None = None,
     argv: Sequence[str] | None = None,
     log: Callable[[str], None] = print,
+    **options: Any,
 ) -> Table1Result:
     """Trains every chosen row over seeds (or resumes), then writes the table.
 
-    Arguments are those of :func:`table1_sweep` and
+    ``options`` are those of :func:`table1_sweep`, the others those of
     :func:`~noisybolt.experiments.sweeps.run_sweep`.
     """
     from noisybolt.experiments.sweeps import run_sweep
 
-    sweep = table1_sweep(
-        rows=rows,
-        seeds=seeds,
-        frames_scale=frames_scale,
-        frames=frames,
-        eval_freq=eval_freq,
-        detector=detector,
-        noise=noise,
-        eval_episodes=eval_episodes,
-        final_eval_episodes=final_eval_episodes,
-        retries=retries,
-        keep_best=keep_best,
-        stop_after=stop_after,
-    )
+    sweep = table1_sweep(**options)
     # The wall time of this invocation (a resumed sweep counts only what it ran), with the
     # machine's CPUs and load beside it: on a shared machine the load says what it meant.
     started, load = time.perf_counter(), os.getloadavg()[0]
     run_sweep(sweep, out_dir, backend=backend, workers=workers, address=address, argv=argv, log=log)
+    first = sweep.trials[0].config  # the base's settings, as every trial holds them
     settings = {
         "seeds": list(sweep.seeds),
-        "detector": detector,
-        "noise": noise,
-        "final_eval_episodes": final_eval_episodes,
-        "eval_episodes": eval_episodes,
-        "keep_best": keep_best,
-        "stop_after": stop_after,
-        "frames_scale": frames_scale,
+        "detector": first.detector.kind,
+        "noise": first.world_kwargs["noise"],
+        "final_eval_episodes": sweep.final_eval_episodes,
+        "eval_episodes": first.eval_episodes,
+        "keep_best": first.keep_best,
+        "stop_after": first.stop_after,
+        "frames_scale": options.get("frames_scale", 1.0),
         "frames": {t.row: t.config.frames for t in sweep.trials},
         "eval_freq": {t.row: t.config.eval_freq for t in sweep.trials},
         "backend": backend,

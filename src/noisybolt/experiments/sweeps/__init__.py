@@ -5,8 +5,9 @@ axes, each setting a path of the run's config schema (:mod:`~.config`; the READM
 section on sweeps). Each trial trains into ``trials/<trial id>/`` of the sweep directory
 (its run, and ``trial.json``: how its attempts ended), beside ``sweep.json``,
 ``command.txt`` and ``results.json/md/csv``.
-Running a sweep again resumes it: finished trials are kept, interrupted ones resume from
-their last checkpoint, failed ones are tried again.
+Trials run one after the other in this process, or in parallel on Ray Tune
+(:mod:`~.ray_tune`). Running a sweep again resumes it: finished trials are kept,
+interrupted ones resume from their last checkpoint, failed ones are tried again.
 
 Example:
     >>> sweep = SweepConfig.from_dict({

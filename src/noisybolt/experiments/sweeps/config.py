@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -184,7 +184,9 @@ class SweepConfig:
             source=json.loads(json.dumps(dict(data), default=str)),
         )  # fmt: skip
         if check_worlds:
-            _check_worlds(result)
+            from noisybolt.experiments import checks
+
+            checks.check_worlds({f"trial {t.trial_id!r}": t.config for t in result.trials})
         return result
 
     def to_dict(self) -> dict[str, Any]:
@@ -245,25 +247,3 @@ def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainCo
         return config if "bolt.reward_scale" in settings else with_exact_scale(config, log=None)
     except (NoisyboltError, TypeError, ValueError) as error:
         raise ConfigError(f"{where}: {error}") from None
-
-
-def _check_worlds(sweep: SweepConfig) -> None:
-    """Builds each distinct world once and compiles each trial's specs over its fluents."""
-    from noisybolt.envs import make_world
-    from noisybolt.logic import compile_ltlf
-
-    fluents: dict[str, tuple[str, ...]] = {}
-    for trial in sweep.trials:
-        config, detector = trial.config, trial.config.detector
-        key = json.dumps([config.world, config.world_settings], sort_keys=True, default=str)
-        try:
-            if key not in fluents:
-                world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-                fluents[key] = tuple(world.fluent_names)
-                cast(Any, world).close()  # the contract types what the bolt reads
-            for spec in config.spec_objects():
-                compile_ltlf(spec.formula, fluents[key])  # cached: cheap after the first
-        except (NoisyboltError, TypeError) as error:
-            raise ConfigError(f"trial {trial.trial_id!r}: {error}") from None
-        if detector.kind == "classifier" and detector.path and not Path(detector.path).exists():
-            raise ConfigError(f"trial {trial.trial_id!r}: no classifier file at {detector.path}")

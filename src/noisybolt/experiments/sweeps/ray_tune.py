@@ -1,17 +1,20 @@
-"""The ``ray`` backend: Ray Tune runs the pending trials (one Tune trial each, with the
-sweep's ``resources: {cpus: N}``), retries a failed attempt (``FailureConfig``; it resumes
-from the run's last checkpoint), resumes an interrupted sweep (``Tuner.restore(...,
-resume_errored=True)`` on the experiment in ``<sweep>/ray/``) and returns the records of
-its ``ResultGrid``.
+"""Parallel trials, on Ray Tune: a Tune trial per pending sweep trial (with the sweep's
+``resources: {cpus: N}``). Tune retries a failed attempt and replaces a worker that died
+(``FailureConfig``; the retry resumes from the run's last checkpoint), resumes an
+interrupted sweep (``Tuner.restore(..., resume_errored=True)`` on the experiment in
+``<sweep>/ray/``) and returns the records of its ``ResultGrid``. A trial whose worker
+kept dying is left unfinished (no ``trial.json`` status): running the sweep again resumes it.
 
-Without ``address`` a local Ray is started for the sweep (unless this process joined one);
-with one (``auto``, ``HOST:PORT``) the trials go to that cluster. Everything is written at
-the sweep directory's absolute path: on several machines, storage every node mounts there.
+Without ``address`` a local Ray is started for the sweep and shut down after it (unless
+this process joined one); with one (``auto``, ``HOST:PORT``) the trials go to that
+cluster. Everything is written at the sweep directory's absolute path: on several
+machines, storage every node mounts there.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -38,9 +41,9 @@ def require_ray() -> Any:
         from ray import tune  # noqa: F401
     except ImportError as error:
         raise BackendUnavailableError(
-            f'the ray backend needs Ray Tune ({error}): pip install "noisybolt[ray]" '
-            '(or "ray[tune]"; not ray[rllib], which downgrades Gymnasium), or use '
-            "--backend local"
+            f"trials in parallel (--workers > 1, --backend ray) run on Ray Tune ({error}): "
+            'pip install "noisybolt[ray]" (not ray[rllib], which downgrades Gymnasium), '
+            "or run them one after the other: --backend local --workers 1"
         ) from None
     return ray
 
@@ -61,21 +64,26 @@ def run_ray(
     pending: Sequence[str],
     *,
     address: str | None,
-    max_concurrent: int,
+    workers: int,
+    local_cpus: int | None,
     runner: Callable[[TrialTask], TrialRecord],
     callbacks: Sequence[Any] = (),
     log: Callable[[str], None] = print,
 ) -> list[TrialRecord]:
-    """Runs the ``pending`` trials with Ray Tune, or resumes their interrupted experiment;
-    returns the records in its ``ResultGrid`` (the trials that finished)."""
+    """Runs the ``pending`` trials with Ray Tune, ``workers`` at most at once (0: as the
+    CPUs allow), or resumes their interrupted experiment; a Ray started here gets the
+    CPUs of ``local_cpus`` trials (None: the machine's). Returns the records in its
+    ``ResultGrid`` (the trials that finished)."""
     ray = require_ray()
     from ray import tune
 
     started_here = not ray.is_initialized()
     if started_here:
+        cpus = None if local_cpus is None else math.ceil(local_cpus * sweep.cpus_per_trial)
         ray.init(
-            address=address, include_dashboard=False, log_to_driver=False, logging_level="error"
-        )
+            address=address, num_cpus=cpus, include_dashboard=False, log_to_driver=False,
+            logging_level="error",
+        )  # fmt: skip
     trainable = tune.with_resources(
         tune.with_parameters(_trainable, tasks={t.trial_id: t for t in tasks}, runner=runner),
         {"cpu": sweep.cpus_per_trial},
@@ -98,7 +106,7 @@ def run_ray(
             tuner = tune.Tuner(
                 trainable,
                 param_space={"trial": tune.grid_search(list(pending))},
-                tune_config=tune.TuneConfig(max_concurrent_trials=max_concurrent or None),
+                tune_config=tune.TuneConfig(max_concurrent_trials=workers or None),
                 run_config=tune.RunConfig(
                     name=path.name, storage_path=str(path.parent), failure_config=retries,
                     callbacks=list(callbacks), verbose=0,

@@ -162,12 +162,12 @@ class SweepResult:
         groups = [g.to_dict() for g in self.groups]
         return {"name": self.name, "groups": groups, "trials": [r.to_dict() for r in self.records]}
 
-    def write(self) -> None:
-        """Writes ``results.json``, ``results.md`` (with the sweep's command and the failed
-        trials' errors) and ``results.csv`` in the sweep directory."""
-        command, table = self.sweep_dir / "command.txt", self.to_table()
+    def blocks(self) -> list[Block]:
+        """What ``results.md`` says: the sweep's command, its table and the failed trials'
+        errors (a sweep's report opens with them)."""
+        command = self.sweep_dir / "command.txt"
         failed = [f"- `{r.trial_id}`: {r.error}" for r in self.records if r.status == "failed"]
-        blocks: list[Block] = [
+        return [
             Heading(f"Sweep {self.name}"),
             *([Text(f"Command: `{command.read_text().strip()}`")] if command.exists() else []),
             Text(
@@ -176,11 +176,15 @@ class SweepResult:
                 "complying with every spec (ground truth), mean over the seeds that reached "
                 "it."
             ),
-            table,
+            self.to_table(),
             *([Text("Failed trials:"), Text("\n".join(failed))] if failed else []),
         ]
+
+    def write(self) -> None:
+        """Writes ``results.json``, ``results.md`` (:meth:`blocks`) and ``results.csv`` in
+        the sweep directory."""
         suffixes = {"json": "json", "markdown": "md", "csv": "csv"}
         self.files.update({k: self.sweep_dir / f"results.{s}" for k, s in suffixes.items()})
         atomic_write_json(self.files["json"], self.to_dict())
-        atomic_write_text(self.files["markdown"], render_markdown(blocks))
-        atomic_write_text(self.files["csv"], render_csv(table))
+        atomic_write_text(self.files["markdown"], render_markdown(self.blocks()))
+        atomic_write_text(self.files["csv"], render_csv(self.to_table()))

@@ -1,23 +1,21 @@
-"""Running a sweep: the trial directories checked, the pending trials run by a backend
-(``local``: this process, or ``workers`` processes; ``ray``: :mod:`~.ray_tune`), the tables
+"""Running a sweep: the trial directories checked, the pending trials run (one after the
+other in this process, or in parallel on Ray Tune: :mod:`~.ray_tune`), the tables
 written from the trials' records."""
 
 from __future__ import annotations
 
 import contextlib
-import multiprocessing
 import os
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 from noisybolt.errors import ConfigError
 from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord
-from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, attempt, run_trial
+from noisybolt.experiments.sweeps.trials import TrialTask, attempt, run_trial
 from noisybolt.io import atomic_write_json, read_json
 from noisybolt.rundir import RunDirectory
 
@@ -26,7 +24,6 @@ __all__ = ["BACKENDS", "SWEEP_FILE", "collect_sweep", "run_sweep"]
 BACKENDS: tuple[str, ...] = ("local", "ray")
 #: Written in the sweep directory: the sweep as resolved (its config and every trial).
 SWEEP_FILE = "sweep.json"
-TrialRunner = Callable[[TrialTask], TrialRecord]
 
 
 def run_sweep(
@@ -38,20 +35,22 @@ def run_sweep(
     address: str | None = None,
     argv: Sequence[str] | None = None,
     log: Callable[[str], None] = print,
-    runner: TrialRunner = run_trial,
+    runner: Callable[[TrialTask], TrialRecord] = run_trial,
     callbacks: Sequence[Any] = (),
 ) -> SweepResult:
     """Runs (or resumes) every trial of a sweep into ``out_dir`` and writes its tables.
 
-    ``workers``: trials at once (local: default 1, one after the other in this process;
-    Ray: default 0, as the CPUs allow). ``address``: a Ray cluster's (None: a local Ray).
-    ``argv``: the command saved in ``command.txt`` (default: this process's). ``runner``
-    runs one attempt at a trial (a test may inject failures); ``callbacks``: Tune's.
+    ``workers``: trials at once. ``local``: 1 (the default) runs them one after the other
+    in this process, more run on Ray Tune on a local Ray of that many trials' CPUs;
+    ``ray``: at most that many on the Ray at ``address`` (None: a local one; default 0:
+    as its CPUs allow). ``argv``: the command saved in ``command.txt`` (default: this
+    process's). ``runner`` runs one attempt at a trial (a test may inject failures);
+    ``callbacks``: Tune's.
 
     Raises:
         ConfigError: an unknown backend, Ray options without Ray, or a trial directory
             holding a run with other settings; raised before any trial runs.
-        BackendUnavailableError: ``backend="ray"`` and Ray is not installed.
+        BackendUnavailableError: Ray is needed (``ray``, or ``workers > 1``) and not installed.
     """
     from noisybolt.agents.training import check_same_config
 
@@ -62,34 +61,39 @@ def run_sweep(
     workers = (1 if backend == "local" else 0) if workers is None else workers
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
         raise ConfigError(f"workers must be an integer >= 0, got {workers!r}")
-    if backend == "ray":
+    on_ray = backend == "ray" or workers > 1
+    if on_ray:
         from noisybolt.experiments.sweeps.ray_tune import require_ray, run_ray
 
         require_ray()
     argv, sweep_dir = list(sys.argv if argv is None else argv), Path(out_dir)
     tasks = _tasks(sweep_dir.resolve(), sweep.to_dict(), argv)
-    for folder, task in ((TrialDirectory(t.run_dir), t) for t in tasks):
-        if folder.exists():  # a run with other settings (its frames aside) is refused
-            check_same_config(folder, task.config)
+    for task in tasks:  # a run with other settings (its frames aside) is refused
+        if RunDirectory(task.run_dir).exists():
+            check_same_config(RunDirectory(task.run_dir), task.config)
     sweep_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_json(sweep_dir / SWEEP_FILE, sweep.to_dict())
     RunDirectory(sweep_dir).write_command(argv)
     pending = [t for t in tasks if not t.finished()]
+    where = f"Ray Tune, {workers or 'as many as the CPUs allow'} at once" if on_ray else "here"
     log(
         f"sweep {sweep.name}: {len(tasks)} trials, {len(tasks) - len(pending)} already "
-        f"finished, {len(pending)} to run ({backend} backend) in {sweep_dir}"
+        f"finished, {len(pending)} to run ({where}) in {sweep_dir}"
     )
     start, ran = time.perf_counter(), []
-    if pending:
+    if not on_ray:
+        for task in pending:  # one after the other, each with its retries
+            for _ in range(sweep.retries + 1):
+                with contextlib.suppress(Exception):  # recorded in the trial's trial.json
+                    attempt(task, runner)
+                    break
+    elif pending:
         _prepare_detectors(pending, log)
-    if pending and backend == "ray":
-        ids = [t.trial_id for t in pending]
         ran = run_ray(
-            sweep, sweep_dir, tasks, ids, address=address, max_concurrent=workers,
+            sweep, sweep_dir, tasks, [t.trial_id for t in pending], address=address,
+            workers=workers, local_cpus=workers if backend == "local" else None,
             runner=runner, callbacks=callbacks, log=log,
         )  # fmt: skip
-    elif pending:
-        _run_local(pending, sweep.retries, workers, runner)
     records = {t.trial_id: t.record() for t in tasks} | {r.trial_id: r for r in ran}
     result = SweepResult.of(sweep_dir, sweep.name, list(records.values()))
     result.write()
@@ -133,26 +137,3 @@ def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -
     for c in {repr((c.world, c.world_kwargs, c.detector)): c for c in configs}.values():
         if c.detector.kind == "classifier" and not c.detector.path:
             prepare_bolt(c, seed=c.seed, log=log)
-
-
-def _attempts(task: TrialTask, retries: int, runner: TrialRunner) -> None:
-    """The local backend's attempts at a trial: ``retries`` more after a failure."""
-    for _ in range(retries + 1):
-        with contextlib.suppress(Exception):  # recorded in the trial's trial.json
-            attempt(task, runner)
-            return
-
-
-def _run_local(tasks: Sequence[TrialTask], retries: int, workers: int, runner: TrialRunner) -> None:
-    """The local backend: the trials one after the other here, or in ``workers`` processes."""
-    if workers <= 1:
-        for task in tasks:
-            _attempts(task, retries, runner)
-        return
-    # spawn, not fork: torch in a forked child of a process that used threads can hang.
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = {pool.submit(_attempts, task, retries, runner): task for task in tasks}
-        for future, task in futures.items():
-            if error := future.exception():  # the worker process died (killed, out of memory)
-                TrialDirectory(task.run_dir).end(0.0, error)
