@@ -209,8 +209,8 @@ class BoltVecEnv(VecEnvWrapper):
             truth[ended] = last_truth[ended]
             both = self._probs(batch, np.concatenate([truth, first_truth[ended]]))
             probs, first_probs = both[:n], both[n:]
-            for i in ended:
-                truncated[i] = bool(infos[i].get("TimeLimit.truncated"))
+            for row in ended.tolist():
+                truncated[row] = bool(infos[row].get("TimeLimit.truncated"))
         else:
             probs = self._probs(images, truth)
         out = self.bolt.step(probs, done=dones, truncated=truncated)
@@ -234,11 +234,11 @@ class BoltVecEnv(VecEnvWrapper):
             )
         if ended.size:
             final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
-            for i in ended:
-                info = infos[i]
+            for row in ended.tolist():
+                info = infos[row]
                 if "terminal_observation" in info:
                     info["terminal_observation"] = self._obs(
-                        info["terminal_observation"], final_view[i]
+                        info["terminal_observation"], final_view[row]
                     )
             # Rows outside the mask are checked but not read: zeros will do.
             full = np.zeros_like(probs)
