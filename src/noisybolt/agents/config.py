@@ -140,6 +140,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
     "bolt.tracking": "threshold",
     "bolt.confidence": 0.9,
+    # before world.workers existed every world ran in the training process
+    "world.workers": 0,
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
