@@ -25,7 +25,9 @@ and :meth:`BreakoutWorld.true_fluents` are views of them for sample collection):
   a bolt can reward progress the agent can actually make (``F(brick_clear_left)`` alone
   pays nothing until the whole column is gone, which random play never achieves);
 * camera: the colour frame (210x160) resized to ``camera_size`` squared with
-  ``cv2.INTER_AREA``, then the camera's own seeded noise.
+  ``cv2.INTER_AREA``, then the camera's own seeded noise, each game's from its own
+  generator (so a game looks the same in any shard of the world: ``shard``, for
+  :class:`~noisybolt.envs.worker_world.WorkerWorld`).
 
 RAM layout of the wall (verified by poking every bit with ``ale.setRAM`` and diffing the
 rendered frame; ``tests/envs/test_breakout.py`` re-checks it brick by brick). Bytes 0-35
