@@ -17,6 +17,11 @@ them alike.
 
     .venv/bin/python benchmarks/breakout_workers.py [--frames 100k] [--rounds 2] \
         [--variants 0,2]
+
+``--stepping N`` measures the world alone instead: 8 games of ``breakout-ram`` with the
+bolt's noisy camera read every step, N steps of seeded random actions, in process against
+2 workers, twice each interleaved in this process: CPU ms per frame of this process and of
+the workers, and wall ms per frame.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import psutil
 
@@ -101,13 +106,56 @@ def train(workers: int, frames: int, eval_freq: int, out: Path) -> Run:
     return Run(workers, trained, wall, steady, main, sum(cpu.values()), os.getloadavg()[0])
 
 
+def stepping(steps: int, rounds: int = 2) -> None:
+    """The world alone, in process against 2 workers (see the module docstring)."""
+    import numpy as np
+
+    from noisybolt.envs.breakout import BreakoutWorld
+    from noisybolt.envs.worker_world import WorkerWorld
+
+    settings: dict[str, Any] = {"noise": "gaussian:sigma=50", "fire_on_reset": True}
+    inside = BreakoutWorld(num_envs=8, seed=0, obs_mode="ram", **settings)
+    outside = WorkerWorld("breakout-ram", num_envs=8, workers=2, seed=0, **settings)
+    workers = [psutil.Process(pid) for pid in outside.pids if pid is not None]
+
+    def worker_cpu() -> float:
+        return sum(p.cpu_times().user + p.cpu_times().system for p in workers)
+
+    try:
+        for _ in range(rounds):
+            for name, world in (("in process", inside), ("2 workers", outside)):
+                world.reset(seed=0)
+                rng = np.random.default_rng(0)
+                cpu, wall, other = time.process_time(), time.perf_counter(), worker_cpu()
+                for _ in range(steps):
+                    info = world.step(rng.integers(0, 4, 8))[4]
+                    np.asarray(info["bolt_image"]), np.asarray(info["true_fluents"])
+                    if "final_info" in info:
+                        np.asarray(info["final_info"]["bolt_image"])
+                frames = 8 * steps
+                print(
+                    f"{name:>10}: CPU ms per frame {1e3 * (time.process_time() - cpu) / frames:.3f}"
+                    f" here, {1e3 * (worker_cpu() - other) / frames:.3f} in workers; wall "
+                    f"{1e3 * (time.perf_counter() - wall) / frames:.3f}; load "
+                    f"{os.getloadavg()[0]:.2f}",
+                    flush=True,
+                )
+    finally:
+        outside.close()
+        inside.close()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--frames", default="100k", help="frames per run (k/m suffixes)")
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--variants", default="0,2", help="worker counts (0: in process)")
     parser.add_argument("--eval-freq", default="100k")
+    parser.add_argument("--stepping", type=int, default=0, help="steps: the world alone")
     args = parser.parse_args()
+    if args.stepping:
+        stepping(args.stepping)
+        return
 
     def count(text: str) -> int:
         text = text.lower()
