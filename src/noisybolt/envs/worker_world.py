@@ -22,11 +22,11 @@ joined along the game axis. Two differences:
   seed, observation for observation and camera image for camera image (tested).
 
 Workers are forked from a fork server that has imported the worlds (no fork of a process
-that holds torch's threads; :func:`_context`), compute on one thread each, and end with :meth:`WorkerWorld.close` (also on garbage
-collection and at interpreter exit); a worker whose parent is gone exits by itself. A
-worker that dies or raises makes the next call raise
-:class:`~noisybolt.errors.WorldWorkerError`, naming it and the cause, after the other
-workers are closed.
+that holds torch's threads; :func:`_context`), compute on one thread each, and end with
+:meth:`WorkerWorld.close` (also on garbage collection and at interpreter exit); a worker
+whose parent is gone exits by itself. A worker that dies or raises makes the next call
+raise :class:`~noisybolt.errors.WorldWorkerError`, naming it and the cause, after the
+other workers are closed.
 
 Example:
     >>> world = WorkerWorld("breakout-ram", num_envs=4, workers=2, seed=0)
@@ -278,10 +278,10 @@ class WorkerWorld(gym.vector.VectorEnv):
         )
 
 
-def _context() -> multiprocessing.context.BaseContext:
+def _context() -> Any:  # a ForkServerContext (POSIX) or a SpawnContext
     """Where workers come from: a fork server, a fresh process that has imported the
     worlds (not torch's threads: forking a process that has run torch can hang), so a
-    worker starts in milliseconds instead of importing everything again; ``spawn`` where
+    worker does not import torch, SB3 and the ALE again (seconds each); ``spawn`` where
     there is no fork server (not on POSIX)."""
     if "forkserver" not in multiprocessing.get_all_start_methods():  # pragma: no cover
         return multiprocessing.get_context("spawn")
