@@ -73,9 +73,15 @@ def test_every_setting_added_since_the_oldest_kept_run_has_a_legacy_default() ->
     )
 
 
-@pytest.mark.parametrize(
-    "path", sorted(RESULTS.rglob("config.json")), ids=lambda p: str(p.relative_to(RESULTS))
-)
+def _kept_configs(nested: bool) -> list[Path]:
+    return [
+        path
+        for path in sorted(RESULTS.rglob("config.json"))
+        if ("schema" in json.loads(path.read_text())) == nested
+    ]
+
+
+@pytest.mark.parametrize("path", _kept_configs(False), ids=lambda p: str(p.relative_to(RESULTS)))
 def test_every_kept_flat_config_loads_and_round_trips(path: Path) -> None:
     saved = json.loads(path.read_text())
     config = TrainConfig.from_dict(saved)
@@ -85,6 +91,29 @@ def test_every_kept_flat_config_loads_and_round_trips(path: Path) -> None:
     assert config.tracking == saved.get("tracking", "threshold")
     assert TrainConfig.from_dict(config.to_dict()) == config
     assert nested_config(config.to_dict()) == config.to_dict()
+
+
+@pytest.mark.parametrize("path", _kept_configs(True), ids=lambda p: str(p.relative_to(RESULTS)))
+def test_every_kept_nested_config_loads_as_saved(path: Path) -> None:
+    # Kept runs saved under schema 2 (the spec suite's trials) read strictly and write back
+    # as saved, plus any setting added since, at what LEGACY_DEFAULTS says they meant by it.
+    saved = _leaves(json.loads(path.read_text()))
+    loaded = _leaves(TrainConfig.from_dict(json.loads(path.read_text())).to_dict())
+    assert {k: loaded[k] for k in saved} == saved
+    assert {k: v for k, v in loaded.items() if k not in saved} == {
+        k: LEGACY_DEFAULTS[k] for k in loaded if k not in saved
+    }
+
+
+def _leaves(tree: dict[str, object], prefix: str = "") -> dict[str, object]:
+    """A nested config's settings by path (``world.n_envs``); hyperparameters kept whole."""
+    out: dict[str, object] = {}
+    for key, value in tree.items():
+        if isinstance(value, dict) and key != "hyperparams":
+            out |= _leaves(value, f"{prefix}{key}.")
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
 
 
 def test_a_run_saved_with_a_flat_config_resumes_and_evaluates(tmp_path: Path) -> None:
