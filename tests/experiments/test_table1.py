@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from noisybolt.cli import main
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.experiments import table1 as table1_module
 from noisybolt.experiments.reporting import Stat
 from noisybolt.experiments.sweeps import SweepResult, TrialRecord
@@ -137,6 +137,28 @@ def test_the_command_line_sets_the_stopping_rule(small_table: Path) -> None:
         (small_table / "trials" / "edge-ppo" / "seed-0" / "config.json").read_text()
     )
     assert config["evaluation"]["stop_after"] == 3
+
+
+def test_tracking_belief_changes_only_the_bolts_tracking(tmp_path: Path) -> None:
+    threshold, belief = table1_sweep(), table1_sweep(tracking="belief")
+    assert (threshold.name, belief.name) == ("table1", "table1-belief")
+    assert "bolt.tracking" not in threshold.source["base"]  # its sweep file as before
+    for a, b in zip(threshold.trials, belief.trials, strict=True):
+        assert (a.config.tracking, b.config.tracking) == ("threshold", "belief")
+        assert b.config.override({"bolt.tracking": "threshold"}) == a.config
+    with pytest.raises(UnknownNameError, match="unknown tracking mode 'beleif'"):
+        table1_sweep(tracking="beleif")
+    # Through the command line: recorded in the trials, table1.json and the table's text.
+    out = tmp_path / "out"
+    argv = ["reproduce", "table1", "--rows", "edge-dqn", "--seeds", "1", "--frames", "256",
+            "--detector", "oracle", "--eval-freq", "128", "--eval-episodes", "2",
+            "--final-episodes", "2", "--tracking", "belief", "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    data = json.loads((out / "table1.json").read_text())
+    assert data["settings"]["tracking"] == "belief" and "--tracking belief" in data["command"]
+    config = json.loads((out / "trials" / "edge-dqn" / "seed-0" / "config.json").read_text())
+    assert config["bolt"]["tracking"] == "belief"
+    assert "bolt DFA tracking: `belief`" in (out / "table1.md").read_text()
 
 
 def test_rows_are_chosen_by_row_or_spec_name() -> None:

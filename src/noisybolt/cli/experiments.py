@@ -11,6 +11,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from noisybolt.bolt.belief import TRACKING_MODES
 from noisybolt.cli.train import parse_frames
 
 __all__ = ["register"]
@@ -175,6 +176,13 @@ def register(subparsers: Any) -> None:
         help="report each seed's last model, not the one of its evaluation with the best "
         "shaped (env + bolt) return",
     )
+    table1.add_argument(
+        "--tracking",
+        default="threshold",
+        choices=TRACKING_MODES,
+        help="the bolt's DFA tracking: threshold (Algorithm 1, the paper's; default) or belief "
+        "(a distribution over DFA states, base rates estimated in each run)",
+    )
     table1.add_argument("--out", type=Path, default=Path("runs/table1"))
     _add_backend_options(table1)
     table1.set_defaults(func=_table1)
@@ -284,6 +292,7 @@ def _table1(args: argparse.Namespace) -> int:
         retries=args.retries,
         stop_after=args.stop_after,
         last_model=args.last_model,
+        tracking=args.tracking,
         out=args.out,
         backend=args.backend,
         address=args.address,
@@ -303,6 +312,7 @@ def _table1(args: argparse.Namespace) -> int:
         retries=args.retries,
         keep_best=not args.last_model,
         stop_after=args.stop_after,
+        tracking=args.tracking,
         backend=args.backend,
         workers=_workers(args),
         address=args.address,

@@ -43,6 +43,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from noisybolt.bolt.belief import check_tracking
 from noisybolt.errors import ConfigError
 from noisybolt.experiments.report import ReportSection, group_curves, register_section
 from noisybolt.experiments.reporting import (
@@ -182,6 +183,7 @@ def table1_sweep(
     cpus_per_trial: float = 1.0,
     keep_best: bool = True,
     stop_after: int = 3,
+    tracking: str = "threshold",
 ) -> Any:
     """The sweep that reproduces Table 1 (a :class:`~noisybolt.experiments.sweeps.SweepConfig`).
 
@@ -204,9 +206,12 @@ def table1_sweep(
             :class:`~noisybolt.agents.training.TrainConfig`), not its last.
         stop_after: each seed stops once this many evaluations in a row have >= 95% of
             their episodes at the goal and complying (0: every seed trains its budget).
+        tracking: the bolt's DFA tracking: ``threshold`` (Algorithm 1, the paper's) or
+            ``belief`` (with base rates estimated in each run); the sweep is then named
+            ``table1-belief``.
 
     Raises:
-        ConfigError: unknown rows, or impossible values.
+        ConfigError: unknown rows, impossible values or an unknown tracking mode.
     """
     from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.experiments.sweeps import SweepConfig
@@ -216,6 +221,8 @@ def table1_sweep(
     if frames is not None and frames < 1:
         raise ConfigError(f"frames must be >= 1, got {frames}")
     chosen = select_rows(rows)
+    # Threshold is the schema's default: its sweep file stays as it was before this option.
+    tracked = {} if check_tracking(tracking) == "threshold" else {"bolt.tracking": tracking}
     sweep_rows = []
     for row in chosen:
         n = frames if frames is not None else row.frames(frames_scale)
@@ -242,8 +249,9 @@ def table1_sweep(
         )
     return SweepConfig.from_dict(
         {
-            "name": "table1",
+            "name": "table1" if not tracked else f"table1-{tracking}",
             "base": {
+                **tracked,
                 "world.name": DEFAULT_WORLD,  # the paper's gridworld
                 "world.kwargs.noise": noise,
                 # Algorithm 1 as the paper pays it (every accepting step +1, cost 0.5).
@@ -485,9 +493,13 @@ def _settings_text(settings: Mapping[str, Any]) -> str:
         if settings.get("keep_best")
         else "each seed's last model."
     )
+    tracking = settings.get("tracking", "threshold")  # runs before it was recorded: threshold
+    tracking = "" if tracking == "threshold" else f"bolt DFA tracking: `{tracking}`; "
     text = (
         f"Seeds: {settings['seeds']}; detector: `{settings['detector']}`; bolt camera noise: "
-        f"`{settings['noise']}`; final evaluation: {settings['final_eval_episodes']} episodes "
+        f"`{settings['noise']}`; "
+        + tracking
+        + f"final evaluation: {settings['final_eval_episodes']} episodes "
         f"per seed, of {model}"
     )
     if settings.get("wall_seconds") is not None:
@@ -611,6 +623,7 @@ def reproduce_table1(
         "seeds": list(sweep.seeds),
         "detector": first.detector.kind,
         "noise": first.world_kwargs["noise"],
+        "tracking": first.bolt.tracking,
         "final_eval_episodes": sweep.final_eval_episodes,
         "eval_episodes": first.eval_episodes,
         "keep_best": first.keep_best,
