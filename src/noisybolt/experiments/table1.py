@@ -211,7 +211,8 @@ def table1_sweep(
             ``table1-belief``.
 
     Raises:
-        ConfigError: unknown rows, impossible values or an unknown tracking mode.
+        ConfigError: unknown rows, or impossible values.
+        UnknownNameError: an unknown tracking mode.
     """
     from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.experiments.sweeps import SweepConfig
