@@ -16,6 +16,7 @@ from noisybolt.agents.config import (
     schema_paths,
 )
 from noisybolt.agents.hyperparams import WORLD_KEYS
+from noisybolt.agents.schema import flatten
 from noisybolt.agents.training import check_same_config
 from noisybolt.errors import ConfigError
 from noisybolt.rundir import RunDirectory
@@ -97,23 +98,17 @@ def test_every_kept_flat_config_loads_and_round_trips(path: Path) -> None:
 def test_every_kept_nested_config_loads_as_saved(path: Path) -> None:
     # Kept runs saved under schema 2 (the spec suite's trials) read strictly and write back
     # as saved, plus any setting added since, at what LEGACY_DEFAULTS says they meant by it.
-    saved = _leaves(json.loads(path.read_text()))
-    loaded = _leaves(TrainConfig.from_dict(json.loads(path.read_text())).to_dict())
+    saved = _paths(json.loads(path.read_text()))
+    loaded = _paths(TrainConfig.from_dict(json.loads(path.read_text())).to_dict())
     assert {k: loaded[k] for k in saved} == saved
     assert {k: v for k, v in loaded.items() if k not in saved} == {
         k: LEGACY_DEFAULTS[k] for k in loaded if k not in saved
     }
 
 
-def _leaves(tree: dict[str, object], prefix: str = "") -> dict[str, object]:
-    """A nested config's settings by path (``world.n_envs``); hyperparameters kept whole."""
-    out: dict[str, object] = {}
-    for key, value in tree.items():
-        if isinstance(value, dict) and key != "hyperparams":
-            out |= _leaves(value, f"{prefix}{key}.")
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
+def _paths(config: dict[str, object]) -> dict[str, object]:
+    """A nested config.json's settings by schema path (``world.n_envs``)."""
+    return flatten(TrainConfig, {k: v for k, v in config.items() if k != "schema"})
 
 
 def test_a_run_saved_with_a_flat_config_resumes_and_evaluates(tmp_path: Path) -> None:
