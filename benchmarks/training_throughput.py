@@ -30,6 +30,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor, 
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
+from noisybolt.agents.policies import BoltActorCriticPolicy
 from noisybolt.agents.specs import resolve_spec
 from noisybolt.agents.training import DetectorConfig, make_detector
 from noisybolt.envs import SB3VecEnv, make_world
@@ -70,7 +71,8 @@ def build(variant: str, n_envs: int, seed: int) -> VecEnv:
         camera_spec=world.camera_spec,
         progress=False,
     )
-    bolted = BoltVecEnv(venv, [resolve_spec("edge")], detector, world=world)
+    # As `noisybolt train` builds the learner's envs: without the per-step records.
+    bolted = BoltVecEnv(venv, [resolve_spec("edge")], detector, world=world, info_records=False)
     return VecNormalize(bolted, norm_obs=False, norm_reward=True)
 
 
@@ -82,7 +84,7 @@ def make_model(variant: str, seed: int, n_envs: int | None = None) -> PPO:
     policy_kwargs = dict(kwargs.pop("policy_kwargs"))
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
     return PPO(
-        "MultiInputPolicy", env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
+        BoltActorCriticPolicy, env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
     )
 
 
@@ -109,6 +111,7 @@ PROFILED = (
     ("noisybolt.wrappers.bolt_vec_env", "bolt_info", "info records"),
     ("noisybolt.wrappers._common:TruthTracker", "step", "truth tracking"),
     ("stable_baselines3.common.policies", "preprocess_obs", "SB3 preprocess_obs"),
+    ("noisybolt.agents.extractor:BoltFeaturesExtractor", "preprocess", "policy preprocess"),
     ("stable_baselines3.common.buffers:DictRolloutBuffer", "add", "rollout buffer add"),
 )  # fmt: skip
 

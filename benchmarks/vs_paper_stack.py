@@ -248,7 +248,7 @@ class ImageOnly(VecEnvWrapper):
         return {"image": obs}, rewards, dones, infos
 
 
-def _noisybolt_env(bolted: bool, n_envs: int, seed: int) -> VecEnv:
+def _noisybolt_env(bolted: bool, n_envs: int, seed: int, *, training: bool) -> VecEnv:
     from noisybolt.agents.specs import resolve_spec
     from noisybolt.agents.training import DetectorConfig, make_detector
     from noisybolt.bolt import RewardScheme
@@ -269,7 +269,8 @@ def _noisybolt_env(bolted: bool, n_envs: int, seed: int) -> VecEnv:
         progress=False,
     )
     spec = RewardScheme("paper").apply(resolve_spec("edge"))
-    return BoltVecEnv(venv, [spec], detector, world=world)
+    # As `noisybolt train` builds them: the learner's envs without the per-step records.
+    return BoltVecEnv(venv, [spec], detector, world=world, info_records=not training)
 
 
 def _bare_goal_rate(model: PPO, env: VecEnv) -> float:
@@ -320,19 +321,20 @@ def run_noisybolt(bolted: bool, seed: int, budget: int, n_envs: int | None = Non
     from noisybolt.agents.evaluation import evaluate_bolted_policy
     from noisybolt.agents.extractor import BoltFeaturesExtractor
     from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
+    from noisybolt.agents.policies import BoltActorCriticPolicy
 
     params = load_hyperparams("gridworld", "ppo")
     env = VecNormalize(
-        _noisybolt_env(bolted, n_envs or int(params["n_envs"]), seed),
+        _noisybolt_env(bolted, n_envs or int(params["n_envs"]), seed, training=True),
         norm_obs=False,
         norm_reward=True,
     )
-    eval_env = _noisybolt_env(bolted, 4, seed + 10_000)
+    eval_env = _noisybolt_env(bolted, 4, seed + 10_000, training=False)
     kwargs = {k: v for k, v in params.items() if k not in META_KEYS | WORLD_KEYS}
     policy_kwargs = dict(kwargs.pop("policy_kwargs"))
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
     model = PPO(
-        "MultiInputPolicy", env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
+        BoltActorCriticPolicy, env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
     )
 
     def score() -> float:
@@ -394,7 +396,9 @@ def main(argv: list[str] | None = None) -> int:
         print(INSTALL, file=sys.stderr)
         return 2
     torch.set_num_threads(1)
-    _noisybolt_env(True, 1, 0)  # train (or load) the bolt's classifier before any clock
+    _noisybolt_env(
+        True, 1, 0, training=False
+    )  # train (or load) the bolt's classifier before any clock
     runs: dict[str, list[Outcome]] = {name: [] for name in LABELS}
     for r in range(args.rounds):
         for name in LABELS:

@@ -49,7 +49,9 @@ def test_the_timers_count_cpu_time_while_installed_and_restore_the_functions(
         timers.uninstall()
     assert RestrainingBolt.__dict__["step"] is step and bolt_vec_env.bolt_info is info
     seconds = timers.seconds
-    assert seconds["RestrainingBolt.step"] > 0 and seconds["info records"] > 0
+    assert seconds["RestrainingBolt.step"] > 0 and seconds["policy preprocess"] > 0
+    # The learner's envs build no per-step records (as `noisybolt train` builds them).
+    assert "info records" not in seconds and "truth tracking" not in seconds
     # Nested timers: the bolt's step_wait holds the bolt's step, training holds both.
     assert seconds["BoltVecEnv.step_wait"] > seconds["RestrainingBolt.step"]
     assert seconds["collect_rollouts"] > seconds["BoltVecEnv.step_wait"]

@@ -73,6 +73,13 @@ class BoltVecEnv(VecEnvWrapper):
         end_on_violation: must be False here (see the error it raises).
         tracking, belief: ``"threshold"`` (Algorithm 1) or ``"belief"`` tracking and its
             settings, as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
+        info_records: whether each step's ``infos`` get the bolt's records (reward parts,
+            fluent probabilities and bands, the bolt's and the true DFA states: see
+            :func:`~noisybolt.wrappers._common.bolt_info`). False leaves them out and does
+            not track the true DFAs, for a learner that reads none of them (training:
+            SB3 reads only the monitor's, the time limit's and the terminal observation's
+            entries, and evaluation runs on envs of its own, with records); observations,
+            rewards and dones are the same either way (tested).
 
     Raises:
         ConfigError: ``venv`` is not an ``SB3VecEnv`` (possibly wrapped), or ``world`` is
@@ -98,6 +105,7 @@ class BoltVecEnv(VecEnvWrapper):
         pay_at_truncation: bool = True,
         tracking: Tracking = "threshold",
         belief: BeliefSettings | None = None,
+        info_records: bool = True,
     ) -> None:
         if end_on_violation:
             # Ending an episode that the world did not end needs a per-environment reset,
@@ -149,6 +157,7 @@ class BoltVecEnv(VecEnvWrapper):
         self._source = source
         self._detector = detector
         self._thresholds = thresholds
+        self._records = bool(info_records)
         super().__init__(
             venv,
             observation_space=dict_observation_space(
@@ -181,7 +190,8 @@ class BoltVecEnv(VecEnvWrapper):
         images, truth = self._labels("reset")
         probs = self._probs(images, truth)
         self.bolt.reset(probs)
-        self._truth.reset(truth)
+        if self._records:
+            self._truth.reset(truth)
         return self._obs(obs, dfa_view(self.bolt))
 
     def step_wait(self) -> VecEnvStepReturn:
@@ -214,24 +224,25 @@ class BoltVecEnv(VecEnvWrapper):
         else:
             probs = self._probs(images, truth)
         out = self.bolt.step(probs, done=dones, truncated=truncated)
-        self._truth.step(truth)
         rewards = np.asarray(env_rewards, dtype=np.float64) + out.total
-        bands = confidence_bands(probs, self._thresholds)
-        true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
         infos = list(infos)
-        for i, info in enumerate(infos):
-            info.update(  # the world's own dict for this step: extended in place
-                bolt_info(
-                    i,
-                    env_reward=float(env_rewards[i]),
-                    out=out,
-                    probs=probs,
-                    bands=bands,
-                    truth=truth,
-                    true_states=true_states,
-                    true_accepting=true_accepting,
+        if self._records:
+            self._truth.step(truth)
+            bands = confidence_bands(probs, self._thresholds)
+            true_states, true_accepting = self._truth.states.copy(), self._truth.accepting
+            for i, info in enumerate(infos):
+                info.update(  # the world's own dict for this step: extended in place
+                    bolt_info(
+                        i,
+                        env_reward=float(env_rewards[i]),
+                        out=out,
+                        probs=probs,
+                        bands=bands,
+                        truth=truth,
+                        true_states=true_states,
+                        true_accepting=true_accepting,
+                    )
                 )
-            )
         if ended.size:
             final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
             for row in ended.tolist():
@@ -244,5 +255,6 @@ class BoltVecEnv(VecEnvWrapper):
             full = np.zeros_like(probs)
             full[ended] = first_probs
             self.bolt.reset(full, env_mask=dones)
-            self._truth.reset(first_truth, env_mask=dones)
+            if self._records:
+                self._truth.reset(first_truth, env_mask=dones)
         return self._obs(obs, dfa_view(self.bolt)), rewards.astype(np.float32), dones, infos
