@@ -19,6 +19,7 @@ from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from noisybolt.agents import models
+from noisybolt.agents.evaluation import evaluate_bolted_policy
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import algorithm_class
 from noisybolt.agents.models import load_model, read_model_data
@@ -180,6 +181,18 @@ def test_a_run_saved_with_sb3s_own_policy_loads_evaluates_and_resumes(
     np.testing.assert_array_equal(
         model.predict(obs, deterministic=True)[0], old_model.predict(obs, deterministic=True)[0]
     )
+    # Evaluation of the same envs: the same episodes, record for record.
+    results = []
+    for loaded in (old_model, model):
+        results.append(
+            evaluate_bolted_policy(
+                lambda obs, m=loaded: m.predict(obs, deterministic=True)[0],
+                make_env(config, OracleDetector(fluents), training=False, n_envs=4),
+                n_episodes=8,
+                spec_names=["edge"],
+            )
+        )
+    assert results[0] == results[1]
     assert main(["evaluate", str(run), "--episodes", "2"]) == 0
     more = TrainConfig.from_dict({**json.loads((run / "config.json").read_text()), "frames": 768})
     assert train(more, run, resume=True, log=_quiet).frames == 768
