@@ -43,6 +43,7 @@ def test_config_json_is_nested_with_its_schema_version(config: TrainConfig) -> N
     assert data["world"] == {
         "name": "gridworld", "kwargs": {}, "n_envs": 8,
         "fire_on_reset": False, "clip_reward": False, "life_loss_terminal": False, "workers": 0,
+        "overlap": False,
     }  # fmt: skip
     assert data["bolt"]["tracking"] == "threshold" and data["bolt"]["reward"] == "paper"
     assert data["algorithm"]["name"] == "ppo" and "n_envs" not in data["algorithm"]["hyperparams"]

@@ -217,3 +217,34 @@ def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
     finally:
         outside.close()
         inside.close()
+
+
+def test_a_worker_world_can_be_a_shard_and_step_in_two_halves() -> None:
+    """``shard``: games 2..4 of a 5-game world, in 2 workers; ``step_async`` returns while
+    the workers step, ``step_wait`` gives what ``step`` gives."""
+    whole = make_breakout_world(num_envs=5, seed=9, obs_mode="ram", **SETTINGS)
+    part = WorkerWorld("breakout-ram", num_envs=3, workers=2, seed=9, shard=(2, 5), **SETTINGS)
+    try:
+        obs, info = whole.reset(seed=9)
+        ours, our_info = part.reset(seed=9)
+        assert np.array_equal(obs[2:], ours)
+        # read every step, as the worker does (a deferred camera draws its noise on reading)
+        assert np.array_equal(np.asarray(info["bolt_image"])[2:], our_info["bolt_image"])
+        rng = np.random.default_rng(3)
+        for step in range(60):
+            actions = rng.integers(0, 4, 5)
+            theirs = whole.step(actions)
+            part.step_async(actions[2:])
+            with pytest.raises(RuntimeError, match="step_wait first"):
+                part.reset()
+            mine = part.step_wait()
+            for a, b in zip(theirs[:4], mine[:4], strict=True):
+                assert np.array_equal(a[2:], b), step
+            assert np.array_equal(np.asarray(theirs[4]["bolt_image"])[2:], mine[4]["bolt_image"])
+        with pytest.raises(RuntimeError, match="without a step_async"):
+            part.step_wait()
+    finally:
+        part.close()
+        whole.close()
+    with pytest.raises(ConfigError, match="shard"):
+        WorkerWorld("breakout-ram", num_envs=3, workers=1, shard=(3, 5))

@@ -127,6 +127,7 @@ RESUMABLE_KEYS: tuple[str, ...] = (
     "progress_bar",
     "evaluation.stop_after",
     "world.workers",  # where the world runs, not what it plays (the same games either way)
+    "world.overlap",  # how rollouts are collected, not which games they play
 )
 #: What a config saved before a setting existed meant by it, by schema path (read by
 #: :func:`nested_config`: a saved config that lacks the path gets this value).
@@ -142,6 +143,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "bolt.confidence": 0.9,
     # before world.workers existed every world ran in the training process
     "world.workers": 0,
+    # before world.overlap existed every rollout stepped all games at once
+    "world.overlap": False,
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)

@@ -13,7 +13,11 @@ Bottom to top::
 
 Training, evaluation (periodic and ``noisybolt evaluate``) and case 4 build their envs
 here, so the stack is written once. With ``world.workers`` the world at the bottom runs its
-games in worker processes (:func:`make_run_world`); everything above it stays here.
+games in worker processes (:func:`make_run_world`); everything above it stays here. With
+``world.overlap`` the training games are two groups, each this stack up to
+``LifeLossTerminal`` (and ``VecTransposeImage``) over its share of the games and workers,
+side by side in a :class:`~noisybolt.agents.pipeline.GroupedVecEnv`, whose rollouts the
+learner collects overlapped (:mod:`noisybolt.agents.pipeline`).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.detectors import make_detector
+from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
 from noisybolt.bolt import BeliefSettings, Thresholds
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
@@ -108,18 +113,70 @@ def make_env(
         n_envs = config.n_envs if training else config.eval_envs
     if seed is None:
         seed = config.seed + (0 if training else EVAL_SEED_OFFSET)
-    bolted = build_bolted_env(
-        config,
-        detector,
-        n_envs=n_envs,
-        seed=seed,
-        dfas=dfas,
-        training=training,
-        letters=letters,
-        belief=belief,
-    )
+    settings: dict[str, Any] = {
+        "seed": seed,
+        "dfas": dfas,
+        "training": training,
+        "letters": letters,
+        "belief": belief,
+    }
     if not training:
-        return bolted
+        return build_bolted_env(config, detector, n_envs=n_envs, **settings)
+    if config.world_config.overlap:
+        return _overlapped_groups(config, detector, n_envs=n_envs, **settings)
+    env = _learner_wrappers(config, build_bolted_env(config, detector, n_envs=n_envs, **settings))
+    if config.hyperparams.get("normalize_reward"):
+        # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
+        # top, and off-policy replay buffers, which store VecNormalize's original (here:
+        # untransposed) observations, then get the wrong shape (DQN crashed).
+        env = _transposed(env)
+        env = VecNormalize(
+            env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
+        )
+    return env
+
+
+def _overlapped_groups(
+    config: TrainConfig, detector: FluentDetector, *, n_envs: int, **settings: Any
+) -> GroupedVecEnv:
+    """``world.overlap``: the training games as two groups, each its own bolted stack over
+    its share of the world's games (``shard``) and of its workers.
+
+    Raises:
+        ConfigError: fewer than 2 games, or ``normalize_reward`` (the overlapped collector
+            steps the groups below a normaliser, which would see none of it).
+    """
+    if config.hyperparams.get("normalize_reward"):
+        raise ConfigError(
+            "world.overlap collects each group's steps itself, below where normalize_reward's "
+            "VecNormalize would sit: set normalize_reward false or drop world.overlap"
+        )
+    if n_envs < 2:
+        raise ConfigError(f"world.overlap splits the games into two groups: n_envs is {n_envs}")
+    workers = config.world_config.workers
+    groups: list[VecEnv] = []
+    try:
+        for (first, count), (_, group_workers) in zip(
+            group_bounds(n_envs, 2), group_bounds(workers, 2), strict=True
+        ):
+            bolted = build_bolted_env(
+                config,
+                detector,
+                n_envs=count,
+                shard=(first, n_envs),
+                workers=min(group_workers, count),
+                **settings,
+            )
+            groups.append(_transposed(_learner_wrappers(config, bolted)))
+    except BaseException:
+        for group in groups:
+            group.close()
+        raise
+    return GroupedVecEnv(groups)
+
+
+def _learner_wrappers(config: TrainConfig, bolted: BoltVecEnv) -> VecEnv:
+    """The training wrappers above the bolt: ``life_loss_terminal``."""
     env: VecEnv = bolted
     if config.world_config.life_loss_terminal:
         lives = getattr(bolted.world, "lives", None)
@@ -129,14 +186,6 @@ def make_env(
                 "lives() method); remove the hyperparameter"
             )
         env = LifeLossTerminal(env, lives)
-    if config.hyperparams.get("normalize_reward"):
-        # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
-        # top, and off-policy replay buffers, which store VecNormalize's original (here:
-        # untransposed) observations, then get the wrong shape (DQN crashed).
-        env = _transposed(env)
-        env = VecNormalize(
-            env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
-        )
     return env
 
 
@@ -150,6 +199,8 @@ def build_bolted_env(
     training: bool = False,
     letters: np.ndarray | None = None,
     belief: BeliefSettings | None = None,
+    shard: tuple[int, int] | None = None,
+    workers: int | None = None,
 ) -> BoltVecEnv:
     """The world as an SB3 ``VecEnv``, monitored, with the bolt on top.
 
@@ -158,9 +209,10 @@ def build_bolted_env(
     its sign, below the bolt) only when ``training``; ``life_loss_terminal`` is added
     above the bolt by :func:`train` (see :mod:`noisybolt.wrappers.atari`).
     ``letters``: the world's true fluents seen in random play (:class:`BoltSetup`), for
-    the compliance scheme's progress terms. ``world.workers``: see :func:`make_run_world`.
+    the compliance scheme's progress terms. ``world.workers``, ``shard``, ``workers``: see
+    :func:`make_run_world`.
     """
-    world = make_run_world(config, n_envs=n_envs, seed=seed)
+    world = make_run_world(config, n_envs=n_envs, seed=seed, shard=shard, workers=workers)
     venv: VecEnv = VecMonitor(SB3VecEnv(world))
     if training and config.world_config.clip_reward:
         venv = ClipGameReward(venv)
@@ -177,29 +229,43 @@ def build_bolted_env(
         progress_gamma=config.progress_gamma,
         shaping=config.shaping,
         world_letters=letters,
-        # The learner reads none of the per-step records; evaluation's envs keep them.
-        info_records=not training,
     )
 
 
-def make_run_world(config: TrainConfig, *, n_envs: int, seed: int) -> Any:
+def make_run_world(
+    config: TrainConfig,
+    *,
+    n_envs: int,
+    seed: int,
+    shard: tuple[int, int] | None = None,
+    workers: int | None = None,
+) -> Any:
     """The run's vectorised world: in this process, or with ``world.workers`` N >= 1 its
     games split over N worker processes (at most one per game; a
     :class:`~noisybolt.envs.worker_world.WorkerWorld`, which plays the same games as the
     world in process).
 
+    ``shard=(first, total)``: these ``n_envs`` games are games ``first`` .. of the world
+    of ``total`` games with this seed (a group of ``world.overlap``), in ``workers``
+    processes (default: ``world.workers``).
+
     Raises:
         ConfigError: a world that cannot be split into worker processes (its factory
             takes no ``shard``), or a bad world setting.
     """
-    workers = config.world_config.workers
+    if workers is None:
+        workers = config.world_config.workers
     if not workers:
-        return make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
+        place: dict[str, Any] = {} if shard is None else {"shard": shard}
+        return make_world(
+            config.world, num_envs=n_envs, seed=seed, **place, **config.world_settings
+        )
     return WorkerWorld(
         config.world,
         num_envs=n_envs,
         workers=min(workers, n_envs),
         seed=seed,
+        shard=shard,
         **config.world_settings,
     )
 

@@ -22,7 +22,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, frame_schedules
-from noisybolt.agents.policies import policy_class
+from noisybolt.agents.pipeline import overlapped_class
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
 __all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
@@ -61,10 +61,10 @@ def make_model(
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     if trial and "buffer_size" in params:
         params["buffer_size"] = 1
-    cls = algorithm_class(config.algo)
+    cls = run_algorithm_class(config)
     try:
         model = cls(
-            policy_class(config.algo),  # type: ignore[arg-type]
+            "MultiInputPolicy",
             env,
             policy_kwargs=policy_kwargs,
             seed=config.seed,
@@ -79,6 +79,19 @@ def make_model(
             f"({type(error).__name__}: {error}); fix them (--hp KEY=VALUE)"
         ) from None
     return model
+
+
+def run_algorithm_class(config: TrainConfig) -> type[BaseAlgorithm]:
+    """The SB3 class that trains ``config``'s run: its algorithm's, or with
+    ``world.overlap`` that class collecting its rollouts overlapped
+    (:func:`~noisybolt.agents.pipeline.overlapped_class`; it saves and loads as the plain
+    class does).
+
+    Raises:
+        ConfigError: ``world.overlap`` with an algorithm that is not on-policy.
+    """
+    cls = algorithm_class(config.algo)
+    return overlapped_class(cls) if config.world_config.overlap else cls
 
 
 def save_model(model: BaseAlgorithm, handle: Any, *, algo: str) -> None:
@@ -136,7 +149,7 @@ def load_model(path: Path, config: TrainConfig, env: VecEnv) -> BaseAlgorithm:
         )
     custom_objects = {key: getattr(trial, key) for key in serialized}
     try:
-        return algorithm_class(algo).load(
+        return run_algorithm_class(config).load(
             path, env=env, device="cpu", custom_objects=custom_objects
         )
     except (zipfile.BadZipFile, KeyError, ValueError, RuntimeError, EOFError) as error:

@@ -60,6 +60,12 @@ class WorldConfig:
             run in N worker processes (:class:`~noisybolt.envs.worker_world.WorkerWorld`,
             for worlds that split into shards, such as Breakout), the same games as in
             process, while the training process runs the bolt and the agent.
+        overlap: False (default): the learner steps every game at once. True (PPO, A2C;
+            ``workers`` >= 2): the training games are split into two groups, each with
+            its own bolt and its world in half the workers, and the rollouts are collected
+            overlapped (:mod:`noisybolt.agents.pipeline`): one group's world steps in its
+            workers while the learner runs the policy, the classifier and the bolt of the
+            other. The same games; the sampled actions are drawn per group.
     """
 
     name: str = DEFAULT_WORLD
@@ -69,12 +75,20 @@ class WorldConfig:
     clip_reward: bool = False
     life_loss_terminal: bool = False
     workers: int = 0
+    overlap: bool = False
 
     def __post_init__(self) -> None:
         check_world(self.name)  # a registered name or an importable factory path
         object.__setattr__(self, "kwargs", freeze(dict(self.kwargs)))
         check_count("world.n_envs", self.n_envs, 1)
         check_count("world.workers", self.workers, 0)
+        if not isinstance(self.overlap, bool):
+            raise ConfigError(f"world.overlap must be true or false, got {self.overlap!r}")
+        if self.overlap and self.workers < 2:
+            raise ConfigError(
+                "world.overlap steps one group of games in worker processes while the "
+                f"learner works on the other: it needs world.workers >= 2, got {self.workers}"
+            )
 
 
 @dataclass(frozen=True, kw_only=True)

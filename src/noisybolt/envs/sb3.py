@@ -37,6 +37,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from stable_baselines3.common.vec_env import VecEnv
 
+from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import ConfigError
 from noisybolt.perception.protocols import CameraSpec
 
@@ -83,14 +84,21 @@ class SB3VecEnv(VecEnv):
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
-        """Remember the actions for :meth:`step_wait`."""
+        """Remember the actions for :meth:`step_wait`; a world that steps in worker
+        processes (:class:`~noisybolt.envs.worker_world.WorkerWorld`) starts the step here
+        and makes it while the caller goes on."""
         self._actions = np.asarray(actions)
+        if isinstance(self.venv, WorkerWorld):
+            self.venv.step_async(self._actions)
 
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         """Step; finished environments report their last observation in their info."""
         if self._actions is None:
             raise RuntimeError("step_wait called before step_async")
-        obs, rewards, terminated, truncated, vinfo = self.venv.step(self._actions)
+        if isinstance(self.venv, WorkerWorld):
+            obs, rewards, terminated, truncated, vinfo = self.venv.step_wait()
+        else:
+            obs, rewards, terminated, truncated, vinfo = self.venv.step(self._actions)
         self._actions = None
         self._batched_info = vinfo
         dones = terminated | truncated

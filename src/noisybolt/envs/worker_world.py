@@ -21,6 +21,12 @@ joined along the game axis. Two differences:
   does). So a ``WorkerWorld`` plays the same games as the in-process world of the same
   seed, observation for observation and camera image for camera image (tested).
 
+:meth:`WorkerWorld.step_async` and :meth:`WorkerWorld.step_wait` split a step in two, as
+Gymnasium's ``AsyncVectorEnv`` does: the caller works while the shards step (the
+overlapped rollouts of :mod:`noisybolt.agents.pipeline` step one group of games while the
+learner works on the other). ``shard=(first, total)`` makes a ``WorkerWorld`` itself a
+part of a larger world, as ``BreakoutWorld(shard=...)`` is.
+
 Workers are forked from a fork server that has imported the worlds (no fork of a process
 that holds torch's threads; :func:`_context`), compute on one thread each, and end with
 :meth:`WorkerWorld.close` (also on garbage collection and at interpreter exit); a worker
@@ -74,6 +80,9 @@ class WorkerWorld(gym.vector.VectorEnv):
         workers: worker processes, 1 .. ``num_envs``; the games are split into that many
             contiguous shards as evenly as possible.
         seed: the whole world's seed (None: drawn once here, shared by the shards).
+        shard: ``(first, total)``: these ``num_envs`` games are games ``first`` .. of a
+            world of ``total`` games with this seed (None: the whole world,
+            ``(0, num_envs)``); each worker's shard is placed in that world.
         **settings: the world's other settings (``noise``, ``obs_mode``, ...), as
             :func:`~noisybolt.envs.registry.make_world` takes them.
 
@@ -85,11 +94,24 @@ class WorkerWorld(gym.vector.VectorEnv):
     """
 
     def __init__(
-        self, name: str, *, num_envs: int, workers: int, seed: int | None = None, **settings: Any
+        self,
+        name: str,
+        *,
+        num_envs: int,
+        workers: int,
+        seed: int | None = None,
+        shard: tuple[int, int] | None = None,
+        **settings: Any,
     ) -> None:
         if not 1 <= workers <= num_envs:
             raise ConfigError(
                 f"workers must be in 1..num_envs ({num_envs}) for world {name!r}, got {workers}"
+            )
+        offset, total = (0, num_envs) if shard is None else (int(v) for v in shard)
+        if not (offset >= 0 and offset + num_envs <= total):
+            raise ConfigError(
+                f"shard (first game, games in all) must hold the {num_envs} games of world "
+                f"{name!r}, got {shard}"
             )
         if seed is None:  # one seed for every shard: they are parts of one world
             seed = int(np.random.SeedSequence().generate_state(1)[0])
@@ -101,7 +123,7 @@ class WorkerWorld(gym.vector.VectorEnv):
             (int(a), int(b - a)) for a, b in itertools.pairwise(bounds)
         )
         self._seed = seed
-        self._closed_by_error = False
+        self._stepping = False  # a step sent by step_async, not yet received
         context = _context()
         self._conns: list[Connection] = []
         self._processes: list[BaseProcess] = []
@@ -111,7 +133,7 @@ class WorkerWorld(gym.vector.VectorEnv):
             parent, child = context.Pipe()
             process = context.Process(
                 target=_work,
-                args=(child, name, first, count, num_envs, seed, dict(settings)),
+                args=(child, name, offset + first, count, total, seed, dict(settings)),
                 name=f"noisybolt-world-{name}-{first}",
                 daemon=True,
             )
@@ -180,6 +202,7 @@ class WorkerWorld(gym.vector.VectorEnv):
 
         Options: ``reset_mask`` (bool ``[num_envs]``) resets only those games.
         """
+        self._check_idle("reset")
         if seed is not None and not isinstance(seed, int | np.integer):
             raise ConfigError(
                 f"WorkerWorld.reset takes one int seed for the whole world, got {seed!r}"
@@ -204,11 +227,34 @@ class WorkerWorld(gym.vector.VectorEnv):
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Steps every game: each worker its shard, in parallel."""
+        self.step_async(actions)
+        return self.step_wait()
+
+    def step_async(self, actions: Any) -> None:
+        """Sends every shard its actions and returns at once: the workers step while the
+        caller goes on; :meth:`step_wait` collects the step.
+
+        Raises:
+            RuntimeError: a step is already under way.
+        """
+        self._check_idle("step_async")
         actions = np.asarray(actions)
         if actions.shape[:1] != (self.num_envs,):
             raise ValueError(f"actions must be [{self.num_envs}, ...], got {actions.shape}")
         for k, (first, count) in enumerate(self.shards):
             self._send(k, "step", actions[first : first + count])
+        self._stepping = True
+
+    def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The step :meth:`step_async` started, once every worker has made it (as
+        :meth:`step` returns it).
+
+        Raises:
+            RuntimeError: no step is under way.
+        """
+        if not self._stepping:
+            raise RuntimeError(f"world {self.name!r}: step_wait without a step_async before it")
+        self._stepping = False
         parts = [self._receive(k) for k in range(len(self.shards))]
         obs, rewards, terminated, truncated = (
             np.concatenate([part[j] for part in parts]) for j in range(4)
@@ -219,6 +265,7 @@ class WorkerWorld(gym.vector.VectorEnv):
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """Every game's frame (the worlds' ``render()``, joined), or None."""
+        self._check_idle("render")
         for k in range(len(self.shards)):
             self._send(k, "render", None)
         parts = [self._receive(k) for k in range(len(self.shards))]
@@ -231,6 +278,12 @@ class WorkerWorld(gym.vector.VectorEnv):
         self._finalizer()
 
     # -- talking to the workers -------------------------------------------------------------
+    def _check_idle(self, what: str) -> None:
+        if self._stepping:
+            raise RuntimeError(
+                f"world {self.name!r}: {what} while a step is under way; call step_wait first"
+            )
+
     def _counts(self) -> list[int]:
         return [count for _, count in self.shards]
 
