@@ -229,6 +229,8 @@ def build_bolted_env(
         progress_gamma=config.progress_gamma,
         shaping=config.shaping,
         world_letters=letters,
+        # The learner reads none of the per-step records; evaluation's envs keep them.
+        info_records=not training,
     )
 
 

@@ -23,6 +23,7 @@ from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, frame_schedules
 from noisybolt.agents.pipeline import overlapped_class
+from noisybolt.agents.policies import policy_class
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
 __all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
@@ -64,7 +65,7 @@ def make_model(
     cls = run_algorithm_class(config)
     try:
         model = cls(
-            "MultiInputPolicy",
+            policy_class(config.algo),  # type: ignore[arg-type]
             env,
             policy_kwargs=policy_kwargs,
             seed=config.seed,
