@@ -1,11 +1,13 @@
 """Frames per second by the wall clock of real Breakout RAM PPO runs: world in process
-against the world in worker processes (``world.workers``), interleaved in one run.
+against the world in worker processes (``world.workers``, optionally with overlapped
+rollouts, ``world.overlap``), interleaved in one run.
 
 Each variant is the command of the RAM runs in ``results/breakout/README.md`` (PPO, the
 RAM agent, the ``left_column_milestones`` specs, the bolt's CNN classifier on the noisy
 camera, Gaussian grain sigma 50, an evaluation of 8 episodes and a checkpoint every
 ``--eval-freq`` frames), run as its own ``noisybolt train`` process, with
-``--set world.workers=N`` for the worker variants. The classifier is trained (or read
+``--set world.workers=N`` for the worker variants (a variant ``No``: N workers and
+``--set world.overlap=true``). The classifier is trained (or read
 from the cache) by a first short run, outside the clock.
 
 Per run it reports: frames/s over the whole process (start-up, the evaluations, the final
@@ -16,7 +18,7 @@ average. The variants take turns (round after round), so the machine's other loa
 them alike.
 
     .venv/bin/python benchmarks/breakout_workers.py [--frames 100k] [--rounds 2] \
-        [--variants 0,2]
+        [--variants 0,2,2o] [--out runs/h17-bench]
 
 ``--stepping N`` measures the world alone instead: 8 games of ``breakout-ram`` with the
 bolt's noisy camera read every step, N steps of seeded random actions, in process against
@@ -51,7 +53,7 @@ COMMAND = [
 class Run(NamedTuple):
     """One training process's figures."""
 
-    workers: int
+    variant: str  # worker count, "o" appended for overlapped rollouts
     frames: int
     wall_s: float
     steady_fps: float  # between the first and the last checkpoint
@@ -70,14 +72,16 @@ def _noisybolt() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "noisybolt.cli"]
 
 
-def train(workers: int, frames: int, eval_freq: int, out: Path) -> Run:
+def train(variant: str, frames: int, eval_freq: int, out: Path) -> Run:
     """Runs one ``noisybolt train`` to ``frames`` frames and measures it."""
+    workers, overlap = int(variant.removesuffix("o")), variant.endswith("o")
     argv = [
         *_noisybolt(),
         *COMMAND,
         "--frames", str(frames), "--eval-freq", str(eval_freq),
         "--checkpoint-freq", str(eval_freq // 4), "--out", str(out),
         "--set", f"world.workers={workers}",
+        *(["--set", "world.overlap=true"] if overlap else []),
     ]  # fmt: skip
     cpu: dict[int, float] = {}
     seen: dict[int, float] = {}  # checkpoint frames -> when it appeared (only the latest stays)
@@ -103,7 +107,7 @@ def train(workers: int, frames: int, eval_freq: int, out: Path) -> Run:
     steps = sorted(seen.items())
     steady = (steps[-1][0] - steps[0][0]) / (steps[-1][1] - steps[0][1]) if len(steps) > 1 else 0
     main = cpu.pop(root, 0.0)
-    return Run(workers, trained, wall, steady, main, sum(cpu.values()), os.getloadavg()[0])
+    return Run(variant, trained, wall, steady, main, sum(cpu.values()), os.getloadavg()[0])
 
 
 def stepping(steps: int, rounds: int = 2) -> None:
@@ -149,7 +153,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--frames", default="100k", help="frames per run (k/m suffixes)")
     parser.add_argument("--rounds", type=int, default=2)
-    parser.add_argument("--variants", default="0,2", help="worker counts (0: in process)")
+    parser.add_argument(
+        "--variants",
+        default="0,2",
+        help="worker counts (0: in process; 'o' appended: with world.overlap)",
+    )
+    parser.add_argument("--out", type=Path, help="keep the runs here (default: a temp dir)")
     parser.add_argument("--eval-freq", default="100k")
     parser.add_argument("--stepping", type=int, default=0, help="steps: the world alone")
     args = parser.parse_args()
@@ -163,35 +172,38 @@ def main() -> None:
         return int(float(text.rstrip("km")) * scale)
 
     frames, eval_freq = count(args.frames), count(args.eval_freq)
-    variants = [int(v) for v in args.variants.split(",")]
-    root = Path(tempfile.mkdtemp(prefix="breakout-workers-"))
+    variants = [v.strip() for v in args.variants.split(",")]
+    root = args.out or Path(tempfile.mkdtemp(prefix="breakout-workers-"))
     try:
         print("warming the classifier cache (a short run, not timed) ...", flush=True)
-        train(0, 2048, 2048, root / "warm")
+        train("0", 2048, 2048, root / "warm")
         runs: list[Run] = []
         for r in range(args.rounds):
-            for workers in variants if r % 2 == 0 else reversed(variants):
-                run = train(workers, frames, eval_freq, root / f"r{r}-w{workers}")
+            for variant in variants if r % 2 == 0 else reversed(variants):
+                run = train(variant, frames, eval_freq, root / f"r{r}-w{variant}")
                 runs.append(run)
                 print(
-                    f"round {r} workers={workers}: {run.frames:,} frames in {run.wall_s:.0f} s "
+                    f"round {r} workers={variant}: {run.frames:,} frames in {run.wall_s:.0f} s "
                     f"= {run.fps:.0f} frames/s (steady {run.steady_fps:.0f}); CPU s: main "
                     f"{run.main_cpu_s:.0f}, workers {run.worker_cpu_s:.0f}; load {run.load:.2f}",
                     flush=True,
                 )
     finally:
-        shutil.rmtree(root, ignore_errors=True)
+        if args.out is None:
+            shutil.rmtree(root, ignore_errors=True)
     print(f"\nBreakout RAM PPO + classifier bolt, {frames:,} frames per run, {args.rounds} rounds")
     print(
-        f"{'workers':>8} {'frames/s':>9} {'steady':>7} {'main CPU/frame ms':>18} {'10M frames':>11}"
+        f"{'workers':>8} {'frames/s':>9} {'steady':>7} {'main CPU/frame ms':>18} "
+        f"{'workers CPU/frame ms':>21} {'10M frames':>11}"
     )
-    for workers in variants:
-        mine = [run for run in runs if run.workers == workers]
+    for variant in variants:
+        mine = [run for run in runs if run.variant == variant]
         fps = statistics.median(run.fps for run in mine)
         steady = statistics.median(run.steady_fps for run in mine)
         main_ms = statistics.median(1e3 * run.main_cpu_s / run.frames for run in mine)
+        worker_ms = statistics.median(1e3 * run.worker_cpu_s / run.frames for run in mine)
         print(
-            f"{workers:>8} {fps:>9.0f} {steady:>7.0f} {main_ms:>18.2f} "
+            f"{variant:>8} {fps:>9.0f} {steady:>7.0f} {main_ms:>18.2f} {worker_ms:>21.2f} "
             f"{1e7 / steady / 3600 if steady else float('nan'):>9.1f} h"
         )
     print("(10M frames: the steady rate extrapolated; an extrapolation, not a measurement)")
