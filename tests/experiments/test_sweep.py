@@ -17,11 +17,13 @@ from noisybolt.errors import ConfigError
 from noisybolt.experiments import sweeps as sweep_module
 from noisybolt.experiments.sweeps import (
     SweepConfig,
+    TrialTask,
     builtin_sweeps,
     collect_sweep,
     load_sweep,
     run_sweep,
 )
+from noisybolt.experiments.sweeps.run import longest_first
 
 # Tiny trials: 1024 frames, oracle detector, 4 evaluation episodes (about a second each).
 TINY_BASE: dict[str, Any] = {
@@ -190,6 +192,26 @@ def test_trials_cross_rows_settings_and_seeds_with_deterministic_ids() -> None:
         "edge-ppo/seed-1",
         "avoid-a2c/seed-0",
         "avoid-a2c/seed-1",
+    ]
+
+
+def test_parallel_workers_start_the_largest_budgets_first_in_grid_order_among_equals(
+    tmp_path: Path,
+) -> None:
+    rows = [
+        {"name": "short", "specs": ["edge"], "algo": "ppo", "frames": 512},
+        {"name": "long", "specs": ["edge"], "algo": "a2c", "frames": 4096},
+        {"name": "middle", "specs": ["edge"], "algo": "ppo", "frames": 1024},
+    ]
+    sweep = _sweep(rows=rows, seeds=2)
+    tasks = [TrialTask(t.to_dict(), str(tmp_path / t.trial_id)) for t in sweep.trials]
+    assert [t.trial_id for t in longest_first(tasks)] == [
+        "long/seed-0",
+        "long/seed-1",
+        "middle/seed-0",
+        "middle/seed-1",
+        "short/seed-0",
+        "short/seed-1",
     ]
 
 
