@@ -4,7 +4,11 @@ Measured in one run, interleaved, so the machine's noise hits every variant alik
 
   (a) the bare world (the agent sees only its image; no bolt at all),
   (b) the bolt with the oracle detector (ground truth as probabilities),
-  (c) the bolt with the trained noisy classifier (regional noise, the paper's case 4).
+  (c) the bolt with the trained noisy classifier (regional noise, the paper's case 4),
+  (c0) with ``--old-bolt``: (c) as the learner was built before issue 16's fourth pass
+       (SB3's own ``MultiInputPolicy``, which one-hot encodes the DFA states spec by spec,
+       and per-step ``info`` records on the learner's envs): what those two changes bought,
+       measured in the same run.
 
 Prints frames/s (by the wall clock and per CPU second of the process) and the ratios
 (b)/(a), (c)/(a), and (c) against the paper's own stack
@@ -13,6 +17,7 @@ Prints frames/s (by the wall clock and per CPU second of the process) and the ra
     .venv/bin/python benchmarks/training_throughput.py [--frames 20000] [--rounds 3] [--n-envs 8]
         [--chunk 2048]   # variants take turns every 2,048 frames within each round
         [--profile]      # with --chunk: CPU time in the bolt's, camera's, SB3's functions
+        [--old-bolt]     # also (c0), see above
 """
 
 from __future__ import annotations
@@ -57,7 +62,13 @@ class ImageOnly(VecEnvWrapper):
         return {"image": obs}, rewards, dones, infos
 
 
+#: The variant that builds (c) as it was before issue 16's fourth pass.
+OLD_BOLT = "classifier-old"
+
+
 def build(variant: str, n_envs: int, seed: int) -> VecEnv:
+    old = variant == OLD_BOLT
+    variant = "classifier" if old else variant
     noise = "regional" if variant == "classifier" else "none"
     world = make_world("gridworld", num_envs=n_envs, seed=seed, noise=noise)
     venv = VecMonitor(SB3VecEnv(world))  # type: ignore[arg-type]
@@ -72,7 +83,7 @@ def build(variant: str, n_envs: int, seed: int) -> VecEnv:
         progress=False,
     )
     # As `noisybolt train` builds the learner's envs: without the per-step records.
-    bolted = BoltVecEnv(venv, [resolve_spec("edge")], detector, world=world, info_records=False)
+    bolted = BoltVecEnv(venv, [resolve_spec("edge")], detector, world=world, info_records=old)
     return VecNormalize(bolted, norm_obs=False, norm_reward=True)
 
 
@@ -83,9 +94,8 @@ def make_model(variant: str, seed: int, n_envs: int | None = None) -> PPO:
     kwargs = {k: v for k, v in params.items() if k not in META_KEYS | WORLD_KEYS}
     policy_kwargs = dict(kwargs.pop("policy_kwargs"))
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
-    return PPO(
-        BoltActorCriticPolicy, env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
-    )
+    policy = "MultiInputPolicy" if variant == OLD_BOLT else BoltActorCriticPolicy
+    return PPO(policy, env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs)
 
 
 class Rate(NamedTuple):
@@ -212,13 +222,20 @@ def main() -> None:
         help="with --chunk: also print each variant's CPU seconds in the bolt's, the "
         "camera's, the classifier's and SB3's functions (timers inside the real run)",
     )
+    parser.add_argument(
+        "--old-bolt",
+        action="store_true",
+        help="also (c0): (c) with SB3's own policy and per-step info records, as before",
+    )
     args = parser.parse_args()
     if args.profile and not args.chunk:
         parser.error("--profile needs --chunk")
     torch.set_num_threads(1)
     # Train (or load) the classifier before timing anything.
     build("classifier", 1, 0)
-    variants = ("bare", "oracle", "classifier")
+    variants: tuple[str, ...] = ("bare", "oracle", "classifier")
+    if args.old_bolt:
+        variants += (OLD_BOLT,)
     results: dict[str, list[Rate]] = {v: [] for v in variants}
     timers = {v: Timers() for v in variants} if args.profile else None
     for r in range(args.rounds):
@@ -242,6 +259,7 @@ def main() -> None:
         "bare": "(a) bare world",
         "oracle": "(b) bolt, oracle detector",
         "classifier": "(c) bolt, noisy CNN classifier",
+        OLD_BOLT: "(c0) (c) as before: SB3 policy",
     }
     for v in variants:
         print(

@@ -56,3 +56,24 @@ def test_the_timers_count_cpu_time_while_installed_and_restore_the_functions(
     assert seconds["BoltVecEnv.step_wait"] > seconds["RestrainingBolt.step"]
     assert seconds["collect_rollouts"] > seconds["BoltVecEnv.step_wait"]
     assert "classifier" not in seconds  # the oracle variant runs no classifier
+
+
+def test_the_old_bolt_variant_is_the_same_learner_built_the_old_way(bench: ModuleType) -> None:
+    # (c0) and (c) must differ only in how they are built (SB3's policy and per-step
+    # records against the bolt's policy without them), or their rates compare nothing.
+    import torch
+
+    from noisybolt.agents.policies import BoltActorCriticPolicy
+
+    models = []
+    for variant in (bench.OLD_BOLT, "classifier"):  # built and trained in turn: torch's
+        models.append(bench.make_model(variant, seed=0, n_envs=2))  # global RNG samples
+        models[-1].learn(128)
+    old, new = models
+    assert type(new.policy) is BoltActorCriticPolicy
+    assert type(old.policy).__name__ == "MultiInputActorCriticPolicy"
+    _, _, _, old_infos = old.get_env().step(torch.zeros(2, dtype=torch.long).numpy())
+    _, _, _, new_infos = new.get_env().step(torch.zeros(2, dtype=torch.long).numpy())
+    assert "fluent_probs" in old_infos[0] and "fluent_probs" not in new_infos[0]
+    trained = old.policy.state_dict(), new.policy.state_dict()
+    assert all(torch.equal(trained[0][k], trained[1][k]) for k in trained[0])
