@@ -239,7 +239,11 @@ def test_evaluate_command_prints_the_table(
 def test_ppo_with_the_oracle_learns_to_follow_the_edge_to_the_goal(tmp_path: Path) -> None:
     # Table 1's first row under the paper's rewards. The shortest route already follows
     # the edge, so this shows a bolted PPO agent learning the task; that the spec can
-    # change the route is tested in test_bolt_decides_route.py.
+    # change the route is tested in test_bolt_decides_route.py. The model kept is the
+    # evaluation with the best shaped return, as reproduce table1 keeps it: under the
+    # paper's +1 per accepting step, a PPO policy that reached the goal in every episode
+    # at 20-30k frames was seen to drift into looping by 40k on another CPU (same seed,
+    # other float rounding), so the last model says more about that drift than learning.
     config = _config(
         frames=40_000,
         eval_freq=10_000,
@@ -247,6 +251,7 @@ def test_ppo_with_the_oracle_learns_to_follow_the_edge_to_the_goal(tmp_path: Pat
         checkpoint_freq=0,
         overrides={},
         reward="paper",
+        keep_best=True,
     )
     result = train(config, tmp_path / "run", log=_quiet)
     assert result.final.goal_rate >= 0.9
