@@ -16,13 +16,15 @@ from __future__ import annotations
 from typing import Any
 
 import torch
+from stable_baselines3 import A2C, DQN, PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.policies import BaseModel, MultiInputActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from stable_baselines3.dqn.policies import MultiInputPolicy as DQNMultiInputPolicy
 from stable_baselines3.dqn.policies import QNetwork
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
-from noisybolt.errors import UnknownNameError
+from noisybolt.agents.hyperparams import algorithm_class
 
 __all__ = ["BoltActorCriticPolicy", "BoltDQNPolicy", "policy_class"]
 
@@ -59,10 +61,10 @@ class BoltDQNPolicy(DQNMultiInputPolicy):
         return _BoltQNetwork(**net_args).to(self.device)
 
 
-_POLICIES: dict[str, type[BaseModel]] = {
-    "ppo": BoltActorCriticPolicy,
-    "a2c": BoltActorCriticPolicy,
-    "dqn": BoltDQNPolicy,
+_POLICIES: dict[type[BaseAlgorithm], type[BaseModel]] = {
+    PPO: BoltActorCriticPolicy,
+    A2C: BoltActorCriticPolicy,
+    DQN: BoltDQNPolicy,
 }
 
 
@@ -70,13 +72,7 @@ def policy_class(algo: str) -> type[BaseModel]:
     """The policy class noisybolt builds ``algo``'s model with.
 
     Raises:
-        UnknownNameError: an unknown algorithm.
+        UnknownNameError: an unknown algorithm (from
+            :func:`~noisybolt.agents.hyperparams.algorithm_class`).
     """
-    try:
-        return _POLICIES[algo.lower()]
-    except KeyError:
-        raise UnknownNameError(
-            f"unknown algorithm {algo!r}; known algorithms: {sorted(_POLICIES)}",
-            name=algo,
-            known=tuple(sorted(_POLICIES)),
-        ) from None
+    return _POLICIES[algorithm_class(algo)]
