@@ -22,7 +22,9 @@ column gone at an episode's end; null for a run without the per-brick specs), ``
 (mean game score), ``bolt_false_acceptance`` (largest share of episodes over the specs whose
 DFA, run on what the bolt perceived, ended
 accepting while the true trace did not; null where not recorded), ``episodes`` and
-``reward`` (the reward scheme).
+``reward`` (the reward scheme), ``camera`` (the bolt camera's noise, as given to
+``--noise``; ``none`` for a clean camera) and ``tracking`` (``threshold``, Algorithm 1, or
+``belief``).
 """
 
 from __future__ import annotations
@@ -159,7 +161,17 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
         "bolt_false_acceptance": max(false.values()) if false else None,
         "episodes": int(last["n_episodes"]),
         "reward": config["bolt"]["reward"],
+        "camera": _camera(config),
+        "tracking": str(config["bolt"].get("tracking", "threshold")),
     }
+
+
+def _camera(config: dict[str, Any]) -> str:
+    """The bolt camera's noise as the run was given it (``none``: a clean camera)."""
+    noise = (config["world"].get("kwargs") or {}).get("noise")
+    if noise is None:
+        return "none"
+    return noise if isinstance(noise, str) else json.dumps(noise, sort_keys=True)
 
 
 def summary(results: Path) -> list[dict[str, Any]]:

@@ -46,7 +46,15 @@ def _run(path: Path, config: dict, metrics: list[dict]) -> Path:
 
 def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> None:
     results = script.RESULTS
-    ram = {"world": "breakout-ram", "algo": "ppo", "seed": 1, "bolted": True, "reward": "paper"}
+    ram = {
+        "world": "breakout-ram",
+        "algo": "ppo",
+        "seed": 1,
+        "bolted": True,
+        "reward": "paper",
+        "world_kwargs": {"noise": "gaussian:sigma=40+occlusion:count=2,size=0.25"},
+        "tracking": "belief",
+    }
     image = {"world": "breakout", "algo": "dqn", "seed": 0, "bolted": False}
     rows = [0.0, 0.0, 0.125, 0.25, 0.75, 0.875]
     # evaluations out of order: the last is the one with the most frames
@@ -73,8 +81,11 @@ def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> No
         "bolt_false_acceptance": 0.25,
         "episodes": 8,
         "reward": "paper",
+        "camera": "gaussian:sigma=40+occlusion:count=2,size=0.25",
+        "tracking": "belief",
     }
     assert image_entry["agent"] == "image" and image_entry["bolted"] is False
+    assert (image_entry["camera"], image_entry["tracking"]) == ("none", "threshold")
     assert image_entry["left_bricks_gone"] is None  # no per-brick specs
     assert json.loads((results / "summary.json").read_text()) == entries
 
