@@ -30,11 +30,17 @@ Belief tracking's base rates are estimated without ground truth (EM of Saerens e
 at 0.01: see :func:`~noisybolt.perception.base_rates.belief_settings_from_play`), and so
 are the fluents' switch rates (from the lag-one autocorrelation of those outputs).
 
+With ``--agent RUN_DIR`` (a Breakout setting), the recorded episodes are a trained run's
+instead (its latest model, sampled actions, its DFA states read from the ground truth so
+that it plays as with a bolt that never errs): longer games that reach states random play
+does not, such as rows 0-3 of the left column gone. The base rates are still estimated on
+random play.
+
 Cost (``--cost``): microseconds per environment-step of ``RestrainingBolt.step`` at 64
 environments for 1-16 fluents (one ``F(f_i)`` spec per fluent), both modes.
 
     .venv/bin/python benchmarks/belief_tracking.py [--setting grid-glitch ...] \
-        [--episodes 200] [--cost]
+        [--episodes 200] [--cost] [--agent RUN_DIR]
 """
 
 from __future__ import annotations
@@ -62,6 +68,13 @@ GRID_SPECS = (
     ),
     Spec("G(!bottom_left_corner)", terminal_reward=1.0, low_confidence_cost=0.5, name="avoid_bl"),
 )
+
+
+#: The Breakout settings' bolt cameras.
+BREAKOUT_CAMERAS = {
+    "breakout-occlusion": "gaussian:sigma=40+occlusion:count=2,size=0.25",
+    "breakout-sigma50": "gaussian:sigma=50",
+}
 
 
 @dataclass(frozen=True)
@@ -100,15 +113,34 @@ class GlitchDetector:
         return probs.astype(np.float32)
 
 
-def record(world: Any, detector: Any, episodes: int, seed: int, n_actions: int) -> list[Episode]:
-    """Random play; every finished episode's probabilities and truths."""
+def record(
+    world: Any,
+    detector: Any,
+    episodes: int,
+    seed: int,
+    n_actions: int,
+    *,
+    agent: tuple[Any, Any] | None = None,
+) -> list[Episode]:
+    """Random play (or ``agent``'s); every finished episode's probabilities and truths.
+
+    ``agent``: ``(venv, act)``, an SB3 ``VecEnv`` over ``world`` (already seeded) and
+    ``act(observations) -> actions``; None: uniformly random actions on ``world``.
+    """
     from noisybolt.envs import SB3VecEnv
 
-    venv = SB3VecEnv(world)
-    venv.seed(seed)
-    venv.reset()
     rng = np.random.default_rng(seed)
     n = world.num_envs
+    if agent is None:
+        venv = SB3VecEnv(world)
+        venv.seed(seed)
+
+        def act(_: Any) -> np.ndarray:
+            return rng.integers(0, n_actions, size=n)
+
+    else:
+        venv, act = agent
+    observations = venv.reset()
 
     def look(images: np.ndarray, truth: np.ndarray) -> np.ndarray:
         out = detector.predict(images, truth=truth if detector.needs_truth else None)
@@ -120,8 +152,8 @@ def record(world: Any, detector: Any, episodes: int, seed: int, n_actions: int) 
     ]
     done_episodes: list[Episode] = []
     while len(done_episodes) < episodes:
-        venv.step_async(rng.integers(0, n_actions, size=n))
-        _, _, dones, _ = venv.step_wait()
+        venv.step_async(act(observations))
+        observations, _, dones, _ = venv.step_wait()
         dones = np.asarray(dones, dtype=bool)
         images, truth = world.bolt_images(), np.asarray(world.true_fluents(), dtype=bool)
         if dones.any():
@@ -225,10 +257,7 @@ def setting_parts(
         return world, detector, GRID_SPECS, 3, ()
     from noisybolt.agents.specs import expand_specs, resolve_spec
 
-    noise = {
-        "breakout-occlusion": "gaussian:sigma=40+occlusion:count=2,size=0.25",
-        "breakout-sigma50": "gaussian:sigma=50",
-    }[name]
+    noise = BREAKOUT_CAMERAS[name]
     kwargs: dict[str, Any] = {"noise": noise, "fire_on_reset": True}
     world = make_world(breakout_world, num_envs=n_envs, seed=seed, **kwargs)
     detector = make_detector(
@@ -244,6 +273,38 @@ def setting_parts(
     return world, detector, specs, 4, tuple(world.fluent_names)
 
 
+def agent_play(run_dir: str, noise: str, seed: int, n_envs: int) -> tuple[Any, tuple[Any, Any]]:
+    """A trained run's policy playing its own world under the camera ``noise``:
+    ``(world, (venv, act))`` for :func:`record`.
+
+    The policy's DFA states come from a bolt on the ground truth (the oracle detector), so
+    it plays as it would with a bolt that never errs; the camera under test only watches.
+    Actions are sampled, as the runs' evaluations do.
+    """
+    from noisybolt.agents.run_evaluation import load_run_model
+    from noisybolt.agents.training import TrainConfig, make_env
+    from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.rundir import RunDirectory
+
+    run = RunDirectory(run_dir)
+    config = TrainConfig.from_dict(run.read_config()).override({"world.kwargs.noise": noise})
+    # Loaded onto envs of its own: loading seeds the env it is given with the run's seed.
+    model = load_run_model(run, config)
+    detector = OracleDetector(_world_fluents(config))
+    venv = make_env(config, detector, training=False, n_envs=n_envs, seed=seed)
+    return venv.world, (venv, lambda obs: model.predict(obs, deterministic=False)[0])
+
+
+def _world_fluents(config: Any) -> tuple[str, ...]:
+    from noisybolt.envs import make_world
+
+    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    try:
+        return tuple(world.fluent_names)
+    finally:
+        world.close()
+
+
 def measure(
     name: str,
     episodes: int,
@@ -251,8 +312,11 @@ def measure(
     seed: int,
     belief_kwargs: dict[str, Any],
     breakout_world: str = "breakout-ram",
+    agent_run: str | None = None,
 ) -> None:
-    """Records a setting's episodes once and prints the side-by-side table."""
+    """Records a setting's episodes once and prints the side-by-side table (``agent_run``:
+    the episodes are that trained run's, see :func:`agent_play`; the base rates still come
+    from random play)."""
     world, detector, specs, n_actions, monotone = setting_parts(name, seed, n_envs, breakout_world)
     fluents = tuple(world.fluent_names)
     calibration = record(world, detector, max(episodes // 4, 8), seed + 1, n_actions)
@@ -260,7 +324,16 @@ def measure(
         [e.probs for e in calibration], switch_rates=True, monotone=monotone
     )
     switch = np.asarray(estimated.switch_rate)
-    recorded = record(world, detector, episodes, seed, n_actions)
+    player = "random-play"
+    if agent_run is None:
+        recorded = record(world, detector, episodes, seed, n_actions)
+    else:
+        if not name.startswith("breakout"):
+            raise SystemExit("--agent plays a Breakout run: give a breakout-* --setting")
+        noise = BREAKOUT_CAMERAS[name]
+        agent_world, agent = agent_play(agent_run, noise, seed, n_envs)
+        recorded = record(agent_world, detector, episodes, seed, n_actions, agent=agent)
+        player = f"{agent_run}'s (sampled actions)"
     rates_used = np.asarray(estimated.base_rates)
     base = {"base_rates": tuple(rates_used), "monotone": monotone, **belief_kwargs}
     trackers: dict[str, BeliefSettings | None] = {
@@ -274,7 +347,7 @@ def measure(
     truth_rate = np.concatenate([e.truth for e in recorded]).mean(axis=0)
     n_frames = sum(len(e.probs) for e in recorded)
     print(
-        f"\n### {name}: {len(recorded)} random-play episodes, {n_frames:,} frames "
+        f"\n### {name}: {len(recorded)} {player} episodes, {n_frames:,} frames "
         f"(seed {seed}){'; belief ' + str(belief_kwargs) if belief_kwargs else ''}"
     )
     print(
@@ -359,6 +432,12 @@ def main() -> None:
         help="breakout or breakout-ram: the same game and bolt camera, the agent's view "
         "differs (irrelevant to random play); each has its own cached classifiers",
     )
+    parser.add_argument(
+        "--agent",
+        metavar="RUN_DIR",
+        help="record a trained Breakout run's episodes (its latest model, sampled actions) "
+        "instead of random play's; the camera under test only watches",
+    )
     parser.add_argument("--switch-rate", type=float, default=None)
     parser.add_argument("--evidence-weight", type=float, default=None)
     args = parser.parse_args()
@@ -371,7 +450,15 @@ def main() -> None:
     if args.evidence_weight is not None:
         belief_kwargs["evidence_weight"] = args.evidence_weight
     for name in args.setting or ("grid-glitch", "grid-smudge"):
-        measure(name, args.episodes, args.n_envs, args.seed, belief_kwargs, args.breakout_world)
+        measure(
+            name,
+            args.episodes,
+            args.n_envs,
+            args.seed,
+            belief_kwargs,
+            args.breakout_world,
+            agent_run=args.agent,
+        )
     if args.cost:
         cost()
 
