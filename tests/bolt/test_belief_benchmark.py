@@ -67,3 +67,38 @@ def test_cost_table_runs_on_tiny_sizes(capsys: pytest.CaptureFixture[str]) -> No
     _module().cost(n_envs=4, fluent_counts=(1, 2), repeats=3)
     out = capsys.readouterr().out
     assert "| 1 |" in out and "| 2 |" in out
+
+
+def test_record_plays_the_agent_it_is_given() -> None:
+    # An agent that only turns left never leaves its cell: every episode runs to the
+    # truncation limit with the same position fluents on every frame (only the facing_*
+    # ones change), and it sees the observations the env returned; random play on the
+    # same world moves.
+    from noisybolt.envs import SB3VecEnv, make_world
+    from noisybolt.perception.detectors import OracleDetector
+
+    bench = _module()
+    world = make_world("gridworld", num_envs=2, seed=0, max_steps=9)
+    venv = SB3VecEnv(world)
+    venv.seed(0)
+    seen: list[object] = []
+
+    def turn_left(observations: object) -> np.ndarray:
+        seen.append(observations)
+        return np.zeros(2, dtype=np.int64)
+
+    detector = OracleDetector(world.fluent_names)
+    place = [i for i, name in enumerate(world.fluent_names) if not name.startswith("facing")]
+    assert place
+
+    def stays(episode: object) -> bool:
+        truth = episode.truth[:, place]  # type: ignore[attr-defined]
+        return len(truth) == 10 and bool((truth == truth[0]).all())
+
+    episodes = bench.record(world, detector, 3, 0, 3, agent=(venv, turn_left))
+    assert len(episodes) == 3
+    for episode in episodes:
+        assert stays(episode)  # the first observation and 9 steps, never moved
+        np.testing.assert_array_equal(episode.probs, episode.truth)
+    assert len(seen) >= 18
+    assert not all(stays(e) for e in bench.record(world, detector, 6, 0, 3))
