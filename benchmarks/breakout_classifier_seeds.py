@@ -19,11 +19,12 @@ approximate. For each classifier seed this reports, under one camera:
 The agent's episodes are recorded once (its policy on ground-truth DFA states, sampled
 actions; :func:`belief_tracking.agent_play`) and every classifier reads the same frames.
 The classifiers are those ``noisybolt train --seed S`` uses (cached, or trained here into
-the same cache).
+the same cache): with ``--restarts 1`` each seed's single classifier, with ``--restarts 3``
+the one kept of up to three (``detector.restarts``).
 
     .venv/bin/python benchmarks/breakout_classifier_seeds.py --seeds 0,1,2 \\
         --agent results/breakout/breakout-ram-ppo-bolted-seed0 \\
-        --agent results/breakout/breakout-ram-ppo-bolted-seed1 --episodes 16
+        --agent results/breakout/breakout-ram-ppo-bolted-seed1 --episodes 16 [--restarts 3]
 """
 
 from __future__ import annotations
@@ -82,11 +83,12 @@ def record_agents(bt: ModuleType, runs: list[str], noise: str, episodes: int, n_
     return recorded, np.stack(log.images)
 
 
-def classifier(seed: int, noise: str, world: Any) -> Any:
+def classifier(seed: int, noise: str, world: Any, **settings: int) -> Any:
     """The classifier ``noisybolt train --world breakout-ram --noise NOISE --seed SEED``
-    uses (its world kwargs hold the noise only, as a run's do)."""
+    uses with the ``detector`` settings given (``restarts``, ``samples``, ``epochs``; its
+    world kwargs hold the noise only, as a run's do)."""
     return make_detector(
-        DetectorConfig(kind="classifier", seed=seed),
+        DetectorConfig(kind="classifier", seed=seed, **settings),
         world=WORLD,
         world_kwargs={"noise": noise},
         fluent_names=world.fluent_names,
@@ -109,6 +111,15 @@ def main() -> None:
         help="the bolt camera (belief_tracking.py's settings)",
     )
     parser.add_argument("--test-samples", type=int, default=2000)
+    parser.add_argument("--samples", type=int, default=4000, help="detector.samples")
+    parser.add_argument("--epochs", type=int, default=30, help="detector.epochs")
+    parser.add_argument(
+        "--restarts",
+        type=int,
+        default=1,
+        help="detector.restarts: 1, each seed's one classifier (as runs saved before "
+        "restarts existed); 3, the classifier a new run gets",
+    )
     args = parser.parse_args()
     import torch
 
@@ -128,7 +139,9 @@ def main() -> None:
         seed=TEST_SEED,
     )
     print(
-        f"### {args.setting}: {len(episodes)} episodes of {', '.join(args.agent)} "
+        f"### {args.setting}, detector restarts={args.restarts} samples={args.samples} "
+        f"epochs={args.epochs}: {len(episodes)} episodes "
+        f"of {', '.join(args.agent)} "
         f"({len(images):,} frames; recorded in {time.perf_counter() - start:.0f} s); "
         f"frames where each fluent is true: "
         + ", ".join(f"{f} {int(n)}" for f, n in zip(fluents, truth.sum(axis=0), strict=True)),
@@ -137,7 +150,9 @@ def main() -> None:
     short = [f.replace("left_gone_", "").replace("brick_clear_left", "clear") for f in fluents]
     rows = []
     for seed in seeds:
-        detector = classifier(seed, noise, world)
+        detector = classifier(
+            seed, noise, world, restarts=args.restarts, samples=args.samples, epochs=args.epochs
+        )
         accuracy = ((detector.predict(test.images) >= 0.5) == test.labels).mean(axis=0)
         probs = detector.predict(images).astype(np.float64)
         seen = [bt.Episode(probs[e.probs[:, 0].astype(int)], e.truth) for e in episodes]

@@ -145,6 +145,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "world.workers": 0,
     # before world.overlap existed every rollout stepped all games at once
     "world.overlap": False,
+    # before detector.restarts existed one classifier was trained, from detector.seed
+    "detector.restarts": 1,
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)

@@ -1,5 +1,17 @@
 """The bolt's fluent detector for a run: built from its :class:`DetectorConfig`, with the
 on-the-fly classifier cached per world, camera and training recipe.
+
+An on-the-fly classifier is checked before a run relies on it: its accuracy on fresh
+held-out images, fluent by fluent. Where the worst fluent reads below
+:data:`ACCEPT_ACCURACY`, another is trained (``detector.restarts``), from another seed and
+on twice the images, and the best is kept. Why: under Breakout's occluding camera, 4,000
+images made classifiers that read ``left_gone_row4`` with 0.85-0.90 accuracy on fresh
+images in four seeds of five (0.97 in the fifth), and those read a trained agent's frames
+where that brick was gone at p >= 0.5 in 10 % and 56 % of them (seeds 0 and 1), so that
+belief tracking credited the milestone in 14 % and 86 % of the episodes that took it; on
+8,000 images seeds 0 and 1 read every fluent at 0.975 or better, the agent's frames at
+93-96 %, and belief tracking credited every milestone taken
+(benchmarks/breakout_classifier_seeds.py, results/breakout/README.md).
 """
 
 from __future__ import annotations
@@ -12,13 +24,34 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from noisybolt.agents.config import DetectorConfig
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
 from noisybolt.errors import ConfigError
 from noisybolt.perception.protocols import FluentDetector
 
-__all__ = ["classifier_architecture", "default_classifier_path", "make_detector"]
+__all__ = [
+    "ACCEPT_ACCURACY",
+    "HELD_OUT_SAMPLES",
+    "best_of_restarts",
+    "classifier_architecture",
+    "default_classifier_path",
+    "make_detector",
+    "restart_seed",
+]
+
+#: An on-the-fly classifier whose worst fluent reaches this accuracy on the held-out
+#: images is kept without training another (``detector.restarts``). Measured: Breakout
+#: classifiers under the occluding camera whose worst fluent read 0.85 and 0.90 on fresh
+#: images read a trained agent's frames where that brick was gone in 10 % and 56 % of
+#: them, one at 0.97 in 93 %; the gridworld's regionally smudged corner reads about 0.95
+#: at best (the camera makes it ambiguous), so a bar at 0.95 would retrain it for
+#: nothing half the time.
+ACCEPT_ACCURACY = 0.92
+#: Fresh images the restarts are compared on (at most ``detector.samples``).
+HELD_OUT_SAMPLES = 2000
 
 
 def _cache_root() -> Path:
@@ -67,6 +100,8 @@ def default_classifier_path(
     }
     if fingerprint is not None:
         fields["fluents"] = fingerprint
+    if config.restarts != 1:  # one classifier keeps the name it had before restarts
+        fields["restarts"] = config.restarts
     digest = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:16]
     label = world.replace(":", ".")
     return _cache_root() / "classifiers" / f"{label}-{digest}.safetensors"
@@ -139,6 +174,49 @@ def make_detector(
     return load_classifier(path, fluent_names=fluent_names, camera_spec=camera_spec)
 
 
+def restart_seed(seed: int, restart: int) -> int:
+    """The seed of an on-the-fly classifier's ``restart``-th training (0: ``seed`` itself,
+    so one restart is the classifier of old; the others far from any run's seed)."""
+    if restart == 0:
+        return seed
+    return int(np.random.SeedSequence([seed, restart]).generate_state(1)[0])
+
+
+def best_of_restarts(
+    train_one: Callable[[int], Any],
+    held_out: Callable[[], Any],
+    *,
+    restarts: int,
+    log: Callable[[str], None] = print,
+) -> Any:
+    """Trains up to ``restarts`` classifiers (``train_one(restart)``) and keeps the one
+    whose worst fluent is most accurate on the held-out dataset (``held_out()``, built
+    once, when a second classifier is to be compared), stopping early once one reaches
+    :data:`ACCEPT_ACCURACY`.
+    """
+    best, best_worst = None, -1.0
+    data = None
+    for restart in range(restarts):
+        detector = train_one(restart)
+        if restarts == 1:
+            return detector
+        if data is None:
+            data = held_out()
+        probs = np.asarray(detector.predict(data.images))
+        accuracy = ((probs >= 0.5) == np.asarray(data.labels, dtype=bool)).mean(axis=0)
+        worst = float(accuracy.min())
+        names = detector.fluent_names
+        log(
+            f"classifier {restart + 1} of at most {restarts}: held-out accuracy "
+            f"{worst:.3f} at worst ({names[int(accuracy.argmin())]})"
+        )
+        if worst > best_worst:
+            best, best_worst = detector, worst
+        if worst >= ACCEPT_ACCURACY:
+            break
+    return best
+
+
 def _train_classifier_on_the_fly(
     path: Path,
     config: DetectorConfig,
@@ -152,18 +230,38 @@ def _train_classifier_on_the_fly(
     from noisybolt.perception.dataset import collect_samples
     from noisybolt.perception.training import TrainingConfig, train_classifier
 
-    collector = make_world(world, num_envs=16, seed=config.seed, **world_kwargs)
-    dataset = collect_samples(
-        collector, num_samples=config.samples, seed=config.seed, progress=progress
-    )
-    result = train_classifier(
-        dataset,
-        config=architecture,
-        training=TrainingConfig(epochs=config.epochs, seed=config.seed),
-        progress=progress,
-    )
-    result.detector.save(path)
-    log(
-        f"classifier trained in {result.seconds:.0f} s on {config.samples} bolt images; "
-        f"validation report:\n{result.report.format_table()}"
-    )
+    def images(seed: int, samples: int) -> Any:
+        collector = make_world(world, num_envs=16, seed=seed, **world_kwargs)
+        try:
+            return collect_samples(collector, num_samples=samples, seed=seed, progress=progress)
+        finally:
+            close = getattr(collector, "close", None)
+            if callable(close):
+                close()
+
+    def train_one(restart: int) -> Any:
+        # Each restart from its own seed, on twice the images of the one before: a camera
+        # that hides what a fluent shows needs more of them (module docstring).
+        seed = restart_seed(config.seed, restart)
+        samples = config.samples * 2**restart
+        dataset = images(seed, samples)
+        result = train_classifier(
+            dataset,
+            config=architecture,
+            training=TrainingConfig(epochs=config.epochs, seed=seed),
+            progress=progress,
+        )
+        log(
+            f"classifier trained in {result.seconds:.0f} s on {samples} bolt images "
+            f"(seed {seed}); validation report:\n{result.report.format_table()}"
+        )
+        return result.detector
+
+    def held_out() -> Any:
+        # seeded as no restart is, so that no classifier has seen these images
+        return images(
+            restart_seed(config.seed, config.restarts), min(HELD_OUT_SAMPLES, config.samples)
+        )
+
+    detector = best_of_restarts(train_one, held_out, restarts=config.restarts, log=log)
+    detector.save(path)

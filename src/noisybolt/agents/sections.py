@@ -164,6 +164,12 @@ class DetectorConfig:
         samples: images collected to train a classifier on the fly.
         epochs: epochs to train it.
         seed: seeds the synthetic detector and on-the-fly classifier training.
+        restarts: how many on-the-fly classifiers may be trained, each from its own
+            seed (the first from ``seed``) and on twice the images of the one before:
+            after each, its worst fluent's accuracy on one held-out set of fresh images is
+            measured, and training stops once that reaches :data:`~noisybolt.agents.
+            detectors.ACCEPT_ACCURACY`; the best is kept. 1: the first alone, as runs saved
+            before this setting existed did.
     """
 
     kind: str = "classifier"
@@ -172,6 +178,7 @@ class DetectorConfig:
     samples: int = 4000
     epochs: int = 30
     seed: int = 0
+    restarts: int = 3
 
     def __post_init__(self) -> None:
         if self.kind not in DETECTORS:
@@ -181,6 +188,10 @@ class DetectorConfig:
                 known=DETECTORS,
             )
         object.__setattr__(self, "low_confidence", tuple(self.low_confidence))
+        if self.restarts < 1:
+            raise ConfigError(
+                f"detector.restarts must be at least 1 (one classifier), got {self.restarts}"
+            )
 
 
 @dataclass(frozen=True, kw_only=True)
