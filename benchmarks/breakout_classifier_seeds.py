@@ -111,6 +111,11 @@ def main() -> None:
         help="the bolt camera (belief_tracking.py's settings)",
     )
     parser.add_argument("--test-samples", type=int, default=2000)
+    parser.add_argument(
+        "--monotone",
+        action="store_true",
+        help="belief tracking told that Breakout's fluents only become true in a game",
+    )
     parser.add_argument("--samples", type=int, default=4000, help="detector.samples")
     parser.add_argument("--epochs", type=int, default=30, help="detector.epochs")
     parser.add_argument(
@@ -164,7 +169,9 @@ def main() -> None:
         calibration = bt.record(world, detector, 24, 124, 4)
         prior = getattr(detector, "training_prior", None)
         belief = belief_settings_from_play(
-            [e.probs for e in calibration], training_prior=0.5 if prior is None else prior
+            [e.probs for e in calibration],
+            training_prior=0.5 if prior is None else prior,
+            monotone=fluents if args.monotone else (),
         )
         threshold = bt.rates(*bt.replay(seen, specs, fluents, tracking="threshold"))
         believed = bt.rates(*bt.replay(seen, specs, fluents, tracking="belief", belief=belief))
@@ -174,12 +181,13 @@ def main() -> None:
           + ") | false acc. threshold / belief, worst |")  # fmt: skip
     print("|---:|---|---|---:|---|---|")
     for seed, accuracy, hits, alarms, threshold, believed in rows:
+        worst = specs[int(np.argmax(believed[0]))].name
         print(
             f"| {seed} | {' '.join(f'{a:.3f}' for a in accuracy)} "
             f"| {' '.join('n/a' if np.isnan(h) else f'{h:.2f}' for h in hits)} "
             f"| {max(alarms):.3f} "
             f"| {' '.join(bt._pct(r) for r in believed[1])} "
-            f"| {threshold[0].max():.0%} / {believed[0].max():.0%} |"
+            f"| {threshold[0].max():.0%} / {believed[0].max():.0%} ({worst}) |"
         )
 
 

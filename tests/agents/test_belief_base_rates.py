@@ -109,3 +109,26 @@ def test_a_trained_classifier_records_the_prior_its_probabilities_carry() -> Non
         model=detector.model, fluent_names=("a", "b"), camera_spec=spec, training={}
     )
     assert old.training_prior is None
+
+
+def test_a_world_declaring_monotone_fluents_has_them_believed_monotone() -> None:
+    # Breakout's bricks gone stay gone: the run's belief is told so, fluent by fluent; the
+    # gridworld declares none (an agent leaves a corner).
+    breakout = TrainConfig.create(
+        world="breakout-ram",
+        specs=["left_row5", "clear_left_column"],
+        detector=DetectorConfig(kind="oracle"),
+        tracking="belief",
+        frames=64,
+        progress_bar=False,
+    )
+    lines: list[str] = []
+    setup = prepare_bolt(breakout, seed=0, log=lines.append)
+    world = make_world("breakout-ram", num_envs=1, seed=0)
+    assert setup.belief is not None
+    assert setup.belief.monotone == world.monotone_fluents == world.fluent_names
+    assert any("monotone (true once" in line for line in lines)
+    grid = prepare_bolt(_config("oracle", tracking="belief"), seed=0, log=lambda _: None)
+    assert grid.belief is not None and grid.belief.monotone == ()
+    subset = make_world("breakout-ram", num_envs=1, seed=0, fluents=["left_gone_row5"])
+    assert subset.monotone_fluents == ("left_gone_row5",)

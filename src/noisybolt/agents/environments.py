@@ -312,6 +312,7 @@ def prepare_bolt(
     """
     probe: Any = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
     fluents, camera_spec = tuple(probe.fluent_names), probe.camera_spec
+    monotone = tuple(getattr(probe, "monotone_fluents", ()))
     probe.close()
     dfas = _check_specs_against_world(config, fluents, log=log)
     detector = make_detector(
@@ -335,12 +336,17 @@ def prepare_bolt(
                 "frequencies it was trained on; its prior is taken as 0.5 (train it again "
                 "with --retrain-classifier to record them)"
             )
-        belief = belief_from_play(config, detector)
+        belief = belief_from_play(config, detector, monotone=monotone)
         rates = np.broadcast_to(np.asarray(belief.base_rates, dtype=float), (len(fluents),))
         log(
             "belief tracking: base rates in play, estimated from the detector on random "
             "play (no ground truth): "
             + ", ".join(f"{f} {r:.3f}" for f, r in zip(fluents, rates, strict=True))
+            + (
+                f"; monotone (true once, true to the episode's end): {', '.join(belief.monotone)}"
+                if belief.monotone
+                else ""
+            )
         )
     return BoltSetup(fluents=fluents, dfas=dfas, detector=detector, letters=letters, belief=belief)
 
@@ -355,8 +361,11 @@ def belief_from_play(
     *,
     n_envs: int = BASE_RATE_PLAY[0],
     steps: int = BASE_RATE_PLAY[1],
+    monotone: Sequence[str] = (),
 ) -> BeliefSettings:
-    """``config.belief_settings`` with base rates estimated from seeded random play.
+    """``config.belief_settings`` with base rates estimated from seeded random play, and
+    the fluents the world declares ``monotone`` (its ``monotone_fluents``: true once, true
+    for the rest of the episode, as Breakout's bricks gone).
 
     The detector's probabilities on ``n_envs * steps`` frames of the bolt's camera in
     random play (seeded by the run's seed: training and evaluation estimate the same) go
@@ -383,7 +392,7 @@ def belief_from_play(
         [np.concatenate(frames)],
         training_prior=0.5 if prior is None else prior,
         confidence=settings.confidence,
-        monotone=settings.monotone,
+        monotone=tuple(settings.monotone) or tuple(monotone),
     )
 
 

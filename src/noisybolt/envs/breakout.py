@@ -619,6 +619,15 @@ class BreakoutWorld(gym.vector.VectorEnv):
         return self._fluent_names
 
     @property
+    def monotone_fluents(self) -> tuple[str, ...]:
+        """Fluents that, once true, stay true for the rest of the episode: all of them (a
+        brick gone stays gone). Belief tracking is told so (``BeliefSettings.monotone``):
+        a brick read as standing again after it was seen gone is the camera's error, not
+        the game. (A second wall comes only once the first is cleared, when every ``F``
+        spec over these has long been accepted.)"""
+        return self._fluent_names
+
+    @property
     def camera_spec(self) -> CameraSpec:
         """The bolt camera's size and noise."""
         return self._camera_spec
