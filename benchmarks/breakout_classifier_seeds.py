@@ -30,10 +30,9 @@ the one kept of up to three (``detector.restarts``).
 from __future__ import annotations
 
 import argparse
-import importlib.util
+import sys
 import time
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -44,17 +43,11 @@ from noisybolt.envs import make_world
 from noisybolt.perception.base_rates import belief_settings_from_play
 from noisybolt.perception.dataset import collect_samples
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # its sibling, when loaded by path
+import belief_tracking as bt  # the recording and the replay
+
 WORLD = "breakout-ram"
 TEST_SEED = 1000
-
-
-def _belief_tracking() -> ModuleType:
-    path = Path(__file__).resolve().parent / "belief_tracking.py"
-    spec = importlib.util.spec_from_file_location("belief_tracking_benchmark", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 class ImageLog:
@@ -73,7 +66,9 @@ class ImageLog:
         return np.arange(first, len(self.images), dtype=np.float64)[:, None]
 
 
-def record_agents(bt: ModuleType, runs: list[str], noise: str, episodes: int, n_envs: int):
+def record_agents(
+    runs: list[str], noise: str, episodes: int, n_envs: int
+) -> tuple[list[Any], np.ndarray]:
     """The agents' episodes (rows name images) and the images, ``uint8 [frames, S, S, 3]``."""
     log = ImageLog()
     recorded = []
@@ -129,11 +124,10 @@ def main() -> None:
     import torch
 
     torch.set_num_threads(1)
-    bt = _belief_tracking()
     noise = bt.BREAKOUT_CAMERAS[args.setting]
     seeds = [int(s) for s in args.seeds.split(",")]
     start = time.perf_counter()
-    episodes, images = record_agents(bt, args.agent, noise, args.episodes, args.n_envs)
+    episodes, images = record_agents(args.agent, noise, args.episodes, args.n_envs)
     truth = np.concatenate([e.truth for e in episodes])
     world = make_world(WORLD, num_envs=args.n_envs, seed=123, noise=noise, fire_on_reset=True)
     fluents = tuple(world.fluent_names)

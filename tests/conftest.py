@@ -1,8 +1,14 @@
-"""Shared test settings: one torch thread (see FACTS.md), Hypothesis profiles."""
+"""Shared test settings: one torch thread (see FACTS.md), Hypothesis profiles; the
+repository's scripts as modules (``load_script``)."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 
 from hypothesis import HealthCheck, settings
 
@@ -29,6 +35,27 @@ except ImportError:  # pragma: no cover
 
 
 import pytest  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def load_script() -> Callable[..., ModuleType]:
+    """Imports a script of the repository (``benchmarks/x.py``, ``scripts/y.py``,
+    ``examples/z.py``: its path from the root) as a module, registered in ``sys.modules``
+    under ``name`` (default: the file's stem), where its dataclasses, NamedTuples and
+    process pools look their module up."""
+
+    def load(relative: str, name: str | None = None) -> ModuleType:
+        path = ROOT / relative
+        spec = importlib.util.spec_from_file_location(name or path.stem, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 @pytest.fixture(autouse=True, scope="session")

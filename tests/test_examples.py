@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
@@ -11,14 +11,6 @@ import pytest
 import noisybolt
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-
-
-def _example(name: str) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _user_lines(path: Path) -> int:
@@ -32,8 +24,10 @@ def test_frozenlake_is_bolted_in_under_20_lines() -> None:
     assert _user_lines(EXAMPLES / "frozenlake.py") < 20
 
 
-def test_frozenlake_agent_reaches_the_goal_by_the_route_the_bolt_wants() -> None:
-    lake = _example("frozenlake")
+def test_frozenlake_agent_reaches_the_goal_by_the_route_the_bolt_wants(
+    load_script: Callable[..., ModuleType],
+) -> None:
+    lake = load_script("examples/frozenlake.py", "example_frozenlake")
     model = lake.train(frames=6144, seed=0)  # learned in 6k frames for seeds 0, 1 and 2
     env = noisybolt.RestrainingBoltWrapper(lake.make_lake(), [lake.SPEC], "oracle")
     obs, info = env.reset(seed=0)
@@ -48,8 +42,10 @@ def test_frozenlake_agent_reaches_the_goal_by_the_route_the_bolt_wants() -> None
     assert route == [4, 8, 9, 13, 14, 15]  # six steps: the shortest compliant route
 
 
-def test_minigrid_room_is_bolted_with_fluents_of_the_agents_cell() -> None:
-    room = _example("minigrid_empty")
+def test_minigrid_room_is_bolted_with_fluents_of_the_agents_cell(
+    load_script: Callable[..., ModuleType],
+) -> None:
+    room = load_script("examples/minigrid_empty.py", "example_minigrid_empty")
     left, right, forward = 0, 1, 2  # MiniGrid's turn left, turn right, move forward
 
     def run(actions: list[int]) -> tuple[float, bool, dict]:

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -43,13 +43,10 @@ def test_both_corners_are_visited_under_the_compliance_scheme_only(tmp_path: Pat
 
 
 @pytest.mark.slow
-def test_a_slice_of_the_spec_suite(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    path = Path(__file__).parents[2] / "benchmarks" / "spec_suite.py"
-    spec = importlib.util.spec_from_file_location("spec_suite", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["spec_suite"] = module  # the process pool pickles its functions by module
-    spec.loader.exec_module(module)
+def test_a_slice_of_the_spec_suite(
+    tmp_path: Path, capsys: pytest.CaptureFixture, load_script: Callable[..., ModuleType]
+) -> None:
+    module = load_script("benchmarks/spec_suite.py")  # its process pool pickles by module
     argv = [
         "--specs",
         "24",

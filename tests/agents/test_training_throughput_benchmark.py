@@ -2,24 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
+from collections.abc import Callable
 from types import ModuleType
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "training_throughput.py"
-
 
 @pytest.fixture(scope="module")
-def bench() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("training_throughput_benchmark", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its NamedTuple looks its module up there
-    spec.loader.exec_module(module)
-    return module
+def bench(load_script: Callable[..., ModuleType]) -> ModuleType:
+    return load_script("benchmarks/training_throughput.py")
 
 
 @pytest.mark.parametrize("variant", ["bare", "oracle"])

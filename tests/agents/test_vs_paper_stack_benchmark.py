@@ -3,26 +3,18 @@
 from __future__ import annotations
 
 import importlib.util
-import sys
 import time
-from pathlib import Path
+from collections.abc import Callable
 from types import ModuleType
 
 import numpy as np
 import pytest
 import torch
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "vs_paper_stack.py"
-
 
 @pytest.fixture(scope="module")
-def bench() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("vs_paper_stack_benchmark", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+def bench(load_script: Callable[..., ModuleType]) -> ModuleType:
+    return load_script("benchmarks/vs_paper_stack.py")
 
 
 def test_without_torch_ac_it_says_how_to_install_it(

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
+from collections.abc import Callable
 from types import ModuleType
 
 import numpy as np
@@ -11,19 +10,15 @@ import pytest
 
 from noisybolt.bolt import Spec
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "belief_tracking.py"
+
+@pytest.fixture(scope="module")
+def bench(load_script: Callable[..., ModuleType]) -> ModuleType:
+    return load_script("benchmarks/belief_tracking.py")
 
 
-def _module() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("belief_tracking_benchmark", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_replay_counts_a_glitch_as_a_false_acceptance_only_under_threshold() -> None:
-    bench = _module()
+def test_replay_counts_a_glitch_as_a_false_acceptance_only_under_threshold(
+    bench: ModuleType,
+) -> None:
     no, yes, glitch = 0.02, 0.99, 0.8
     episodes = [
         # x never true; one glitch frame: threshold accepts F(x), belief does not.
@@ -51,8 +46,7 @@ def test_replay_counts_a_glitch_as_a_false_acceptance_only_under_threshold() -> 
     assert false.tolist() == [0.0] and recall.tolist() == [1.0]
 
 
-def test_glitch_detector_is_sure_except_on_its_share_of_frames() -> None:
-    bench = _module()
+def test_glitch_detector_is_sure_except_on_its_share_of_frames(bench: ModuleType) -> None:
     detector = bench.GlitchDetector(["a", "b", "c"], rate=0.03, seed=0)
     truth = np.zeros((20_000, 3), dtype=bool)
     truth[:, 0] = True
@@ -63,13 +57,15 @@ def test_glitch_detector_is_sure_except_on_its_share_of_frames() -> None:
     assert probs[:, 1:].max() <= 0.9
 
 
-def test_cost_table_runs_on_tiny_sizes(capsys: pytest.CaptureFixture[str]) -> None:
-    _module().cost(n_envs=4, fluent_counts=(1, 2), repeats=3)
+def test_cost_table_runs_on_tiny_sizes(
+    bench: ModuleType, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bench.cost(n_envs=4, fluent_counts=(1, 2), repeats=3)
     out = capsys.readouterr().out
     assert "| 1 |" in out and "| 2 |" in out
 
 
-def test_record_plays_the_agent_it_is_given() -> None:
+def test_record_plays_the_agent_it_is_given(bench: ModuleType) -> None:
     # An agent that only turns left never leaves its cell: every episode runs to the
     # truncation limit with the same position fluents on every frame (only the facing_*
     # ones change), and it sees the observations the env returned; random play on the
@@ -77,7 +73,6 @@ def test_record_plays_the_agent_it_is_given() -> None:
     from noisybolt.envs import SB3VecEnv, make_world
     from noisybolt.perception.detectors import OracleDetector
 
-    bench = _module()
     world = make_world("gridworld", num_envs=2, seed=0, max_steps=9)
     venv = SB3VecEnv(world)
     venv.seed(0)

@@ -2,19 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
+from collections.abc import Callable
+from types import ModuleType
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "bolt_step.py"
 
-
-def test_bolt_step_benchmark_runs_on_tiny_sizes(capsys: pytest.CaptureFixture[str]) -> None:
-    spec = importlib.util.spec_from_file_location("bolt_step_benchmark", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+def test_bolt_step_benchmark_runs_on_tiny_sizes(
+    capsys: pytest.CaptureFixture[str], load_script: Callable[..., ModuleType]
+) -> None:
+    module = load_script("benchmarks/bolt_step.py")
     args = ["--envs", "4", "--max-fluents", "3", "--repeats", "1", "--min-time", "0.0001"]
     module.main(args)
     out = capsys.readouterr().out

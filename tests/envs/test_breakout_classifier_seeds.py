@@ -2,23 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
+from collections.abc import Callable
 from types import ModuleType
 
 import numpy as np
 
 from noisybolt.envs import make_world
-
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "breakout_classifier_seeds.py"
-
-
-def _module() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("breakout_classifier_seeds", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 class _Brightness:
@@ -30,9 +19,11 @@ class _Brightness:
         return np.asarray(images, dtype=np.float64).mean(axis=(1, 2, 3))[:, None]
 
 
-def test_the_image_log_rows_name_the_images_each_frame_showed() -> None:
-    bench = _module()
-    bt = bench._belief_tracking()
+def test_the_image_log_rows_name_the_images_each_frame_showed(
+    load_script: Callable[..., ModuleType],
+) -> None:
+    bench = load_script("benchmarks/breakout_classifier_seeds.py")
+    bt = bench.bt  # the sibling benchmark it imports
 
     def play(detector: object) -> list:
         world = make_world("gridworld", num_envs=3, seed=0, noise="gaussian:sigma=20")

@@ -2,22 +2,18 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "perception_classifiers.py"
-
 
 def test_classifier_benchmark_runs_on_tiny_sizes(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, load_script: Callable[..., ModuleType]
 ) -> None:
-    spec = importlib.util.spec_from_file_location("perception_classifiers_benchmark", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_script("benchmarks/perception_classifiers.py")
     figures = tmp_path / "figures.json"
     assert module.main(["--quick", "--json", str(figures)]) == 0
     out = capsys.readouterr().out
