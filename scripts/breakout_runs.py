@@ -63,7 +63,11 @@ def classifier_file(config: dict[str, Any]) -> Path | None:
     world = make_world(train.world, num_envs=1, seed=0, **train.world_settings)
     camera = world.camera_spec
     return default_classifier_path(
-        train.world, train.detector, camera, classifier_architecture(camera)
+        train.world,
+        train.detector,
+        camera,
+        classifier_architecture(camera),
+        world_kwargs=train.world_kwargs,
     )
 
 

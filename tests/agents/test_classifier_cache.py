@@ -202,6 +202,17 @@ def test_restarts_key_the_cache_from_two_on_and_legacy_runs_had_one() -> None:
     assert names["breakout-ram", 1] == "breakout-ram-82ea9225fd589938.safetensors"
     assert names["gridworld", 1] == "gridworld-5a1da94a2515c7dc.safetensors"
     assert names["breakout-ram", 3] != names["breakout-ram", 1]
+    # from restarts on, how the collector is built keys it too (not before: legacy names)
+    camera = make_world("breakout-ram", num_envs=1, seed=0).camera_spec
+    arch = classifier_architecture(camera)
+    for restarts, differ in ((3, True), (1, False)):
+        config = DetectorConfig(restarts=restarts)
+        plain = default_classifier_path("breakout-ram", config, camera, arch, world_kwargs={})
+        fire = default_classifier_path(
+            "breakout-ram", config, camera, arch, world_kwargs={"fire_on_reset": True}
+        )
+        assert (plain != fire) is differ
+        assert plain.name == names["breakout-ram", restarts]
     assert DetectorConfig().restarts == 3 and LEGACY_DEFAULTS["detector.restarts"] == 1
     with pytest.raises(ConfigError, match=r"detector\.restarts"):
         DetectorConfig(restarts=0)

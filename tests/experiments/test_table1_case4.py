@@ -50,7 +50,11 @@ def classifiers() -> dict[str, Any]:
         # The run's default recipe (4000 images, 30 epochs) names the file; a small one
         # stands in for it.
         path = default_classifier_path(
-            "gridworld", DetectorConfig(), world.camera_spec, architecture
+            "gridworld",
+            DetectorConfig(),
+            world.camera_spec,
+            architecture,
+            world_kwargs={"noise": noise},
         )
         path.parent.mkdir(parents=True, exist_ok=True)
         result.detector.save(path)

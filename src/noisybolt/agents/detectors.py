@@ -81,12 +81,18 @@ def default_classifier_path(
     architecture: Any,
     *,
     fingerprint: str | None = None,
+    world_kwargs: Mapping[str, Any] | None = None,
 ) -> Path:
     """Where the on-the-fly classifier for this world, camera and recipe is cached.
 
     ``fingerprint`` (:func:`noisybolt.envs.registry.world_fingerprint`, taken for a
     factory-path world) keys it by what the fluents mean too: a user's world whose fluent
     definition changed under the same name gets a new classifier, not the old one.
+
+    From ``detector.restarts`` on (a config whose ``restarts`` is not 1), the restarts and
+    the ``world_kwargs`` the images are collected with key it too: two callers that build
+    the collector differently (say, one with FIRE on reset) no longer share a file.
+    Classifiers of one restart keep the names they had before.
     """
     from noisybolt.perception.compat import camera_spec_to_dict
 
@@ -102,6 +108,9 @@ def default_classifier_path(
         fields["fluents"] = fingerprint
     if config.restarts != 1:  # one classifier keeps the name it had before restarts
         fields["restarts"] = config.restarts
+        fields["world_kwargs"] = json.loads(
+            json.dumps(dict(world_kwargs or {}), sort_keys=True, default=repr)
+        )
     digest = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:16]
     label = world.replace(":", ".")
     return _cache_root() / "classifiers" / f"{label}-{digest}.safetensors"
@@ -148,6 +157,7 @@ def make_detector(
             fingerprint=world_fingerprint(world, dict(world_kwargs))
             if is_factory_path(world)
             else None,
+            world_kwargs=world_kwargs,
         )
     )
     if retrain and config.path is not None:
