@@ -30,6 +30,7 @@ from noisybolt.agents.config import DetectorConfig
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
 from noisybolt.errors import ConfigError
+from noisybolt.perception.metrics import build_report
 from noisybolt.perception.protocols import FluentDetector
 
 __all__ = [
@@ -212,13 +213,14 @@ def best_of_restarts(
             return detector
         if data is None:
             data = held_out()
-        probs = np.asarray(detector.predict(data.images))
-        accuracy = ((probs >= 0.5) == np.asarray(data.labels, dtype=bool)).mean(axis=0)
-        worst = float(accuracy.min())
-        names = detector.fluent_names
+        report = build_report(
+            detector.predict(data.images), data.labels, fluent_names=detector.fluent_names
+        )
+        worst = report.min_accuracy
+        weakest = min(report.fluents, key=lambda fluent: fluent.accuracy).name
         log(
             f"classifier {restart + 1} of at most {restarts}: held-out accuracy "
-            f"{worst:.3f} at worst ({names[int(accuracy.argmin())]})"
+            f"{worst:.3f} at worst ({weakest})"
         )
         if worst > best_worst:
             best, best_worst = detector, worst
