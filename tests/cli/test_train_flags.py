@@ -5,6 +5,7 @@ describes a run."""
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 from typing import Any
 
@@ -118,3 +119,25 @@ def test_a_bad_set_is_refused_by_path_and_leaves_nothing(
         assert main(["train", *BASE, *argv, "--out", str(out)]) == 2
         assert message in capsys.readouterr().err
         assert not out.exists()
+
+
+def test_a_run_saved_before_a_setting_existed_resumes_with_its_own_command(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The Breakout runs were started before detector.restarts (default 3, one classifier
+    # before it): their own command with --resume was refused as "saved 1, now 3".
+    out = tmp_path / "run"
+    command = [
+        "train", *BASE, "--frames", "64", "--eval-freq", "0", "--eval-episodes", "1",
+        "--set", "world.n_envs=2", "--no-progress", "--out", str(out),
+    ]  # fmt: skip
+    assert main(command) == 0
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["detector"].pop("restarts") == 3
+    (out / "config.json").write_text(json.dumps(saved))
+    capsys.readouterr()
+    assert main([*command, "--frames", "128", "--resume"]) == 0
+    assert json.loads((out / "config.json").read_text())["detector"]["restarts"] == 1
+    # a setting given on the command line is the user's, and a different one is refused
+    assert main([*command, "--frames", "192", "--resume", "--set", "detector.restarts=3"]) == 2
+    assert "detector.restarts: saved 1, now 3" in capsys.readouterr().err

@@ -46,7 +46,7 @@ import dataclasses
 import json
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Generic, TypeVar
 
@@ -114,6 +114,7 @@ __all__ = [
     "checked_value",
     "nested_config",
     "override_paths",
+    "resume_settings",
     "schema_paths",
     "value_from_text",
 ]
@@ -567,6 +568,30 @@ def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
         if isinstance(out[section], dict) and key not in out[section]:
             out[section][key] = value
     return {"schema": SCHEMA_VERSION, **out}
+
+
+def resume_settings(saved: Mapping[str, Any], given: Collection[str]) -> dict[str, Any]:
+    """The settings a resumed run keeps from its saved ``config.json`` (``saved``) although
+    the command line does not repeat them: each setting added since some run was saved
+    (:data:`LEGACY_DEFAULTS`) that ``given`` (the paths the user set) leaves out. A run
+    saved before ``detector.restarts`` existed trained one classifier; resuming it with the
+    command it was started with must not ask for today's default of three and be refused.
+    A setting the user does give is not replaced: a different value is refused by the
+    resume's config check, by name.
+
+    Example:
+        >>> resume_settings({"detector": {"seed": 0}}, given={"frames"})["detector.restarts"]
+        1
+        >>> "detector.restarts" in resume_settings({}, given={"detector.restarts"})
+        False
+    """
+    nested = nested_config(saved)
+    out = {}
+    for path in LEGACY_DEFAULTS:
+        if path not in given:
+            section, key = path.split(".")
+            out[path] = nested[section][key]
+    return out
 
 
 def _resolved_specs(items: Sequence[Any], *, paper: bool) -> list[dict[str, Any]]:

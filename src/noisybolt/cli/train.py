@@ -327,7 +327,9 @@ def _sigterm_as_interrupt() -> Iterator[None]:
 
 
 def _train(args: argparse.Namespace) -> int:
+    from noisybolt.agents.config import resume_settings
     from noisybolt.agents.training import TrainConfig, train
+    from noisybolt.rundir import RunDirectory
 
     overrides = train_overrides(args)
     if not overrides.get("bolt.specs"):
@@ -335,6 +337,16 @@ def _train(args: argparse.Namespace) -> int:
             "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
         )
     config = TrainConfig.build(overrides, hp_file=args.hp_file)
+    world_label = config.world.replace(":", ".")  # a factory path names no folder well
+    out = args.out or Path("runs") / f"{world_label}-{config.algo}-seed{config.seed}"
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
+    if args.resume and not (out / "config.json").exists():
+        raise ConfigError(f"--resume: {out} holds no run to continue")
+    if args.resume:  # settings added since the run was saved keep what the run meant
+        saved = RunDirectory(out).read_config()
+        overrides = {**overrides, **resume_settings(saved, given=overrides)}
+        config = TrainConfig.build(overrides, hp_file=args.hp_file)
     from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
     if config.reward == "compliance" and "bolt.reward_scale" not in overrides:
@@ -346,12 +358,6 @@ def _train(args: argparse.Namespace) -> int:
             "spec (noisybolt check says more): the agent must trade the goal for the bolt"
         )
     print(describe_scheme(config))
-    world_label = config.world.replace(":", ".")  # a factory path names no folder well
-    out = args.out or Path("runs") / f"{world_label}-{config.algo}-seed{config.seed}"
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
-    if args.resume and not (out / "config.json").exists():
-        raise ConfigError(f"--resume: {out} holds no run to continue")
     with _sigterm_as_interrupt():
         try:
             result = train(
