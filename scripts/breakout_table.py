@@ -9,17 +9,35 @@ episode (the sum of the ``left_row*`` compliance rates, also from ground truth),
 bolt's false acceptances: the share of episodes in which some spec's DFA, run on what the
 bolt perceived, ended accepting while the true trace did not (the largest over the specs;
 "—" for runs recorded before the bolt's view was kept).
+
+    .venv/bin/python scripts/breakout_table.py --pool 5 runs/breakout-ram-ppo-*-seed[01]
+
+``--pool K`` prints one row per run instead, over its last K evaluations together (one
+evaluation's 8 episodes read a 50 % share to within about ±18 points; K of them pooled
+narrow that by sqrt(K)): the frames they span, the episodes, the share that cleared the
+column with its 95 % Wilson interval, and the mean score and left bricks gone with the
+standard error of the evaluations' means (the records keep each evaluation's means, not
+its episodes). A learning run still improves across those evaluations: keep K small
+against the run's length.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
+import math
+import statistics
 from pathlib import Path
 
 
 def _records(run: Path) -> dict[int, dict]:
-    return {int(r["frames"]): r for r in json.loads((run / "metrics.json").read_text())}
+    """A run's evaluations by frames ({} before its first evaluation)."""
+    path = run / "metrics.json"
+    if not path.exists():
+        if not (run / "config.json").exists():
+            raise SystemExit(f"{run} holds no run (no config.json)")
+        return {}
+    return {int(r["frames"]): r for r in json.loads(path.read_text())}
 
 
 def _cell(record: dict | None) -> list[str]:
@@ -41,9 +59,83 @@ def _false_acceptance(record: dict) -> str:
     return f"{max(false.values()):.0%}" if false else "—"
 
 
-def main(argv: list[str]) -> None:
-    runs = [Path(a) for a in argv]
+def wilson_interval(successes: float, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The 95 % Wilson score interval of a binomial share ``successes / n``.
+
+    Example:
+        >>> [round(x, 3) for x in wilson_interval(0, 40)]
+        [0.0, 0.088]
+    """
+    if n <= 0:
+        raise ValueError(f"a share needs at least one episode, got n={n}")
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def pooled(records: dict[int, dict], last: int) -> dict[str, float]:
+    """A run's last ``last`` evaluations together: frames spanned, episodes, column share
+    (episode-weighted) and its Wilson interval, mean score and left bricks gone with the
+    standard error of the evaluations' means (0 for one evaluation)."""
+    if last < 1:
+        raise ValueError(f"--pool takes a number of evaluations >= 1, got {last}")
+    chosen = [records[f] for f in sorted(records)[-last:]]
+    if not chosen:
+        raise ValueError("the run has no evaluation yet")
+    episodes = [int(r["n_episodes"]) for r in chosen]
+    n = sum(episodes)
+    cleared = sum(
+        r["compliance"].get("clear_left_column", 0.0) * e
+        for r, e in zip(chosen, episodes, strict=True)
+    )
+    scores = [float(r["env_return_mean"]) for r in chosen]
+    bricks = [
+        sum(v for k, v in r["compliance"].items() if k.startswith("left_row")) for r in chosen
+    ]
+
+    def se(values: list[float]) -> float:
+        return statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else 0.0
+
+    low, high = wilson_interval(cleared, n)
+    return {
+        "first": min(int(r["frames"]) for r in chosen),
+        "last": max(int(r["frames"]) for r in chosen),
+        "episodes": n,
+        "cleared": cleared / n,
+        "cleared_low": low,
+        "cleared_high": high,
+        "score": statistics.fmean(scores),
+        "score_se": se(scores),
+        "bricks": statistics.fmean(bricks),
+        "bricks_se": se(bricks),
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    parser.add_argument(
+        "--pool", type=int, default=0, metavar="K", help="pool the last K evaluations per run"
+    )
+    args = parser.parse_args(argv)
+    runs: list[Path] = args.runs
     records = [_records(r) for r in runs]
+    if args.pool:
+        print("| run | frames | episodes | column cleared (95 % CI) | score | left bricks gone |")
+        print("|---|---|---:|---|---:|---:|")
+        for run, rec in zip(runs, records, strict=True):
+            if not rec:
+                print(f"| {run.name} | no evaluation yet | | | | |")
+                continue
+            p = pooled(rec, args.pool)
+            print(
+                f"| {run.name} | {p['first'] // 1000}k–{p['last'] // 1000}k | {p['episodes']} | "
+                f"{p['cleared']:.0%} ({p['cleared_low']:.0%}–{p['cleared_high']:.0%}) | "
+                f"{p['score']:.1f} ± {p['score_se']:.1f} | "
+                f"{p['bricks']:.2f} ± {p['bricks_se']:.2f} |"
+            )
+        return
     header = ["frames"]
     for run in runs:
         header += [f"{run.name}: score", "column cleared", "left bricks gone", "bolt false acc."]
@@ -57,4 +149,4 @@ def main(argv: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
