@@ -141,3 +141,49 @@ def test_a_run_saved_before_a_setting_existed_resumes_with_its_own_command(
     # a setting given on the command line is the user's, and a different one is refused
     assert main([*command, "--frames", "192", "--resume", "--set", "detector.restarts=3"]) == 2
     assert "detector.restarts: saved 1, now 3" in capsys.readouterr().err
+
+
+def test_a_resume_takes_every_setting_it_is_not_given_from_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    started = [
+        "train", "--spec", "edge", "--spec", "F(top_right_corner)", "--reward", "paper",
+        "--detector", "oracle", "--algo", "a2c", "--seed", "3", "--frames", "64",
+        "--eval-freq", "32", "--eval-episodes", "1", "--set", "world.n_envs=2",
+        "--no-progress", "--out", str(out),
+    ]  # fmt: skip
+    assert main(started) == 0
+    first = json.loads((out / "config.json").read_text())
+    capsys.readouterr()
+    # only where the run is and how far to go: specs, algorithm, seed, evaluation kept
+    assert main(["train", "--out", str(out), "--frames", "128", "--resume", "--no-progress"]) == 0
+    again = json.loads((out / "config.json").read_text())
+    assert again == {**first, "frames": 128}
+    # a resume to as many frames as the run has trained would train nothing: refused,
+    # and config.json keeps its target
+    assert main(["train", "--out", str(out), "--frames", "100", "--resume"]) == 2
+    err = capsys.readouterr().err
+    trained = json.loads((out / "checkpoints" / "latest.json").read_text())["frames"]
+    assert trained >= 128  # whole rollouts: A2C's 2 envs x 5 steps pass 128 at 130
+    assert f"it has trained {trained} already" in err and "noisybolt evaluate" in err
+    assert json.loads((out / "config.json").read_text())["frames"] == 128
+    # a setting given with another value is still refused, by name
+    assert main(["train", "--out", str(out), "--frames", "192", "--resume", "--algo", "ppo"]) == 2
+    assert "algorithm.name: saved 'a2c', now 'ppo'" in capsys.readouterr().err
+
+
+def test_specs_may_come_from_a_file_alone_and_none_at_all_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    specs = tmp_path / "specs.yaml"
+    specs.write_text("- edge\n- formula: F(top_right_corner)\n  name: tr\n")
+    out = tmp_path / "run"
+    argv = ["--detector", "oracle", "--frames", "64", "--eval-freq", "0", "--eval-episodes", "1"]
+    argv += ["--set", "world.n_envs=2", "--no-progress"]
+    assert main(["train", "--specs-file", str(specs), *argv, "--out", str(out)]) == 0
+    names = [s["name"] for s in json.loads((out / "config.json").read_text())["bolt"]["specs"]]
+    assert names == ["edge", "tr"]
+    assert main(["train", *argv, "--out", str(tmp_path / "none")]) == 2
+    assert "give at least one --spec" in capsys.readouterr().err
+    assert not (tmp_path / "none").exists()

@@ -46,7 +46,7 @@ import dataclasses
 import json
 import os
 import warnings
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Generic, TypeVar
 
@@ -114,7 +114,6 @@ __all__ = [
     "checked_value",
     "nested_config",
     "override_paths",
-    "resume_settings",
     "schema_paths",
     "value_from_text",
 ]
@@ -352,6 +351,47 @@ class TrainConfig:
             changes[FLAT_PATHS.get(key, key)] = value
         return cls.build(changes, hp_file=hp_file)
 
+    @classmethod
+    def resumed(
+        cls,
+        saved: Mapping[str, Any],
+        overrides: Mapping[str, Any] | None = None,
+        *,
+        hp_file: str | os.PathLike[str] | None = None,
+    ) -> TrainConfig:
+        """The config a resumed run continues with: its saved ``config.json`` (``saved``,
+        read as :meth:`from_dict` reads it) with the settings the user gives again
+        (``overrides``, as :meth:`build` takes them; ``hp_file``'s hyperparameters for the
+        run's world and algorithm) applied on top. A setting left out keeps the run's
+        value, whatever today's default: ``noisybolt train --out RUN --resume`` continues
+        RUN as it was started, and a run saved before a setting existed keeps what it
+        meant by it (:data:`LEGACY_DEFAULTS`). A setting given with another value than the
+        saved one is refused by the resume's check unless it may change
+        (:data:`RESUMABLE_KEYS`).
+
+        Raises:
+            ConfigError: the saved config does not load, or an override is unknown or of
+                the wrong type (naming the path).
+
+        Example:
+            >>> saved = TrainConfig.create(specs=["edge"], frames=1000).to_dict()
+            >>> resumed = TrainConfig.resumed(saved, {"frames": 2000})
+            >>> resumed.frames, resumed.bolt.specs == TrainConfig.from_dict(saved).bolt.specs
+            (2000, True)
+        """
+        config = cls.from_dict(saved)
+        changes = override_paths(overrides or {})
+        if hp_file is not None:
+            prefix = "algorithm.hyperparams."
+            given = {k[len(prefix) :]: v for k, v in changes.items() if k.startswith(prefix)}
+            params = load_hyperparams(config.world, config.algo, given, hp_file=hp_file)
+            for key in WORLD_KEYS & set(params):
+                value = params.pop(key)
+                if value is not None and f"world.{key}" not in changes:
+                    changes[f"world.{key}"] = value
+            changes.update({prefix + key: value for key, value in params.items()})
+        return config.override(changes) if changes else config
+
     def override(self, changes: Mapping[str, Any]) -> TrainConfig:
         """This config with ``changes`` (``{schema path: value}``) applied, validated whole.
 
@@ -568,30 +608,6 @@ def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
         if isinstance(out[section], dict) and key not in out[section]:
             out[section][key] = value
     return {"schema": SCHEMA_VERSION, **out}
-
-
-def resume_settings(saved: Mapping[str, Any], given: Collection[str]) -> dict[str, Any]:
-    """The settings a resumed run keeps from its saved ``config.json`` (``saved``) although
-    the command line does not repeat them: each setting added since some run was saved
-    (:data:`LEGACY_DEFAULTS`) that ``given`` (the paths the user set) leaves out. A run
-    saved before ``detector.restarts`` existed trained one classifier; resuming it with the
-    command it was started with must not ask for today's default of three and be refused.
-    A setting the user does give is not replaced: a different value is refused by the
-    resume's config check, by name.
-
-    Example:
-        >>> resume_settings({"detector": {"seed": 0}}, given={"frames"})["detector.restarts"]
-        1
-        >>> "detector.restarts" in resume_settings({}, given={"detector.restarts"})
-        False
-    """
-    nested = nested_config(saved)
-    out = {}
-    for path in LEGACY_DEFAULTS:
-        if path not in given:
-            section, key = path.split(".")
-            out[path] = nested[section][key]
-    return out
 
 
 def _resolved_specs(items: Sequence[Any], *, paper: bool) -> list[dict[str, Any]]:

@@ -93,6 +93,7 @@ __all__ = [
     "TrainConfig",
     "TrainResult",
     "build_bolted_env",
+    "check_frames_left",
     "check_same_config",
     "classifier_architecture",
     "default_classifier_path",
@@ -185,6 +186,7 @@ def train(
         )
     if resume:  # before the costly checks: a resume with other settings fails at once
         check_same_config(run, config)
+        check_frames_left(run, config)
 
     # Everything that can be checked is checked before anything is written: the specs
     # against the world, the detector, the environments, and the model on their spaces.
@@ -243,6 +245,27 @@ def train(
             best=best,
             fresh=not resume,
             log=log,
+        )
+
+
+def check_frames_left(run: RunDirectory, config: TrainConfig) -> None:
+    """Refuses to resume ``run`` to ``config.frames`` when its latest checkpoint has
+    trained more frames than that: the resume would train nothing, yet write the smaller
+    target into its ``config.json``. As many is allowed: a run stopped after its last
+    checkpoint, before its final model and evaluation were written, ends that way.
+
+    Raises:
+        ConfigError: naming the frames trained and what to do.
+        NoCheckpointError, CorruptFileError: as :func:`latest_checkpoint`.
+    """
+    from noisybolt.agents.checkpoints import latest_checkpoint
+
+    trained = latest_checkpoint(run).frames
+    if config.frames < trained:
+        raise ConfigError(
+            f"cannot resume {run.path} to {config.frames:,} frames: it has trained "
+            f"{trained:,} already; give --frames above that to train on, or evaluate it "
+            f"with noisybolt evaluate {run.path}"
         )
 
 

@@ -291,7 +291,7 @@ def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
     paths = set(FLAG_PATHS.values())
     overrides = {k: v for k, v in vars(args).items() if k in paths}
-    specs = list(overrides.pop("bolt.specs", []))
+    specs = list(overrides.pop("bolt.specs", None) or [])
     if args.specs_file is not None:
         specs += load_specs_file(args.specs_file)
     if specs:
@@ -306,6 +306,19 @@ def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
             raise ConfigError(f"{option} {item!r} is not of the form KEY=VALUE")
         overrides[path.strip()] = value_from_text(path.strip(), text)
     return overrides
+
+
+def _default_out(overrides: dict[str, Any]) -> Path:
+    """``runs/<world>-<algo>-seed<seed>``, from the options given or the schema's
+    defaults (a factory path's ``:`` made a ``.``: it names no folder well)."""
+    from noisybolt.agents.config import TrainConfig
+    from noisybolt.agents.schema import defaults
+
+    default = defaults(TrainConfig)
+    world = str(overrides.get("world.name", default["world"]["name"]))
+    algo = overrides.get("algorithm.name", default["algorithm"]["name"])
+    seed = overrides.get("seed", default["seed"])
+    return Path("runs") / f"{world.replace(':', '.')}-{algo}-seed{seed}"
 
 
 @contextlib.contextmanager
@@ -327,29 +340,28 @@ def _sigterm_as_interrupt() -> Iterator[None]:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from noisybolt.agents.config import resume_settings
     from noisybolt.agents.training import TrainConfig, train
     from noisybolt.rundir import RunDirectory
 
     overrides = train_overrides(args)
-    if not overrides.get("bolt.specs"):
-        raise ConfigError(
-            "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
-        )
-    config = TrainConfig.build(overrides, hp_file=args.hp_file)
-    world_label = config.world.replace(":", ".")  # a factory path names no folder well
-    out = args.out or Path("runs") / f"{world_label}-{config.algo}-seed{config.seed}"
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
-    if args.resume and not (out / "config.json").exists():
-        raise ConfigError(f"--resume: {out} holds no run to continue")
-    if args.resume:  # settings added since the run was saved keep what the run meant
+    if args.resume:  # the saved run's settings, with the ones given again on top
+        out = args.out or _default_out(overrides)
+        if not (out / "config.json").exists():
+            raise ConfigError(f"--resume: {out} holds no run to continue")
         saved = RunDirectory(out).read_config()
-        overrides = {**overrides, **resume_settings(saved, given=overrides)}
+        config = TrainConfig.resumed(saved, overrides, hp_file=args.hp_file)
+    else:
+        if not overrides.get("bolt.specs"):
+            raise ConfigError(
+                "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
+            )
         config = TrainConfig.build(overrides, hp_file=args.hp_file)
+        out = args.out or _default_out(overrides)
+        if out.exists() and not out.is_dir():
+            raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
     from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
-    if config.reward == "compliance" and "bolt.reward_scale" not in overrides:
+    if config.reward == "compliance" and not args.resume and "bolt.reward_scale" not in overrides:
         config = with_exact_scale(config)
     best = goal_feasibility(config)
     if best is not None and best.value is None:
