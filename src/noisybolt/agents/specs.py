@@ -49,6 +49,7 @@ from typing import Any
 import yaml
 
 from noisybolt.bolt import Spec
+from noisybolt.bolt.spec import DEFAULT_COST, DEFAULT_REWARD
 from noisybolt.errors import ConfigError
 
 __all__ = [
@@ -65,8 +66,6 @@ __all__ = [
     "resolve_spec",
 ]
 
-DEFAULT_REWARD = 1.0
-DEFAULT_COST = 0.5
 #: What each of Breakout's ``left_row{r}`` milestones pays, once (see the module text).
 MILESTONE_REWARD = 1.0
 

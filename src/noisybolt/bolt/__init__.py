@@ -3,7 +3,7 @@
 Pure numpy; knows nothing of Gymnasium or torch.
 
 * :class:`Spec`: an LTLf formula with its terminal reward, low-confidence cost and
-  reward timing.
+  reward timing (by default the paper's: +1 per accepting step, 0.5 per low-confidence fluent).
 * :class:`Thresholds` and the band functions: the paper's eq. 1.
 * :class:`BoltEngine`: Algorithm 1, stateless, batched over environments and specs.
 * :class:`RestrainingBolt`: the engine plus DFA states and episode timing (reset, the

@@ -10,7 +10,13 @@ import numpy as np
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["REWARD_TIMINGS", "RewardTiming", "Spec"]
+__all__ = ["DEFAULT_COST", "DEFAULT_REWARD", "REWARD_TIMINGS", "RewardTiming", "Spec"]
+
+#: A spec's default terminal reward: the paper's +1 for each step its DFA is accepting.
+DEFAULT_REWARD = 1.0
+#: A spec's default low-confidence cost: the paper's 0.5 for each fluent on the taken edge
+#: that the bolt saw with low confidence.
+DEFAULT_COST = 0.5
 
 #: When a spec's terminal reward is paid (see :class:`Spec`).
 RewardTiming = Literal["every_step", "on_entry", "episode_end"]
@@ -25,10 +31,11 @@ class Spec:
     Attributes:
         formula: LTLf text in ltlf2dfa syntax, e.g. ``"F(e & t)"``.
         terminal_reward: reward paid when the DFA is in an accepting state (when exactly
-            depends on ``reward_timing``); any finite number.
+            depends on ``reward_timing``); any finite number. Default
+            :data:`DEFAULT_REWARD` (1.0, the paper's).
         low_confidence_cost: the *cost* (a non-negative magnitude) charged for each fluent
             on the taken edge that the bolt saw with low confidence; it enters the reward
-            with a minus sign.
+            with a minus sign. Default :data:`DEFAULT_COST` (0.5, the paper's).
         reward_timing: ``"every_step"`` pays on every transition whose successor is
             accepting (the paper's Algorithm 1; default); ``"on_entry"`` only on a
             transition from a non-accepting state into an accepting one (the first
@@ -47,7 +54,9 @@ class Spec:
         >>> spec = Spec("F(e & t)", terminal_reward=10.0, low_confidence_cost=2.0)
         >>> spec.name, spec.reward_timing
         ('F(e & t)', 'every_step')
-        >>> Spec("G(e)", terminal_reward=1.0, low_confidence_cost=0.5, reward_timing="later")
+        >>> Spec("G(e)").terminal_reward, Spec("G(e)").low_confidence_cost  # the paper's
+        (1.0, 0.5)
+        >>> Spec("G(e)", reward_timing="later")
         Traceback (most recent call last):
         ...
         noisybolt.errors.ConfigError: Spec 'G(e)': reward_timing 'later' is not one of \
@@ -56,8 +65,8 @@ class Spec:
 
     formula: str
     _: KW_ONLY
-    terminal_reward: float
-    low_confidence_cost: float
+    terminal_reward: float = DEFAULT_REWARD
+    low_confidence_cost: float = DEFAULT_COST
     reward_timing: RewardTiming = "every_step"
     name: str = ""
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import gymnasium as gym
@@ -18,8 +19,8 @@ from noisybolt.bolt import (
     Thresholds,
     Tracking,
 )
-from noisybolt.errors import IncompatibleError
-from noisybolt.logic import compile_ltlf, masks_from_bool_matrix
+from noisybolt.errors import IncompatibleError, UnsatisfiableSpecError
+from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 
@@ -28,6 +29,7 @@ __all__ = [
     "TruthTracker",
     "bolt_info",
     "build_bolt",
+    "check_satisfiable",
     "dfa_view",
     "dict_observation_space",
     "observes_beliefs",
@@ -111,9 +113,14 @@ def build_bolt(
     ``pay_at_truncation``, ``tracking``, ``belief``: see
     :class:`~noisybolt.bolt.RestrainingBolt`.
 
+    Every spec's DFA is checked (:func:`check_satisfiable`); a spec true of every trace
+    gets a ``UserWarning`` only if its DFA is compiled here: whoever passes ``dfas`` has
+    compiled them, and says so itself (``noisybolt train`` and ``check`` print it).
+
     Raises:
         UnknownFluentError: a spec reads a fluent the world does not have (the message
             lists the world's fluents).
+        UnsatisfiableSpecError: no trace satisfies a spec.
         IncompatibleError: the detector predicts other fluents than the world's.
     """
     world_fluents = tuple(world_fluents)
@@ -122,8 +129,10 @@ def build_bolt(
             f"the detector predicts {list(detector.fluent_names)} but the world's fluents are "
             f"{list(world_fluents)}; use a detector made for this world"
         )
+    compiled_here = dfas is None
     if dfas is None:
         dfas = [compile_ltlf(spec.formula, world_fluents) for spec in specs]
+    check_satisfiable(specs, dfas, warn_vacuous=compiled_here)
     terms = None
     if progress_gamma is not None:
         scales = [spec.terminal_reward for spec in specs]
@@ -151,6 +160,51 @@ def build_bolt(
         belief=belief,
     )
     return BoltParts(bolt, TruthTracker(bolt.dfas, world_fluents, n_envs=n_envs))
+
+
+def check_satisfiable(
+    specs: Sequence[Spec], dfas: Sequence[DFA], *, warn_vacuous: bool = True
+) -> None:
+    """Refuses a spec no trace satisfies; warns of one every trace satisfies.
+
+    Reads the compiled DFAs' graphs (:func:`~noisybolt.logic.is_satisfiable`,
+    :func:`~noisybolt.logic.is_valid`): cheap, no compiling. A spec and DFA count that
+    differ is left for :class:`~noisybolt.bolt.RestrainingBolt` to report.
+
+    Raises:
+        UnsatisfiableSpecError: no trace of one letter or more satisfies a spec (no
+            accepting state is reachable from its DFA's initial state).
+
+    Example:
+        >>> import warnings
+        >>> check_satisfiable([Spec("F(a) & G(!a)")], [compile_ltlf("F(a) & G(!a)", ["a"])])
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.UnsatisfiableSpecError: spec 'F(a) & G(!a)' is unsatisfiable: no \
+trace satisfies 'F(a) & G(!a)', so no agent can comply (training under it teaches the \
+agent to ignore the bolt); fix the formula
+        >>> with warnings.catch_warnings(record=True) as caught:
+        ...     warnings.simplefilter("always")
+        ...     check_satisfiable([Spec("a | !a")], [compile_ltlf("a | !a", ["a"])])
+        >>> str(caught[0].message)
+        "spec 'a | !a' holds on every trace ('a | !a'): the bolt asks for nothing"
+    """
+    for spec, dfa in zip(specs, dfas, strict=False):
+        if not is_satisfiable(dfa):
+            raise UnsatisfiableSpecError(
+                f"spec {spec.name!r} is unsatisfiable: no trace satisfies {spec.formula!r}, "
+                "so no agent can comply (training under it teaches the agent to ignore the "
+                "bolt); fix the formula",
+                formula=spec.formula,
+            )
+        if warn_vacuous and is_valid(dfa):
+            # Worded as the CLI's line (prepare_bolt), which covers the dfas it passes here.
+            warnings.warn(
+                f"spec {spec.name!r} holds on every trace ({spec.formula!r}): the bolt asks "
+                "for nothing",
+                UserWarning,
+                stacklevel=4,  # the caller of the wrapper that called build_bolt
+            )
 
 
 def dict_observation_space(
