@@ -45,7 +45,7 @@ def test_dqn_refuses_ppo_only_keys() -> None:
 def test_unknown_algorithm_and_world_are_named_errors() -> None:
     with pytest.raises(UnknownNameError, match=r"known algorithms: \['a2c', 'dqn', 'ppo'\]"):
         algorithm_class("sac")
-    with pytest.raises(UnknownNameError, match="known worlds"):
+    with pytest.raises(UnknownNameError, match=r"unknown world 'pong'.*module:function"):
         load_hyperparams("pong", "ppo")
 
 
@@ -53,3 +53,18 @@ def test_unknown_algorithm_and_world_are_named_errors() -> None:
 def test_malformed_override_is_refused(bad: str) -> None:
     with pytest.raises(ConfigError):
         parse_overrides([bad])
+
+
+def test_dqn_on_continuous_actions_is_refused_with_the_algorithms_that_take_them() -> None:
+    from types import SimpleNamespace
+
+    import numpy as np
+    from gymnasium import spaces
+
+    from noisybolt.agents.config import TrainConfig
+    from noisybolt.agents.models import make_model
+
+    config = TrainConfig.create(specs=["edge"], algo="dqn", reward="paper")
+    env = SimpleNamespace(action_space=spaces.Box(-1.0, 1.0, (1,), np.float32))
+    with pytest.raises(ConfigError, match=r"DQN takes only Discrete actions.*--algo ppo or a2c"):
+        make_model(config, env)  # type: ignore[arg-type]

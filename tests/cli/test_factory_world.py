@@ -76,7 +76,7 @@ def test_a_factory_world_without_its_own_file_gets_the_documented_defaults() -> 
     defaults = yaml.safe_load((files / "_default.yaml").read_text())
     for algo in ("ppo", "a2c", "dqn"):
         assert load_hyperparams(WORLD, algo) == defaults[algo]
-    with pytest.raises(UnknownNameError, match="known worlds"):
+    with pytest.raises(UnknownNameError, match="built-in worlds are"):
         load_hyperparams("lake", "ppo")  # a plain name still has to be registered
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 import re
 import signal
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -47,3 +49,38 @@ def test_sigterm_interrupts_a_training_like_ctrl_c_and_only_meanwhile() -> None:
     with pytest.raises(KeyboardInterrupt), _sigterm_as_interrupt():
         os.kill(os.getpid(), signal.SIGTERM)  # the handler runs before the next line
     assert signal.getsignal(signal.SIGTERM) == before
+
+
+def test_the_table_says_whether_the_actions_were_greedy_or_sampled() -> None:
+    # the same policy can comply greedily (standing still) and not when sampled: a train
+    # table (sampled, the evaluation default) and an evaluate table (greedy) must say so
+    assert _rows(format_eval_table(_FINAL))["episodes"] == "4"
+    assert _rows(format_eval_table(_FINAL, greedy=True))["episodes"] == "4 (greedy actions)"
+    assert _rows(format_eval_table(_FINAL, greedy=False))["episodes"] == "4 (sampled actions)"
+
+
+def test_evaluate_takes_at_least_one_episode_and_draws_as_many_in_its_heatmap(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from noisybolt.agents import run_evaluation
+    from noisybolt.agents.evaluation import EpisodeRecord, summarise
+    from noisybolt.cli import main
+
+    for bad in ("0", "-3", "many"):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["evaluate", str(tmp_path), "--episodes", bad])
+        assert exit_info.value.code == 2
+        assert "--episodes" in capsys.readouterr().err
+    calls: list[dict[str, Any]] = []
+
+    def fake(run_dir: Any, **kwargs: Any) -> Any:
+        calls.append(kwargs)
+        episode = EpisodeRecord(1.0, 0.0, 5, True, (True,))
+        return run_evaluation.RunEvaluation(result=summarise([episode], ["edge"]))
+
+    monkeypatch.setattr(run_evaluation, "evaluate_run", fake)
+    assert main(["evaluate", str(tmp_path), "--episodes", "7", "--heatmap", "h.png"]) == 0
+    assert calls[0]["episodes"] == 7 and calls[0]["heatmap_episodes"] == 7
+    assert _rows(capsys.readouterr().out.split("\n\n")[0].strip())["episodes"].endswith(
+        "(greedy actions)"
+    )

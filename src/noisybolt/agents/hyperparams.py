@@ -165,7 +165,8 @@ def _builtin(world: str) -> dict[str, Any]:
         world = DEFAULT_HYPERPARAMS
     elif world not in known:
         raise UnknownNameError(
-            f"no hyperparameters for world {world!r}; known worlds: {known}",
+            f"unknown world {world!r}: the built-in worlds are {known}; a world of your own "
+            "is named by its factory path, module:function (e.g. my_world:make_world)",
             name=world,
             known=tuple(known),
         )

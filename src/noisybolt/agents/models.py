@@ -16,17 +16,22 @@ import zipfile
 from pathlib import Path
 from typing import Any
 
+from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
-from noisybolt.agents.hyperparams import META_KEYS, algorithm_class, frame_schedules
+from noisybolt.agents.hyperparams import ALGORITHMS, META_KEYS, algorithm_class, frame_schedules
 from noisybolt.agents.pipeline import overlapped_class
 from noisybolt.agents.policies import policy_class
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
 __all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
+
+#: The action spaces of the algorithms that take only some (SB3 asserts them deep inside
+#: the constructor, which reads as a hyperparameter problem; no hyperparameter fixes it).
+ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {"dqn": (spaces.Discrete,)}
 
 #: The entry of a saved model's ``data`` naming its algorithm (plain JSON).
 ALGO_KEY = "noisybolt_algo"
@@ -62,6 +67,14 @@ def make_model(
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     if trial and "buffer_size" in params:
         params["buffer_size"] = 1
+    allowed = ACTION_SPACES.get(config.algo)
+    if allowed is not None and not isinstance(env.action_space, allowed):
+        others = [name for name in ALGORITHMS if name not in ACTION_SPACES]
+        raise ConfigError(
+            f"{config.algo.upper()} takes only {' or '.join(a.__name__ for a in allowed)} "
+            f"actions, and world {config.world!r} acts in {env.action_space}; train it with "
+            f"--algo {' or '.join(others)}"
+        )
     cls = run_algorithm_class(config)
     try:
         model = cls(

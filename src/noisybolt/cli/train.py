@@ -230,7 +230,9 @@ def register(subparsers: Any) -> None:
         help="evaluate a trained run: returns, goal rate, compliance from ground truth",
     )
     evaluate.add_argument("run_dir", type=Path)
-    evaluate.add_argument("--episodes", type=int, default=50)
+    evaluate.add_argument(
+        "--episodes", type=_episodes, default=50, help="episodes to run (and draw in --heatmap)"
+    )
     evaluate.add_argument("--seed", type=int, default=12345)
     evaluate.add_argument("--stochastic", action="store_true", help="sample actions")
     evaluate.add_argument("--gif", type=Path, default=None, help="save one episode as a GIF")
@@ -242,6 +244,17 @@ def register(subparsers: Any) -> None:
         "on the fly); written to evaluation-<hash>.json beside the run's own",
     )
     evaluate.set_defaults(func=_evaluate)
+
+
+def _episodes(text: str) -> int:
+    """``evaluate --episodes``: a whole number of at least one."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+    return value
 
 
 class _SpecSetAction(argparse.Action):
@@ -383,7 +396,10 @@ def _train(args: argparse.Namespace) -> int:
             return 130  # train() saved a checkpoint and said how to resume
     print(
         format_eval_table(
-            result.final.to_dict(), frames=result.frames, frames_to_comply=result.frames_to_comply
+            result.final.to_dict(),
+            frames=result.frames,
+            frames_to_comply=result.frames_to_comply,
+            greedy=config.evaluation.deterministic,
         )
     )
     print(f"\nrun directory: {result.run_dir}")
@@ -406,14 +422,18 @@ def describe_scheme(config: Any) -> str:
 
 
 def format_eval_table(
-    final: dict[str, Any], *, frames: int | None = None, frames_to_comply: int | None = None
+    final: dict[str, Any],
+    *,
+    frames: int | None = None,
+    frames_to_comply: int | None = None,
+    greedy: bool | None = None,
 ) -> str:
     """A plain-text table of an evaluation (the one ``train`` and ``evaluate`` print): the
     run report's evaluation table, rendered as text."""
     from noisybolt.experiments.report import evaluation_table
     from noisybolt.experiments.reporting import render_text
 
-    table = evaluation_table(final, frames=frames, frames_to_comply=frames_to_comply)
+    table = evaluation_table(final, frames=frames, frames_to_comply=frames_to_comply, greedy=greedy)
     return render_text([table])
 
 
@@ -428,9 +448,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         deterministic=not args.stochastic,
         gif=args.gif,
         heatmap=args.heatmap,
+        heatmap_episodes=args.episodes,
         overrides=overrides,
     )
-    print(format_eval_table(report.result.to_dict()))
+    print(format_eval_table(report.result.to_dict(), greedy=not args.stochastic))
     for label, path in report.files.items():
         print(f"{label}: {path}")
     return 0

@@ -130,14 +130,23 @@ def group_curves(
 
 
 def evaluation_table(
-    final: Mapping[str, Any], *, frames: int | None = None, frames_to_comply: int | None = None
+    final: Mapping[str, Any],
+    *,
+    frames: int | None = None,
+    frames_to_comply: int | None = None,
+    greedy: bool | None = None,
 ) -> Table:
     """An evaluation's summary (``EvalResult.to_dict()``) as a metric/value table: what
-    ``train`` and ``evaluate`` print and what a run's report shows."""
+    ``train`` and ``evaluate`` print and what a run's report shows. ``greedy``: whether
+    the policy's actions were its most likely ones or sampled (None: not said); the same
+    policy can comply greedily and not when sampled, so the table says which."""
     from noisybolt.agents.evaluation import describe_false_acceptance
 
+    episodes = str(final.get("n_episodes", "?"))
+    if greedy is not None:
+        episodes += " (greedy actions)" if greedy else " (sampled actions)"
     rows: list[tuple[str, str]] = [
-        ("episodes", str(final.get("n_episodes", "?"))),
+        ("episodes", episodes),
         (
             "env return R_π",
             f"{final['env_return_mean']:.2f} ± {final.get('env_return_std', 0.0):.2f}",
