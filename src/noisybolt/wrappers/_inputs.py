@@ -21,14 +21,11 @@ __all__ = [
 DetectorName = Literal["oracle", "synthetic", "classifier"]
 DETECTOR_NAMES: tuple[str, ...] = ("oracle", "synthetic", "classifier")
 
-#: A formula given as text gets the paper's rewards: +1 on every accepting step, a cost
-#: of 0.5 for each low-confidence fluent on the edge taken.
-TEXT_SPEC_REWARD = 1.0
-TEXT_SPEC_COST = 0.5
-
 
 def coerce_specs(specs: Spec | str | Sequence[Spec | str]) -> list[Spec]:
-    """Specs from :class:`Spec` s or LTLf text (text gets the paper's rewards).
+    """Specs from :class:`Spec` s or LTLf text (text gets :class:`Spec`'s defaults, the
+    paper's rewards: +1 on every accepting step, 0.5 for each low-confidence fluent on the
+    edge taken).
 
     Example:
         >>> [s.name for s in coerce_specs(["G(safe)", Spec("F(goal)", terminal_reward=5.0,
@@ -43,9 +40,7 @@ def coerce_specs(specs: Spec | str | Sequence[Spec | str]) -> list[Spec]:
         if isinstance(item, Spec):
             out.append(item)
         elif isinstance(item, str):
-            out.append(
-                Spec(item, terminal_reward=TEXT_SPEC_REWARD, low_confidence_cost=TEXT_SPEC_COST)
-            )
+            out.append(Spec(item))
         else:
             raise ConfigError(f"a spec is an LTLf formula (str) or a Spec, got {item!r}")
     return out
