@@ -123,10 +123,8 @@ def restore(name: str, runs: Path) -> None:
     classifier = classifier_file(json.loads((source / "config.json").read_text()))
     if classifier is not None and not classifier.exists():
         _copy(CLASSIFIERS / classifier.name, classifier)
-    command = (target / "command.txt").read_text().strip()
-    if "--resume" not in command.split():
-        command += " --resume"
-    print(f"{source} -> {target}; continue with: {command}")
+    # A resume takes every setting from the run's config.json (TrainConfig.resumed).
+    print(f"{source} -> {target}; continue with: noisybolt train --out {target} --resume")
 
 
 def _agent(config: dict[str, Any]) -> str:
