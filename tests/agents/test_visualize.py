@@ -255,6 +255,40 @@ def test_any_labelled_env_records_what_its_info_showed_the_bolt() -> None:
     assert render_episode_frames(rec).shape[0] == 4
 
 
+def test_a_world_without_a_picture_of_its_own_is_drawn_as_the_bolt_sees_it() -> None:
+    import gymnasium as gym
+
+    from noisybolt import FluentLabels
+
+    # no render_mode: only the user's camera (the cell as a grey level, 8x8) draws it
+    lake = gym.make("FrozenLake-v1", is_slippery=False)
+
+    def camera(env: Any) -> np.ndarray:
+        return np.full((8, 8, 3), 16 * env.unwrapped.s, dtype=np.uint8)
+
+    labelled = FluentLabels(lake, fluents={"top_row": lambda e: e.s < 4}, camera=camera)
+    env = RestrainingBoltWrapper(labelled, ["X(G(!top_row))"], "oracle")
+    rec = record_episode(env, lambda obs: 1, seed=0, max_steps=2)  # down, down: cells 4, 8
+    assert rec.world_view == "bolt's camera"
+    np.testing.assert_array_equal(rec.frames, rec.bolt_images)
+    assert rec.frames[:, 0, 0, 0].tolist() == [0, 64, 128]
+    assert render_episode_frames(rec).shape[0] == 3
+    rendered = record_episode(
+        RestrainingBoltWrapper(
+            FluentLabels(
+                gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False),
+                fluents={"top_row": lambda e: e.s < 4},
+            ),
+            ["X(G(!top_row))"],
+            "oracle",
+        ),
+        lambda obs: 1,
+        seed=0,
+        max_steps=1,
+    )
+    assert rendered.world_view == "world"
+
+
 def test_compared_heatmaps_share_one_picture_and_one_scale(tmp_path: Path) -> None:
     top = [(1, 1), (2, 1), (3, 1), (4, 1), (4, 2), (4, 3), (4, 4)]
     one = viz.compare_heatmaps(

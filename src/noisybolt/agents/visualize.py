@@ -29,6 +29,8 @@ Example:
 
 from __future__ import annotations
 
+import warnings
+
 import io
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -110,6 +112,8 @@ class EpisodeRecording:
         terminated: whether the last step ended the task.
         truncated: whether the last step hit a limit outside the task (both are False
             when ``max_steps`` cut the recording short).
+        world_view: what ``frames`` show: ``"world"``, or ``"bolt's camera"`` for a world
+            that draws no picture of itself (its frames are then the bolt's images).
     """
 
     frames: np.ndarray
@@ -129,6 +133,7 @@ class EpisodeRecording:
     high_threshold: float = 0.9
     terminated: bool = False
     truncated: bool = False
+    world_view: str = "world"
 
     def __post_init__(self) -> None:
         n = self.n_steps + 1
@@ -254,7 +259,9 @@ def record_episode(
         max_steps: stop after this many steps even if the episode goes on (None: run
             until it terminates or is truncated).
         frame_fn: the world's picture, given ``env.unwrapped`` (default
-            :func:`default_frame`).
+            :func:`default_frame`; a world that gives none, e.g. a Gymnasium env made
+            without ``render_mode`` whose :class:`~noisybolt.FluentLabels` has a camera of
+            its own, is drawn as the bolt's camera sees it, and ``world_view`` says so).
 
     Returns:
         The recording; ``T`` is the number of steps taken.
@@ -266,7 +273,7 @@ def record_episode(
     if max_steps is not None and (isinstance(max_steps, bool) or max_steps < 0):
         raise ConfigError(f"max_steps must be None or an integer >= 0, got {max_steps!r}")
     world: Any = env.unwrapped
-    frame_of = frame_fn or default_frame
+    world_view = "world"
     bolt = env.bolt
     thresholds = bolt.thresholds
 
@@ -298,7 +305,17 @@ def record_episode(
         bands.append(confidence_bands(p, thresholds) if band is None else np.array(band))
         states.append(np.array(info["dfa_states"], dtype=np.int64))
         true_states.append(np.array(info["true_dfa_states"], dtype=np.int64))
-        frames.append(np.array(frame_of(world), dtype=np.uint8))
+        nonlocal frame_fn, world_view
+        if frame_fn is None:  # decided on the first view, after the reset
+            try:
+                with warnings.catch_warnings():  # Gymnasium warns of a render without a mode
+                    warnings.simplefilter("ignore")
+                    default_frame(world)
+                frame_fn = default_frame
+            except ConfigError:  # no picture of itself: the bolt's images stand in
+                world_view = "bolt's camera"
+                frame_fn = lambda _world: bolt_images[-1]  # noqa: E731
+        frames.append(np.array(frame_fn(world), dtype=np.uint8))
         nonlocal has_position
         cell = info.get(GRID_POSITION_KEY)
         if cell is None and hasattr(world, "agent_pos"):
@@ -346,6 +363,7 @@ def record_episode(
         high_threshold=float(thresholds.high),
         terminated=bool(terminated),
         truncated=bool(truncated),
+        world_view=world_view,
     )
 
 
@@ -393,7 +411,8 @@ class _EpisodeCanvas:
         image_bottom = (height - 0.45 - side) / 2
         ax_world = fig.add_axes(box(0.1, image_bottom, 3.0, side))
         ax_bolt = fig.add_axes(box(3.25, image_bottom, 3.0, side))
-        for ax, name in ((ax_world, "world"), (ax_bolt, "bolt's camera (noisy)")):
+        world_title = "world" if rec.world_view == "world" else "world (no render: the bolt's view)"
+        for ax, name in ((ax_world, world_title), (ax_bolt, "bolt's camera")):
             ax.set_xticks([])
             ax.set_yticks([])
             ax.set_title(name, fontsize=9)
