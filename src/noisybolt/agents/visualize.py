@@ -29,10 +29,9 @@ Example:
 
 from __future__ import annotations
 
-import warnings
-
 import io
 import os
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
