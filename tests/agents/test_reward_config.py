@@ -278,3 +278,19 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
     assert again.reward_scale == config.reward_scale
     given = TrainConfig.create(**common, reward_scale=3.0, detector=DetectorConfig(kind="oracle"))
     assert given.reward_scale == 3.0
+
+
+def test_check_says_what_a_spec_with_its_own_scale_is_paid(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import re
+
+    specs = tmp_path / "specs.yaml"
+    specs.write_text("- edge\n- formula: F(top_right_corner)\n  name: tr\n  reward_scale: 50\n")
+    assert main(["check", "--specs-file", str(specs)]) == 0
+    out = capsys.readouterr().out
+    scale = re.search(r"compliance scheme: scale (\S+) ", out)
+    assert scale is not None
+    assert f"note: training pays edge {scale[1]}, tr 50 " in out
+    assert main(["check", "--spec", "edge"]) == 0  # one scale for every spec: no note
+    assert "note: training pays" not in capsys.readouterr().out

@@ -43,9 +43,15 @@ def register(subparsers: Any) -> None:
 def _check(args: argparse.Namespace) -> int:
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
+    from noisybolt.cli.train import spec_worths
     from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.errors import ConfigError, EstimatedBoundsWarning
-    from noisybolt.experiments.checks import exact_scale, goal_feasibility, tabular_settings
+    from noisybolt.experiments.checks import (
+        exact_scale,
+        goal_feasibility,
+        tabular_settings,
+        with_exact_scale,
+    )
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
 
@@ -85,9 +91,12 @@ def _check(args: argparse.Namespace) -> int:
         print(line)
     best = goal_feasibility(config)
     if best is None:
-        print(f"the {args.world} cannot be explored exactly here: no route check")
+        print(f"world {args.world} cannot be explored exactly here: no route check")
         if config.reward == "compliance":
-            print(f"compliance scale: {config.reward_scale:g}")
+            print(
+                f"compliance scale: {config.reward_scale:g}; complying is worth "
+                f"{spec_worths(config)}"
+            )
         return 0
     settings = tabular_settings(config)
     assert settings is not None
@@ -112,4 +121,10 @@ def _check(args: argparse.Namespace) -> int:
         f"policy (gamma {gamma:g}) {'complies' if optimum.complies else 'does NOT comply'}"
         f"{' and reaches the goal' if optimum.reaches_goal else ''} in {optimum.steps} steps"
     )
+    trained = with_exact_scale(config, log=None)  # what noisybolt train would pay
+    if len({spec.terminal_reward for spec in trained.spec_objects()}) > 1:
+        print(
+            f"note: training pays {spec_worths(trained)} (specs with a reward_scale of "
+            f"their own); the optimum above pays every spec {scale:g}"
+        )
     return 0
