@@ -21,6 +21,7 @@ __all__ = [
     "IncompatibleError",
     "NoCheckpointError",
     "NoisyboltError",
+    "RareFluentWarning",
     "RunLockedError",
     "SmallIntegerImagesWarning",
     "SpecSyntaxError",
@@ -30,6 +31,7 @@ __all__ = [
     "UnlabelledEnvError",
     "UnsafeFileError",
     "UnsatisfiableSpecError",
+    "UnseenFluentError",
     "WorldFactoryError",
     "WorldWorkerError",
 ]
@@ -158,6 +160,23 @@ class UnsatisfiableSpecError(ConfigError):
         self.formula = formula
 
 
+class UnseenFluentError(ConfigError):
+    """A fluent some spec uses is true in none (or in all) of the images a classifier
+    learns from: it could never see the fluent (or its absence), so the bolt would never
+    pay for a spec over it, or always would. The message names the fluents, the images and
+    what to do (another detector, more images, a world whose collection shows the state).
+
+    Attributes:
+        fluents: the fluents never seen true or never seen false.
+        images: how many images the classifier learns from.
+    """
+
+    def __init__(self, message: str, *, fluents: tuple[str, ...], images: int) -> None:
+        super().__init__(message)
+        self.fluents = fluents
+        self.images = images
+
+
 class ConfidenceLevelError(ConfigError):
     """A belief-tracking bolt's confidence level is outside (0.5, 1): at 0.5 or below a
     spec would count as accepted while its rejection is as likely; at 1 never."""
@@ -193,6 +212,12 @@ class EstimatedBoundsWarning(UserWarning):
     """The world declares no bounds on its episodes' returns, so the ``compliance`` scale
     was set from bounds estimated by random play; declare them (``return_bounds=``) or give
     the scale to be sure compliance comes first."""
+
+
+class RareFluentWarning(UserWarning):
+    """A fluent some spec uses is true (or false) in only a few of the images a classifier
+    learns from (fewer than :data:`noisybolt.agents.detectors.RARE_FLUENT_IMAGES`): its
+    validation accuracy rests on a handful of them, and the bolt may read it poorly."""
 
 
 class SmallIntegerImagesWarning(UserWarning):

@@ -194,7 +194,8 @@ def test_restarts_key_the_cache_from_two_on_and_legacy_runs_had_one() -> None:
     for world in ("breakout-ram", "gridworld"):
         camera = make_world(world, num_envs=1, seed=0).camera_spec
         for restarts in (1, 3):
-            config = DetectorConfig(restarts=restarts)
+            # final_views False: as every run saved before that setting collected
+            config = DetectorConfig(restarts=restarts, final_views=False)
             names[world, restarts] = default_classifier_path(
                 world, config, camera, classifier_architecture(camera)
             ).name
@@ -206,7 +207,7 @@ def test_restarts_key_the_cache_from_two_on_and_legacy_runs_had_one() -> None:
     camera = make_world("breakout-ram", num_envs=1, seed=0).camera_spec
     arch = classifier_architecture(camera)
     for restarts, differ in ((3, True), (1, False)):
-        config = DetectorConfig(restarts=restarts)
+        config = DetectorConfig(restarts=restarts, final_views=False)
         plain = default_classifier_path("breakout-ram", config, camera, arch, world_kwargs={})
         fire = default_classifier_path(
             "breakout-ram", config, camera, arch, world_kwargs={"fire_on_reset": True}

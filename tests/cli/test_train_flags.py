@@ -187,3 +187,18 @@ def test_specs_may_come_from_a_file_alone_and_none_at_all_is_a_clear_error(
     assert main(["train", *argv, "--out", str(tmp_path / "none")]) == 2
     assert "give at least one --spec" in capsys.readouterr().err
     assert not (tmp_path / "none").exists()
+
+
+def test_low_confidence_is_for_the_synthetic_detector_and_names_the_worlds_fluents(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = ["train", "--spec", "edge", "--frames", "64", "--set", "world.n_envs=2"]
+    for argv, message in [
+        (["--detector", "oracle", "--low-confidence", "on_edge"], "the oracle detector would"),
+        (["--detector", "synthetic", "--low-confidence", "on_egde"], "names ['on_egde']"),
+    ]:
+        out = tmp_path / argv[1]
+        assert main([*base, *argv, "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "--low-confidence" in err
+        assert not out.exists()

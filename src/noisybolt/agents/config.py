@@ -147,6 +147,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "world.overlap": False,
     # before detector.restarts existed one classifier was trained, from detector.seed
     "detector.restarts": 1,
+    # before detector.final_views existed collection never kept an episode's last state
+    "detector.final_views": False,
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)

@@ -12,6 +12,13 @@ belief tracking credited the milestone in 14 % and 86 % of the episodes that too
 8,000 images seeds 0 and 1 read every fluent at 0.975 or better, the agent's frames at
 93-96 %, and belief tracking credited every milestone taken
 (benchmarks/breakout_classifier_seeds.py, results/breakout/README.md).
+
+A classifier is also checked against the fluents the run's specs use
+(:func:`check_fluents_shown`): one that learnt from images in which such a fluent is never
+true (or never false) could not see it, so the run is refused (``UnseenFluentError``), and
+a fluent shown true or false in only a few images is warned of (``RareFluentWarning``).
+The counts are saved with the classifier, so a cached one is checked again when another
+run's specs use it; a file saved before they were is used unchecked.
 """
 
 from __future__ import annotations
@@ -19,7 +26,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Callable, Mapping, Sequence
+import warnings
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -29,14 +37,17 @@ import numpy as np
 from noisybolt.agents.config import DetectorConfig
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, RareFluentWarning, UnknownFluentError, UnseenFluentError
+from noisybolt.perception.dataset import LabelCounts
 from noisybolt.perception.metrics import build_report
 from noisybolt.perception.protocols import FluentDetector
 
 __all__ = [
     "ACCEPT_ACCURACY",
     "HELD_OUT_SAMPLES",
+    "RARE_FLUENT_IMAGES",
     "best_of_restarts",
+    "check_fluents_shown",
     "classifier_architecture",
     "default_classifier_path",
     "make_detector",
@@ -53,6 +64,25 @@ __all__ = [
 ACCEPT_ACCURACY = 0.92
 #: Fresh images the restarts are compared on (at most ``detector.samples``).
 HELD_OUT_SAMPLES = 2000
+#: A fluent some spec uses that is true, or false, in fewer than this many of the images a
+#: classifier learns from gets a :class:`~noisybolt.errors.RareFluentWarning`. Why 20: a
+#: fifth of them are its validation part (``TrainingConfig.validation_fraction``), so
+#: fewer leave about four or fewer there, and the validation table's accuracy and AUROC
+#: for the fluent rest on a handful of images; the held-out accuracy that restarts compare
+#: counts both values alike, so a classifier that reads 10 positives in 4,000 images all
+#: as false still scores 0.9975 on that fluent.
+RARE_FLUENT_IMAGES = 20
+
+_WHAT_TO_DO = (
+    "Use --detector synthetic or oracle (no classifier), collect more images (--set "
+    "detector.samples=N), or use a world that shows the state while images are collected. "
+    "Collection keeps the state after each random step and the last state of each episode "
+    "random play ends (detector.final_views; a run saved before that setting existed keeps "
+    "only the former, so a fluent true only as an episode ends is never collected for it); "
+    "a state random play does not reach is never collected, but a vectorised world can "
+    "jump to such states for collection (sample_collection_states, "
+    "noisybolt.perception.dataset.SupportsCollectionStates), a FluentLabels world cannot"
+)
 
 
 def _cache_root() -> Path:
@@ -93,7 +123,11 @@ def default_classifier_path(
     From ``detector.restarts`` on (a config whose ``restarts`` is not 1), the restarts and
     the ``world_kwargs`` the images are collected with key it too: two callers that build
     the collector differently (say, one with FIRE on reset) no longer share a file.
-    Classifiers of one restart keep the names they had before.
+    Classifiers of one restart keep the names they had before. So does
+    ``detector.final_views``, only where it is True: a classifier that also saw the ended
+    episodes' last states learnt from other images, and the names of classifiers cached
+    before it existed (False, by :data:`~noisybolt.agents.config.LEGACY_DEFAULTS`) stay
+    as they were.
     """
     from noisybolt.perception.compat import camera_spec_to_dict
 
@@ -112,9 +146,85 @@ def default_classifier_path(
         fields["world_kwargs"] = json.loads(
             json.dumps(dict(world_kwargs or {}), sort_keys=True, default=repr)
         )
+    if config.final_views:  # classifiers collected without them keep their names
+        fields["final_views"] = True
     digest = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:16]
     label = world.replace(":", ".")
     return _cache_root() / "classifiers" / f"{label}-{digest}.safetensors"
+
+
+def check_fluents_shown(counts: LabelCounts, spec_fluents: Collection[str], *, source: str) -> None:
+    """Refuses images to learn a classifier from in which a fluent some spec uses is never
+    true, or never false; warns where it is true or false in only a few of them.
+
+    Args:
+        counts: the images and each fluent's positives among them.
+        spec_fluents: the fluents the run's specs depend on; no other is checked (a world
+            may name fluents its specs do not need).
+        source: what the images are, for the messages ("the 4,000 images collected ...").
+
+    Raises:
+        UnseenFluentError: naming every such fluent, the images and what to do.
+
+    Warns:
+        RareFluentWarning: a spec's fluent true, or false, in fewer than
+            :data:`RARE_FLUENT_IMAGES` of the images.
+
+    Example:
+        >>> counts = LabelCounts(images=800, positives={"has_key": 401, "at_goal": 0})
+        >>> check_fluents_shown(counts, ["has_key"], source="the images")
+        >>> check_fluents_shown(counts, ["at_goal"], source="the images")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.UnseenFluentError: the images never show 'at_goal' true, and a spec ...
+    """
+    _refuse_unseen(counts, spec_fluents, source=source)
+    rare = [
+        name
+        for name in spec_fluents
+        if min(counts.positives[name], counts.negatives(name)) < RARE_FLUENT_IMAGES
+    ]
+    if rare:
+        shown = ", ".join(
+            f"{name!r} true in {counts.positives[name]:,} and false in {counts.negatives(name):,}"
+            for name in rare
+        )
+        warnings.warn(
+            f"{source} show {shown}: fewer than {RARE_FLUENT_IMAGES} of one value, so the "
+            "classifier's accuracy on it rests on a handful of images and the bolt may "
+            "misread it; collect more images (--set detector.samples=N) or use --detector "
+            "synthetic or oracle",
+            RareFluentWarning,
+            stacklevel=2,
+        )
+
+
+def _refuse_unseen(counts: LabelCounts, spec_fluents: Collection[str], *, source: str) -> None:
+    unknown = tuple(name for name in spec_fluents if name not in counts.positives)
+    if unknown:
+        raise UnknownFluentError(
+            f"spec fluent(s) {list(unknown)} are not among the classifier's "
+            f"{sorted(counts.positives)}",
+            unknown=unknown,
+            known=tuple(counts.positives),
+        )
+    unseen = {
+        name: "true" if counts.positives[name] == 0 else "false"
+        for name in spec_fluents
+        if counts.positives[name] == 0 or counts.negatives(name) == 0
+    }
+    if not unseen:
+        return
+    them = "it" if len(unseen) == 1 else "them"
+    raise UnseenFluentError(
+        f"{source} never show "
+        + " or ".join(f"{name!r} {value}" for name, value in unseen.items())
+        + f", and a spec uses {them}: the classifier could not learn to tell when {them} "
+        f"{'holds' if len(unseen) == 1 else 'hold'}, so the bolt would read {them} the same "
+        f"whatever the agent does and the spec could not steer it. {_WHAT_TO_DO}",
+        fluents=tuple(unseen),
+        images=counts.images,
+    )
 
 
 def make_detector(
@@ -127,17 +237,39 @@ def make_detector(
     progress: bool = True,
     log: Callable[[str], None] = print,
     retrain: bool = False,
+    spec_fluents: Collection[str] = (),
 ) -> FluentDetector:
     """Builds the detector; a classifier is loaded (checked against the world) or trained.
 
     ``retrain`` trains the cached on-the-fly classifier again even if one is cached.
+    ``spec_fluents``, the fluents the run's specs depend on, are checked in the images a
+    classifier learns (or learnt) from (:func:`check_fluents_shown`): a freshly collected
+    set is refused before a classifier is trained on it, so nothing is cached; a file whose
+    counts were not saved with it (written before they were) is used unchecked.
 
     Raises:
-        ConfigError: ``retrain`` with a classifier file given (``config.path``).
+        ConfigError: ``retrain`` with a classifier file given (``config.path``);
+            ``low_confidence`` for a detector other than the synthetic one, or naming a
+            fluent the world lacks.
+        UnseenFluentError: a fluent of ``spec_fluents`` the classifier's images never
+            show true, or never false.
     """
     from noisybolt.perception.classifier import load_classifier
     from noisybolt.perception.detectors import BetaNoise, OracleDetector, SyntheticDetector
+    from noisybolt.perception.training import recorded_label_counts
 
+    if config.low_confidence and config.kind != "synthetic":
+        raise ConfigError(
+            f"detector.low_confidence (--low-confidence {' '.join(config.low_confidence)}) "
+            f"sets what the synthetic detector sees with low confidence; the {config.kind} "
+            "detector would ignore it: use --detector synthetic, or leave it out"
+        )
+    unknown = sorted(set(config.low_confidence) - set(fluent_names))
+    if unknown:
+        raise ConfigError(
+            f"detector.low_confidence (--low-confidence) names {unknown}, which the world "
+            f"{world!r} does not have; its fluents are {list(fluent_names)}"
+        )
     if config.kind == "oracle":
         return OracleDetector(fluent_names)
     if config.kind == "synthetic":
@@ -155,7 +287,7 @@ def make_detector(
             config,
             camera_spec,
             architecture,
-            fingerprint=world_fingerprint(world, dict(world_kwargs))
+            fingerprint=world_fingerprint(world, dict(world_kwargs), final_views=config.final_views)
             if is_factory_path(world)
             else None,
             world_kwargs=world_kwargs,
@@ -179,10 +311,20 @@ def make_detector(
             architecture,
             world=world,
             world_kwargs=world_kwargs,
+            spec_fluents=spec_fluents,
             progress=progress,
             log=log,
         )
-    return load_classifier(path, fluent_names=fluent_names, camera_spec=camera_spec)
+    detector = load_classifier(path, fluent_names=fluent_names, camera_spec=camera_spec)
+    counts = recorded_label_counts(detector.training, detector.fluent_names)
+    if counts is not None:  # None: a file saved before the counts were (used as before)
+        which = "classifier file" if config.path is not None else "cached classifier"
+        check_fluents_shown(
+            counts,
+            spec_fluents,
+            source=f"the {counts.images:,} images the {which} {path} was trained on",
+        )
+    return detector
 
 
 def restart_seed(seed: int, restart: int) -> int:
@@ -236,20 +378,37 @@ def _train_classifier_on_the_fly(
     *,
     world: str,
     world_kwargs: Mapping[str, Any],
+    spec_fluents: Collection[str],
     progress: bool,
     log: Callable[[str], None],
 ) -> None:
     from noisybolt.perception.dataset import collect_samples
     from noisybolt.perception.training import TrainingConfig, train_classifier
 
-    def images(seed: int, samples: int) -> Any:
+    def images(seed: int, samples: int, *, held_out: bool = False) -> Any:
         collector = make_world(world, num_envs=16, seed=seed, **world_kwargs)
         try:
-            return collect_samples(collector, num_samples=samples, seed=seed, progress=progress)
+            data = collect_samples(
+                collector,
+                num_samples=samples,
+                seed=seed,
+                final_views=config.final_views,
+                progress=progress,
+            )
         finally:
             close = getattr(collector, "close", None)
             if callable(close):
                 close()
+        # Refused before any classifier is trained on them, or cached: warnings wait for
+        # the classifier kept (make_detector checks its saved counts).
+        purpose = "check" if held_out else "train"
+        _refuse_unseen(
+            LabelCounts.of(data),
+            spec_fluents,
+            source=f"the {len(data):,} {'held-out ' if held_out else ''}images collected "
+            f"from the world's random play (seed {seed}) to {purpose} the bolt's classifier",
+        )
+        return data
 
     def train_one(restart: int) -> Any:
         # Each restart from its own seed, on twice the images of the one before: a camera
@@ -272,7 +431,9 @@ def _train_classifier_on_the_fly(
     def held_out() -> Any:
         # seeded as no restart is, so that no classifier has seen these images
         return images(
-            restart_seed(config.seed, config.restarts), min(HELD_OUT_SAMPLES, config.samples)
+            restart_seed(config.seed, config.restarts),
+            min(HELD_OUT_SAMPLES, config.samples),
+            held_out=True,
         )
 
     detector = best_of_restarts(train_one, held_out, restarts=config.restarts, log=log)

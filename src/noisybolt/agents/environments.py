@@ -309,6 +309,8 @@ def prepare_bolt(
     Raises:
         UnknownFluentError: a spec names a fluent the world lacks (listing the world's).
         IncompatibleError: the detector's fluents or camera differ from the world's.
+        UnseenFluentError: a classifier's images never show a fluent the specs use true
+            (or never false).
     """
     probe: Any = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
     fluents, camera_spec = tuple(probe.fluent_names), probe.camera_spec
@@ -324,6 +326,8 @@ def prepare_bolt(
         progress=progress,
         log=log,
         retrain=retrain_classifier,
+        # what the specs depend on: a classifier that never saw one of these is refused
+        spec_fluents=tuple(f for f in fluents if any(f in d.relevant_fluents for d in dfas)),
     )
     letters = None
     if config.progress_gamma is not None:

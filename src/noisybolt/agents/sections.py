@@ -170,6 +170,11 @@ class DetectorConfig:
             measured, and training stops once that reaches :data:`~noisybolt.agents.
             detectors.ACCEPT_ACCURACY`; the best is kept. 1: the first alone, as runs saved
             before this setting existed did.
+        final_views: an on-the-fly classifier's images include the last state of each
+            episode random play ends (:func:`noisybolt.perception.dataset.
+            collect_samples`), so that a fluent true only as an episode ends (a goal
+            reached) is shown to it; False: only the states after each step, as runs
+            saved before this setting existed collected them.
     """
 
     kind: str = "classifier"
@@ -179,6 +184,7 @@ class DetectorConfig:
     epochs: int = 30
     seed: int = 0
     restarts: int = 3
+    final_views: bool = True
 
     def __post_init__(self) -> None:
         if self.kind not in DETECTORS:
@@ -191,6 +197,10 @@ class DetectorConfig:
         if self.restarts < 1:
             raise ConfigError(
                 f"detector.restarts must be at least 1 (one classifier), got {self.restarts}"
+            )
+        if not isinstance(self.final_views, bool):
+            raise ConfigError(
+                f"detector.final_views must be true or false, got {self.final_views!r}"
             )
 
 

@@ -223,6 +223,7 @@ def _collect(args: argparse.Namespace) -> int:
             "num_envs": args.num_envs,
             "samples": args.samples,
             "oversample": args.oversample,
+            "final_views": dataset.metadata["final_views"],
             "seed": args.seed,
             "camera_spec": camera_spec_to_dict(dataset.camera_spec),
             "fluent_names": list(dataset.fluent_names),

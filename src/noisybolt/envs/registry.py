@@ -242,7 +242,12 @@ def _no_settings(name: str, settings: dict[str, Any]) -> None:
 
 
 def world_fingerprint(
-    name: str, world_kwargs: dict[str, Any] | None = None, *, samples: int = 64, seed: int = 0
+    name: str,
+    world_kwargs: dict[str, Any] | None = None,
+    *,
+    samples: int = 64,
+    seed: int = 0,
+    final_views: bool = False,
 ) -> str:
     """What a world's fluents *mean*: a digest of labelled bolt images it shows.
 
@@ -250,7 +255,10 @@ def world_fingerprint(
     fluents keep their definitions; a user's world (a factory path) can change one
     without changing its name. The digest is over ``samples`` labelled images collected
     from the world with ``seed`` (images and labels), so a changed fluent, camera or
-    noise gives another digest.
+    noise gives another digest. ``final_views`` collects the ended episodes' last states
+    too (:func:`~noisybolt.perception.dataset.collect_samples`), so that a fluent true only
+    as an episode ends counts as well; False gives the digest of before they were
+    collected, which the classifiers cached then are named by.
 
     Example:
         >>> len(world_fingerprint("gridworld", {"obs_mode": "grid"}))
@@ -262,7 +270,7 @@ def world_fingerprint(
 
     world = make_world(name, num_envs=4, seed=seed, **(world_kwargs or {}))
     try:
-        data = collect_samples(world, num_samples=samples, seed=seed)
+        data = collect_samples(world, num_samples=samples, seed=seed, final_views=final_views)
     finally:
         if isinstance(world, gym.vector.VectorEnv):
             world.close()

@@ -6,7 +6,10 @@ from. :func:`collect_samples` gathers one from any world meeting
 :class:`~noisybolt.perception.protocols.BoltObservable`: it explores with random actions
 and, where the world offers it (:class:`SupportsCollectionStates`), with scripted jumps to
 diverse states, then picks a subset balanced between positives and negatives of every
-fluent as far as the pool allows.
+fluent as far as the pool allows. Random play keeps the state each step reaches and, for
+an episode the step ends, its last state too (read from the step's ``final_info``: a
+vector world has already moved on to the next episode), so that a fluent true only as an
+episode ends (a goal reached, a hole fallen in) is shown to the classifier.
 
 File format (``.npz``, zip-deflated, written atomically): ``images`` (uint8 ``[n,H,W,C]``),
 ``labels`` (bool ``[n,k]``) and ``header``, the UTF-8 bytes (uint8 array) of a JSON object
@@ -32,7 +35,7 @@ import json
 import math
 import zipfile
 import zlib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple, Protocol, runtime_checkable
@@ -40,20 +43,27 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 import numpy as np
 from tqdm.auto import tqdm
 
-from noisybolt.errors import ConfigError, CorruptFileError
+from noisybolt.errors import ConfigError, CorruptFileError, UnlabelledEnvError
 from noisybolt.io import atomic_write_bytes
 from noisybolt.perception.compat import (
     camera_spec_from_dict,
     camera_spec_to_dict,
     check_compatible,
 )
-from noisybolt.perception.protocols import BoltObservable, CameraSpec
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    FINAL_INFO_KEY,
+    TRUE_FLUENTS_KEY,
+    BoltObservable,
+    CameraSpec,
+)
 
 __all__ = [
     "DATASET_FORMAT",
     "DATASET_VERSION",
     "DatasetSplit",
     "FluentDataset",
+    "LabelCounts",
     "SupportsCollectionStates",
     "balanced_subset",
     "collect_samples",
@@ -78,6 +88,47 @@ class SupportsCollectionStates(Protocol):
     def sample_collection_states(self, rng: np.random.Generator) -> None:
         """Moves each environment of the batch to a state drawn with ``rng``."""
         ...
+
+
+class LabelCounts(NamedTuple):
+    """How many images a dataset holds and in how many of them each fluent is true.
+
+    A classifier saves them with its ``training`` notes
+    (:func:`noisybolt.perception.training.train_classifier`), so that a cached one can be
+    checked, when used again, for fluents it never saw true or never saw false.
+    """
+
+    images: int
+    positives: dict[str, int]
+
+    @classmethod
+    def of(cls, dataset: FluentDataset) -> LabelCounts:
+        """The counts of ``dataset``."""
+        return cls(images=len(dataset), positives=dataset.positives)
+
+    def negatives(self, fluent: str) -> int:
+        """Images in which ``fluent`` was false."""
+        return self.images - self.positives[fluent]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-able form kept in a classifier's ``training`` notes."""
+        return {"images": self.images, "positives": dict(self.positives)}
+
+    @classmethod
+    def from_dict(cls, data: Any, fluent_names: Sequence[str]) -> LabelCounts | None:
+        """The counts :meth:`to_dict` wrote for ``fluent_names``; None where ``data`` is
+        not such a form (absent from a file written before the counts were saved)."""
+        if not isinstance(data, dict):
+            return None
+        images, positives = data.get("images"), data.get("positives")
+        if (
+            not isinstance(images, int)
+            or not isinstance(positives, dict)
+            or set(positives) != set(fluent_names)
+            or not all(isinstance(n, int) and 0 <= n <= images for n in positives.values())
+        ):
+            return None
+        return cls(images=images, positives={name: positives[name] for name in fluent_names})
 
 
 class DatasetSplit(NamedTuple):
@@ -329,6 +380,54 @@ def _random_actions(world: Any, rng: np.random.Generator) -> np.ndarray:
     return np.asarray(space.sample())
 
 
+def _last_views(
+    info: Any, ended: np.ndarray, *, n_envs: int, n_fluents: int, spec: CameraSpec
+) -> tuple[np.ndarray, np.ndarray]:
+    """The bolt images ``[e, H, W, C]`` and true fluents ``[e, k]`` of the states that the
+    episodes of the ``ended`` rows reached, from a step's ``info["final_info"]`` (the
+    world–bolt contract, :mod:`noisybolt.perception.protocols`).
+
+    Raises:
+        UnlabelledEnvError: ``final_info`` or one of its keys is missing for an ended row.
+        ValueError: the images or fluents have the wrong shape or type.
+    """
+    final = info.get(FINAL_INFO_KEY) if isinstance(info, Mapping) else None
+    if not isinstance(final, Mapping):
+        final = {}
+    for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY):
+        mask = final.get(f"_{key}")
+        if key not in final or mask is None or not np.all(np.asarray(mask)[ended]):
+            raise UnlabelledEnvError(
+                f"the world's step ended episodes in rows {ended.tolist()} but its info has no "
+                f"info[{FINAL_INFO_KEY!r}][{key!r}] for them: a vector world must put the ended "
+                "episodes' last labels there (noisybolt.perception.protocols), or collect "
+                "without them (final_views=False; detector.final_views=false for a run)"
+            )
+    images = np.asarray(final[BOLT_IMAGE_KEY])
+    truth = np.asarray(final[TRUE_FLUENTS_KEY], dtype=bool)
+    if images.shape != (n_envs, *spec.shape) or images.dtype != np.uint8:
+        raise ValueError(
+            f"info[{FINAL_INFO_KEY!r}][{BOLT_IMAGE_KEY!r}] is {images.dtype} {images.shape}, "
+            f"expected uint8 {(n_envs, *spec.shape)} from the world's camera spec"
+        )
+    if truth.shape != (n_envs, n_fluents):
+        raise ValueError(
+            f"info[{FINAL_INFO_KEY!r}][{TRUE_FLUENTS_KEY!r}] has shape {truth.shape}, "
+            f"expected {(n_envs, n_fluents)}"
+        )
+    return images[ended], truth[ended]
+
+
+def _gather(batches: list[np.ndarray], rows: np.ndarray) -> np.ndarray:
+    """``np.concatenate(batches)[rows]`` for sorted ``rows``, without the concatenated
+    copy of every batch (the pool's images are most of collection's memory)."""
+    offsets = np.cumsum([0, *(len(batch) for batch in batches)])
+    which = np.searchsorted(offsets, rows, side="right") - 1
+    # rows are sorted, so the parts come in their order
+    parts = [batches[b][rows[which == b] - offsets[b]] for b in np.unique(which)]
+    return np.concatenate(parts) if parts else batches[0][:0]
+
+
 def collect_samples(
     world: BoltObservable,
     *,
@@ -336,34 +435,46 @@ def collect_samples(
     seed: int,
     oversample: float = 2.0,
     scripted_fraction: float = 0.5,
+    final_views: bool = True,
     progress: bool = False,
 ) -> FluentDataset:
     """Collects a balanced labelled dataset of bolt images from ``world``.
 
-    The world is reset with ``seed``; then, until a pool of ``oversample * num_samples``
-    images is gathered, each round either steps every environment with uniformly random
+    The world is reset with ``seed``; then, for ``ceil(oversample * num_samples /
+    num_envs)`` rounds, each round either steps every environment with uniformly random
     actions or (with probability ``scripted_fraction``, if the world implements
     :class:`SupportsCollectionStates`) jumps to scripted diverse states, recording the
-    bolt's images and the true fluents. :func:`balanced_subset` then picks
-    ``num_samples`` of the pool. The world is left in whatever state collection reached.
+    bolt's images and the true fluents. With ``final_views``, a random step that ends
+    episodes also records the last state of each, from the step's ``info["final_info"]``:
+    the world resets an ended episode in the same step, so what it shows after the step
+    is the next episode's first state, and a fluent true only as an episode ends would
+    never be recorded. The pool, ``oversample * num_samples`` images and one more per
+    episode ended, is kept in collection order; :func:`balanced_subset` picks
+    ``num_samples`` of it. The world is left in whatever state collection reached.
 
     Args:
         world: a vectorised world meeting ``BoltObservable`` with a Gymnasium vector API
-            (``reset(seed=)``, ``step(actions)``, ``single_action_space``).
+            (``reset(seed=)``, ``step(actions)`` returning ``(obs, rewards, terminated,
+            truncated, info)``, ``single_action_space``).
         num_samples: the dataset size.
         seed: seeds the world's reset, the exploration and the subset choice.
-        oversample: the pool is this many times ``num_samples`` (>= 1); more means better
-            balance and more memory.
+        oversample: the pool is this many times ``num_samples`` (>= 1), besides the ended
+            episodes' last states; more means better balance and more memory.
         scripted_fraction: share of rounds spent on scripted states when available.
+        final_views: record the ended episodes' last states too. False collects as
+            noisybolt did before they were (the classifiers of runs saved then were
+            trained so): the same images from the same seed.
         progress: show a tqdm progress bar.
 
     Returns:
-        The dataset (its ``metadata`` records how it was collected and the pool's
-        positive counts).
+        The dataset (its ``metadata`` records how it was collected, the pool's positive
+        counts and how many of the pool's images are ended episodes' last states).
 
     Raises:
         ConfigError: on a non-positive ``num_samples``, ``oversample < 1`` or a
             ``scripted_fraction`` outside [0, 1].
+        UnlabelledEnvError: with ``final_views``, a step ended episodes but its info has
+            no ``final_info`` labels for them.
     """
     if num_samples < 1:
         raise ConfigError(f"num_samples must be >= 1, got {num_samples}")
@@ -377,17 +488,31 @@ def collect_samples(
     names = tuple(world.fluent_names)
     n_envs = world.num_envs
     rounds = math.ceil(pool_size / n_envs)
-    images = np.empty((rounds * n_envs, *spec.shape), dtype=np.uint8)
-    labels = np.empty((rounds * n_envs, len(names)), dtype=bool)
+    # Batches in collection order: how many images the ended episodes add is not known
+    # in advance, and only the chosen ones are copied out at the end.
+    images: list[np.ndarray] = []
+    labels: list[np.ndarray] = []
     scripted = isinstance(world, SupportsCollectionStates)
     world.reset(seed=seed)  # type: ignore[attr-defined]
     n_scripted = 0
-    for r in tqdm(range(rounds), desc="collect", unit="round", disable=not progress):
+    n_final = 0
+    for _ in tqdm(range(rounds), desc="collect", unit="round", disable=not progress):
         if scripted and rng.random() < scripted_fraction:
             world.sample_collection_states(rng)  # type: ignore[attr-defined]
             n_scripted += 1
-        else:
+        elif not final_views:
             world.step(_random_actions(world, rng))  # type: ignore[attr-defined]
+        else:
+            step = world.step(_random_actions(world, rng))  # type: ignore[attr-defined]
+            _, _, terminated, truncated, info = step
+            ended = np.flatnonzero(np.logical_or(terminated, truncated))
+            if ended.size:
+                last_images, last_truth = _last_views(
+                    info, ended, n_envs=n_envs, n_fluents=len(names), spec=spec
+                )
+                images.append(last_images)
+                labels.append(last_truth)
+                n_final += int(ended.size)
         batch = world.bolt_images()
         truth = world.true_fluents()
         if batch.shape != (n_envs, *spec.shape) or batch.dtype != np.uint8:
@@ -395,10 +520,11 @@ def collect_samples(
                 f"world.bolt_images() gave {batch.dtype} {batch.shape}, expected uint8 "
                 f"{(n_envs, *spec.shape)} from its camera spec"
             )
-        images[r * n_envs : (r + 1) * n_envs] = batch
-        labels[r * n_envs : (r + 1) * n_envs] = truth
-    pool_positives = labels.sum(axis=0)
-    chosen = balanced_subset(labels, num_samples, rng)
+        images.append(np.array(batch, copy=True))  # the world may reuse its buffer
+        labels.append(np.array(truth, dtype=bool, copy=True))
+    pool_labels = np.concatenate(labels)
+    pool_positives = pool_labels.sum(axis=0)
+    chosen = balanced_subset(pool_labels, num_samples, rng)
     chosen.sort()  # keep collection order: neighbouring samples stay neighbours
     metadata = {
         "collector": "noisybolt.perception.dataset.collect_samples",
@@ -407,12 +533,14 @@ def collect_samples(
         "rounds": rounds,
         "scripted_rounds": n_scripted,
         "num_envs": n_envs,
-        "pool_size": int(labels.shape[0]),
+        "final_views": final_views,
+        "final_view_images": n_final,
+        "pool_size": int(pool_labels.shape[0]),
         "pool_positives": {n: int(c) for n, c in zip(names, pool_positives, strict=True)},
     }
     return FluentDataset(
-        images=images[chosen],
-        labels=labels[chosen],
+        images=_gather(images, chosen),
+        labels=pool_labels[chosen],
         fluent_names=names,
         camera_spec=spec,
         seed=seed,

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -40,10 +40,19 @@ from noisybolt.perception.classifier import (
     FluentNet,
     images_to_tensor,
 )
-from noisybolt.perception.dataset import FluentDataset
+from noisybolt.perception.dataset import FluentDataset, LabelCounts
 from noisybolt.perception.metrics import ClassifierReport, build_report
 
-__all__ = ["EpochStats", "TrainingConfig", "TrainingResult", "train_classifier"]
+__all__ = [
+    "EpochStats",
+    "TrainingConfig",
+    "TrainingResult",
+    "recorded_label_counts",
+    "train_classifier",
+]
+
+#: Where a classifier's ``training`` notes keep the :class:`LabelCounts` of its images.
+_LABEL_COUNTS = "label_counts"
 
 
 @dataclass(frozen=True)
@@ -122,6 +131,15 @@ class TrainingResult:
     report: ClassifierReport
     seconds: float
     reached_target: bool | None
+
+
+def recorded_label_counts(
+    notes: Mapping[str, Any], fluent_names: Sequence[str]
+) -> LabelCounts | None:
+    """The :class:`~noisybolt.perception.dataset.LabelCounts` of the images a classifier
+    learnt from, as :func:`train_classifier` records them in its ``training`` notes, for
+    its ``fluent_names``; None for a file written before they were recorded."""
+    return LabelCounts.from_dict(notes.get(_LABEL_COUNTS), fluent_names)
 
 
 def _evaluate(
@@ -240,6 +258,7 @@ def _train(
         "train_samples": len(train_part),
         "validation_samples": len(val_part),
         "dataset_seed": dataset.seed,
+        _LABEL_COUNTS: LabelCounts.of(dataset).to_dict(),
         # Each fluent's frequency among the training images: the prior the network's
         # probabilities carry (what belief tracking's prior-shift correction divides out).
         "label_frequencies": dict(
