@@ -84,3 +84,20 @@ def test_evaluate_takes_at_least_one_episode_and_draws_as_many_in_its_heatmap(
     assert _rows(capsys.readouterr().out.split("\n\n")[0].strip())["episodes"].endswith(
         "(greedy actions)"
     )
+
+
+def test_the_commands_print_noisybolts_warnings_as_a_sentence_and_others_as_python_does() -> None:
+    import warnings
+
+    from noisybolt.cli import _plain_warnings
+    from noisybolt.errors import EstimatedBoundsWarning
+
+    original = warnings.formatwarning
+    with _plain_warnings("noisybolt train"):
+        ours = warnings.formatwarning(
+            EstimatedBoundsWarning("declare the bounds"), EstimatedBoundsWarning, "x.py", 3
+        )
+        theirs = warnings.formatwarning(UserWarning("w"), UserWarning, "lib.py", 7)
+    assert ours == "noisybolt train: warning: declare the bounds\n"
+    assert theirs.startswith("lib.py:7: UserWarning: w")
+    assert warnings.formatwarning is original

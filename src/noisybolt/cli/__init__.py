@@ -8,9 +8,11 @@ and returning an exit code.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import sys
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
 
 from noisybolt import __version__
 from noisybolt.errors import NoisyboltError
@@ -47,10 +49,36 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with _plain_warnings(f"noisybolt {args.command}"):
+            return int(args.func(args) or 0)
     except NoisyboltError as error:
         print(f"noisybolt {args.command}: error: {error}", file=sys.stderr)
         return 2
+
+
+@contextlib.contextmanager
+def _plain_warnings(prog: str) -> Iterator[None]:
+    """noisybolt's own warnings printed as a sentence for the user ("noisybolt train:
+    warning: ..."), not with the file and source line of the library code that raised
+    them; other libraries' warnings as Python prints them."""
+    original = warnings.formatwarning
+
+    def format_warning(
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        line: str | None = None,
+    ) -> str:
+        if category.__module__.startswith("noisybolt"):
+            return f"{prog}: warning: {message}\n"
+        return original(message, category, filename, lineno, line)
+
+    warnings.formatwarning = format_warning
+    try:
+        yield
+    finally:
+        warnings.formatwarning = original
 
 
 if __name__ == "__main__":  # pragma: no cover
