@@ -69,6 +69,11 @@ def test_importing_the_logic_layer_loads_neither_gymnasium_nor_torch() -> None:
         "noisybolt.wrappers.make_vec",
         "noisybolt.agents.extractor",
         "noisybolt.agents.hyperparams",
+        "noisybolt.agents.config",
+        "noisybolt.agents.detectors",
+        "noisybolt.cli.train",
+        "noisybolt.wrappers._common",
+        "noisybolt.perception.dataset",
     ],
 )
 def test_docstring_examples_run(name: str) -> None:

@@ -227,6 +227,42 @@ def _refuse_unseen(counts: LabelCounts, spec_fluents: Collection[str], *, source
     )
 
 
+#: Seconds between two of :func:`epoch_log`'s lines.
+EPOCH_LOG_EVERY_S = 30.0
+
+
+def epoch_log(
+    epochs: int, log: Callable[[str], None], *, every_s: float = EPOCH_LOG_EVERY_S
+) -> Callable[[Any], None]:
+    """An ``on_epoch`` for :func:`~noisybolt.perception.training.train_classifier` that,
+    without a progress bar, says how training goes: a line at most every ``every_s``
+    seconds of training, and at the last epoch.
+
+    Example:
+        >>> from noisybolt.perception.training import EpochStats
+        >>> lines = []
+        >>> report = epoch_log(30, lines.append)
+        >>> for epoch, seconds in ((1, 10.0), (2, 31.0), (3, 40.0), (30, 45.0)):
+        ...     report(EpochStats(epoch, 0.1, 0.1, (0.9, 0.97), seconds))
+        >>> for line in lines:
+        ...     print(line)
+        classifier: epoch 2/30, worst fluent 0.900 on validation images, 31 s
+        classifier: epoch 30/30, worst fluent 0.900 on validation images, 45 s
+    """
+    last = [0.0]
+
+    def report(stats: Any) -> None:
+        if stats.seconds - last[0] >= every_s or stats.epoch >= epochs:
+            last[0] = stats.seconds
+            log(
+                f"classifier: epoch {stats.epoch}/{epochs}, worst fluent "
+                f"{min(stats.validation_accuracy):.3f} on validation images, "
+                f"{stats.seconds:.0f} s"
+            )
+
+    return report
+
+
 def make_detector(
     config: DetectorConfig,
     *,
@@ -421,6 +457,7 @@ def _train_classifier_on_the_fly(
             config=architecture,
             training=TrainingConfig(epochs=config.epochs, seed=seed),
             progress=progress,
+            on_epoch=None if progress else epoch_log(config.epochs, log),
         )
         log(
             f"classifier trained in {result.seconds:.0f} s on {samples} bolt images "

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -165,6 +165,7 @@ def train_classifier(
     config: ClassifierConfig | None = None,
     training: TrainingConfig | None = None,
     progress: bool = True,
+    on_epoch: Callable[[EpochStats], None] | None = None,
 ) -> TrainingResult:
     """Trains a fluent classifier on ``dataset``, validating on a held-out part.
 
@@ -180,12 +181,20 @@ def train_classifier(
         config: the network's architecture (default :class:`ClassifierConfig`).
         training: optimisation settings (default :class:`TrainingConfig`).
         progress: show a tqdm progress bar.
+        on_epoch: called with each epoch's statistics as it ends (a log for runs without
+            a progress bar: training on large images takes minutes).
 
     Returns:
         The :class:`TrainingResult`; its report is on the validation part.
     """
     with _one_torch_thread():
-        return _train(dataset, config or ClassifierConfig(), training or TrainingConfig(), progress)
+        return _train(
+            dataset,
+            config or ClassifierConfig(),
+            training or TrainingConfig(),
+            progress,
+            on_epoch,
+        )
 
 
 @contextlib.contextmanager
@@ -199,7 +208,11 @@ def _one_torch_thread() -> Iterator[None]:
 
 
 def _train(
-    dataset: FluentDataset, config: ClassifierConfig, training: TrainingConfig, progress: bool
+    dataset: FluentDataset,
+    config: ClassifierConfig,
+    training: TrainingConfig,
+    progress: bool,
+    on_epoch: Callable[[EpochStats], None] | None = None,
 ) -> TrainingResult:
     train_part, val_part = dataset.split(training.validation_fraction, seed=training.seed)
     generator = torch.Generator().manual_seed(training.seed)
@@ -245,6 +258,8 @@ def _train(
             seconds=time.perf_counter() - start,
         )
         history.append(stats)
+        if on_epoch is not None:
+            on_epoch(stats)
         bar.set_postfix(loss=f"{stats.train_loss:.4f}", val_min_acc=f"{val_acc.min():.4f}")
         if training.target_accuracy is not None and val_acc.min() >= training.target_accuracy:
             reached = True
