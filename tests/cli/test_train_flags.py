@@ -168,6 +168,11 @@ def test_a_resume_takes_every_setting_it_is_not_given_from_the_run(
     assert trained >= 128  # whole rollouts: A2C's 2 envs x 5 steps pass 128 at 130
     assert f"it has trained {trained} already" in err and "noisybolt evaluate" in err
     assert json.loads((out / "config.json").read_text())["frames"] == 128
+    # its own target resumes though it lies below the frames trained: a run interrupted
+    # past its last rollout (a sweep's trial) is finished, its summary written again
+    (out / "summary.json").unlink()
+    assert main(["train", "--out", str(out), "--resume", "--no-progress"]) == 0
+    assert json.loads((out / "summary.json").read_text())["frames"] == trained
     # a setting given with another value is still refused, by name
     assert main(["train", "--out", str(out), "--frames", "192", "--resume", "--algo", "ppo"]) == 2
     assert "algorithm.name: saved 'a2c', now 'ppo'" in capsys.readouterr().err

@@ -249,10 +249,12 @@ def train(
 
 
 def check_frames_left(run: RunDirectory, config: TrainConfig) -> None:
-    """Refuses to resume ``run`` to ``config.frames`` when its latest checkpoint has
-    trained more frames than that: the resume would train nothing, yet write the smaller
-    target into its ``config.json``. As many is allowed: a run stopped after its last
-    checkpoint, before its final model and evaluation were written, ends that way.
+    """Refuses to resume ``run`` to ``config.frames`` when that is a new, lower target
+    than its latest checkpoint has trained: the resume would train nothing, yet write the
+    smaller target into its ``config.json``. The run's own saved target always resumes,
+    even below the frames trained: PPO and A2C end a run at the rollout past it, so a run
+    interrupted after that rollout has trained more than it asked for, and its resume
+    writes the final model and evaluation it lacks (a sweep's trials resume this way).
 
     Raises:
         ConfigError: naming the frames trained and what to do.
@@ -261,7 +263,10 @@ def check_frames_left(run: RunDirectory, config: TrainConfig) -> None:
     from noisybolt.agents.checkpoints import latest_checkpoint
 
     trained = latest_checkpoint(run).frames
-    if config.frames < trained:
+    if config.frames >= trained:
+        return
+    saved = run.read_config().get("frames") if run.config_path.exists() else None
+    if config.frames != saved:
         raise ConfigError(
             f"cannot resume {run.path} to {config.frames:,} frames: it has trained "
             f"{trained:,} already; give --frames above that to train on, or evaluate it "
