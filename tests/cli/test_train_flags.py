@@ -170,9 +170,16 @@ def test_a_resume_takes_every_setting_it_is_not_given_from_the_run(
     assert json.loads((out / "config.json").read_text())["frames"] == 128
     # its own target resumes though it lies below the frames trained: a run interrupted
     # past its last rollout (a sweep's trial) is finished, its summary written again
+    # (as if stopped before its final evaluation: the checkpoint's history lacks it)
     (out / "summary.json").unlink()
+    latest = json.loads((out / "checkpoints" / "latest.json").read_text())["folder"]
+    state_path = out / "checkpoints" / latest / "state.json"
+    state = json.loads(state_path.read_text())
+    assert state["history"][-1]["frames"] == trained
+    state_path.write_text(json.dumps({**state, "history": state["history"][:-1]}))
     assert main(["train", "--out", str(out), "--resume", "--no-progress"]) == 0
     assert json.loads((out / "summary.json").read_text())["frames"] == trained
+    assert json.loads((out / "metrics.json").read_text())[-1]["frames"] == trained
     # a setting given with another value is still refused, by name
     assert main(["train", "--out", str(out), "--frames", "192", "--resume", "--algo", "ppo"]) == 2
     assert "algorithm.name: saved 'a2c', now 'ppo'" in capsys.readouterr().err

@@ -17,6 +17,7 @@ from noisybolt.errors import (
     UnknownFluentError,
     UnknownNameError,
     UnlabelledEnvError,
+    UnseenFluentError,
 )
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
 from noisybolt.wrappers import BoltVecEnv, RestrainingBoltWrapper, make_bolted_vec_env
@@ -130,6 +131,25 @@ def test_classifier_by_name_is_trained_on_the_envs_own_camera() -> None:
     _, _, _, _, info = bolted.step(1)  # 0 -> 4 (or slips along the row)
     state_top = info["true_fluents"][0]
     assert (info["fluent_probs"][0] > 0.5) == state_top
+
+
+def test_classifier_by_name_refuses_samples_that_never_show_a_spec_fluent() -> None:
+    # 'off_lake' (the agent off the 4x4 lake) holds in no state the lake reaches, so the
+    # samples never show it true and a classifier could not learn it: refused before any
+    # training, by both wrappers, in their own keyword arguments' terms.
+    def lamp(env: gym.Env) -> np.ndarray:
+        return np.full((8, 8, 3), 12 * env.unwrapped.s, dtype=np.uint8)
+
+    def labelled() -> FluentLabels:
+        fluents = {"off_lake": lambda e: not 0 <= int(e.s) < 16, "top_row": FLUENTS["top_row"]}
+        return FluentLabels(gym.make("FrozenLake-v1"), fluents=fluents, camera=lamp)
+
+    with pytest.raises(UnseenFluentError, match="never show 'off_lake' true") as caught:
+        RestrainingBoltWrapper(labelled(), ["G(!off_lake)"], "classifier", classifier_samples=64)
+    assert "classifier_samples=N" in str(caught.value) and "--" not in str(caught.value)
+    assert caught.value.fluents == ("off_lake",)
+    with pytest.raises(UnseenFluentError, match="never show 'off_lake' true"):
+        make_bolted_vec_env(labelled, 2, ["F(top_row) | G(!off_lake)"], "classifier")
 
 
 # ------------------------------------------------------------------ batched

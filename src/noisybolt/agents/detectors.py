@@ -26,7 +26,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import warnings
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -37,8 +36,9 @@ import numpy as np
 from noisybolt.agents.config import DetectorConfig
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
-from noisybolt.errors import ConfigError, RareFluentWarning, UnknownFluentError, UnseenFluentError
-from noisybolt.perception.dataset import LabelCounts
+from noisybolt.errors import ConfigError
+from noisybolt.perception import dataset
+from noisybolt.perception.dataset import RARE_FLUENT_IMAGES, LabelCounts
 from noisybolt.perception.metrics import build_report
 from noisybolt.perception.protocols import FluentDetector
 
@@ -64,15 +64,8 @@ __all__ = [
 ACCEPT_ACCURACY = 0.92
 #: Fresh images the restarts are compared on (at most ``detector.samples``).
 HELD_OUT_SAMPLES = 2000
-#: A fluent some spec uses that is true, or false, in fewer than this many of the images a
-#: classifier learns from gets a :class:`~noisybolt.errors.RareFluentWarning`. Why 20: a
-#: fifth of them are its validation part (``TrainingConfig.validation_fraction``), so
-#: fewer leave about four or fewer there, and the validation table's accuracy and AUROC
-#: for the fluent rest on a handful of images; the held-out accuracy that restarts compare
-#: counts both values alike, so a classifier that reads 10 positives in 4,000 images all
-#: as false still scores 0.9975 on that fluent.
-RARE_FLUENT_IMAGES = 20
 
+_IF_RARE = "collect more images (--set detector.samples=N) or use --detector synthetic or oracle"
 _WHAT_TO_DO = (
     "Use --detector synthetic or oracle (no classifier), collect more images (--set "
     "detector.samples=N), or use a world that shows the state while images are collected. "
@@ -154,21 +147,8 @@ def default_classifier_path(
 
 
 def check_fluents_shown(counts: LabelCounts, spec_fluents: Collection[str], *, source: str) -> None:
-    """Refuses images to learn a classifier from in which a fluent some spec uses is never
-    true, or never false; warns where it is true or false in only a few of them.
-
-    Args:
-        counts: the images and each fluent's positives among them.
-        spec_fluents: the fluents the run's specs depend on; no other is checked (a world
-            may name fluents its specs do not need).
-        source: what the images are, for the messages ("the 4,000 images collected ...").
-
-    Raises:
-        UnseenFluentError: naming every such fluent, the images and what to do.
-
-    Warns:
-        RareFluentWarning: a spec's fluent true, or false, in fewer than
-            :data:`RARE_FLUENT_IMAGES` of the images.
+    """:func:`noisybolt.perception.dataset.check_fluents_shown`, saying what to do in
+    the command line's terms (``--detector``, ``--set detector.samples=N``).
 
     Example:
         >>> counts = LabelCounts(images=800, positives={"has_key": 401, "at_goal": 0})
@@ -178,52 +158,8 @@ def check_fluents_shown(counts: LabelCounts, spec_fluents: Collection[str], *, s
         ...
         noisybolt.errors.UnseenFluentError: the images never show 'at_goal' true, and a spec ...
     """
-    _refuse_unseen(counts, spec_fluents, source=source)
-    rare = [
-        name
-        for name in spec_fluents
-        if min(counts.positives[name], counts.negatives(name)) < RARE_FLUENT_IMAGES
-    ]
-    if rare:
-        shown = ", ".join(
-            f"{name!r} true in {counts.positives[name]:,} and false in {counts.negatives(name):,}"
-            for name in rare
-        )
-        warnings.warn(
-            f"{source} show {shown}: fewer than {RARE_FLUENT_IMAGES} of one value, so the "
-            "classifier's accuracy on it rests on a handful of images and the bolt may "
-            "misread it; collect more images (--set detector.samples=N) or use --detector "
-            "synthetic or oracle",
-            RareFluentWarning,
-            stacklevel=2,
-        )
-
-
-def _refuse_unseen(counts: LabelCounts, spec_fluents: Collection[str], *, source: str) -> None:
-    unknown = tuple(name for name in spec_fluents if name not in counts.positives)
-    if unknown:
-        raise UnknownFluentError(
-            f"spec fluent(s) {list(unknown)} are not among the classifier's "
-            f"{sorted(counts.positives)}",
-            unknown=unknown,
-            known=tuple(counts.positives),
-        )
-    unseen = {
-        name: "true" if counts.positives[name] == 0 else "false"
-        for name in spec_fluents
-        if counts.positives[name] == 0 or counts.negatives(name) == 0
-    }
-    if not unseen:
-        return
-    them = "it" if len(unseen) == 1 else "them"
-    raise UnseenFluentError(
-        f"{source} never show "
-        + " or ".join(f"{name!r} {value}" for name, value in unseen.items())
-        + f", and a spec uses {them}: the classifier could not learn to tell when {them} "
-        f"{'holds' if len(unseen) == 1 else 'hold'}, so the bolt would read {them} the same "
-        f"whatever the agent does and the spec could not steer it. {_WHAT_TO_DO}",
-        fluents=tuple(unseen),
-        images=counts.images,
+    dataset.check_fluents_shown(
+        counts, spec_fluents, source=source, what_to_do=_WHAT_TO_DO, if_rare=_IF_RARE
     )
 
 
@@ -438,9 +374,10 @@ def _train_classifier_on_the_fly(
         # Refused before any classifier is trained on them, or cached: warnings wait for
         # the classifier kept (make_detector checks its saved counts).
         purpose = "check" if held_out else "train"
-        _refuse_unseen(
+        dataset.refuse_unseen(
             LabelCounts.of(data),
             spec_fluents,
+            what_to_do=_WHAT_TO_DO,
             source=f"the {len(data):,} {'held-out ' if held_out else ''}images collected "
             f"from the world's random play (seed {seed}) to {purpose} the bolt's classifier",
         )

@@ -41,6 +41,7 @@ from typing import Any
 
 import torch
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.utils import configure_logger
 from stable_baselines3.common.vec_env import VecNormalize
 
 from noisybolt.agents.callbacks import (
@@ -410,6 +411,12 @@ def _learn(
                 f"with --resume --out {run.path}"
             )
             raise
+    elif not hasattr(model, "_logger"):
+        # learn() sets up the logger evaluations record to; a resume with no frames left
+        # (a run interrupted after its last rollout) evaluates without it.
+        model.set_logger(
+            configure_logger(model.verbose, model.tensorboard_log, "run", reset_num_timesteps=False)
+        )
     evaluation.init_callback(model)
     checkpoints.init_callback(model)
     final = (

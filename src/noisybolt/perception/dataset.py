@@ -33,9 +33,10 @@ from __future__ import annotations
 import io
 import json
 import math
+import warnings
 import zipfile
 import zlib
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple, Protocol, runtime_checkable
@@ -43,7 +44,14 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 import numpy as np
 from tqdm.auto import tqdm
 
-from noisybolt.errors import ConfigError, CorruptFileError, UnlabelledEnvError
+from noisybolt.errors import (
+    ConfigError,
+    CorruptFileError,
+    RareFluentWarning,
+    UnknownFluentError,
+    UnlabelledEnvError,
+    UnseenFluentError,
+)
 from noisybolt.io import atomic_write_bytes
 from noisybolt.perception.compat import (
     camera_spec_from_dict,
@@ -61,13 +69,16 @@ from noisybolt.perception.protocols import (
 __all__ = [
     "DATASET_FORMAT",
     "DATASET_VERSION",
+    "RARE_FLUENT_IMAGES",
     "DatasetSplit",
     "FluentDataset",
     "LabelCounts",
     "SupportsCollectionStates",
     "balanced_subset",
+    "check_fluents_shown",
     "collect_samples",
     "load_dataset",
+    "refuse_unseen",
     "save_dataset",
 ]
 
@@ -129,6 +140,104 @@ class LabelCounts(NamedTuple):
         ):
             return None
         return cls(images=images, positives={name: positives[name] for name in fluent_names})
+
+
+#: A fluent some spec uses that is true, or false, in fewer than this many of the images a
+#: classifier learns from gets a :class:`~noisybolt.errors.RareFluentWarning`. Why 20: a
+#: fifth of them are its validation part (``TrainingConfig.validation_fraction``), so
+#: fewer leave about four or fewer there, and the validation table's accuracy and AUROC
+#: for the fluent rest on a handful of images; the held-out accuracy that restarts compare
+#: counts both values alike, so a classifier that reads 10 positives in 4,000 images all
+#: as false still scores 0.9975 on that fluent.
+RARE_FLUENT_IMAGES = 20
+
+
+def check_fluents_shown(
+    counts: LabelCounts,
+    spec_fluents: Collection[str],
+    *,
+    source: str,
+    what_to_do: str,
+    if_rare: str,
+) -> None:
+    """Refuses images to learn a classifier from in which a fluent some spec uses is never
+    true, or never false; warns where it is true or false in only a few of them.
+
+    Args:
+        counts: the images and each fluent's positives among them.
+        spec_fluents: the fluents the run's specs depend on; no other is checked (a world
+            may name fluents its specs do not need).
+        source: what the images are, for the messages ("the 4,000 images collected ...").
+        what_to_do: the refusal's advice, in the caller's terms (command-line options or
+            keyword arguments).
+        if_rare: the warning's advice, likewise.
+
+    Raises:
+        UnseenFluentError: naming every such fluent, the images and what to do.
+
+    Warns:
+        RareFluentWarning: a spec's fluent true, or false, in fewer than
+            :data:`RARE_FLUENT_IMAGES` of the images.
+
+    Example:
+        >>> counts = LabelCounts(images=800, positives={"has_key": 401, "at_goal": 0})
+        >>> advice = {"what_to_do": "Collect more.", "if_rare": "collect more"}
+        >>> check_fluents_shown(counts, ["has_key"], source="the images", **advice)
+        >>> check_fluents_shown(counts, ["at_goal"], source="the images", **advice)
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.UnseenFluentError: the images never show 'at_goal' true, and a spec ...
+    """
+    refuse_unseen(counts, spec_fluents, source=source, what_to_do=what_to_do)
+    rare = [
+        name
+        for name in spec_fluents
+        if min(counts.positives[name], counts.negatives(name)) < RARE_FLUENT_IMAGES
+    ]
+    if rare:
+        shown = ", ".join(
+            f"{name!r} true in {counts.positives[name]:,} and false in {counts.negatives(name):,}"
+            for name in rare
+        )
+        warnings.warn(
+            f"{source} show {shown}: fewer than {RARE_FLUENT_IMAGES} of one value, so the "
+            "classifier's accuracy on it rests on a handful of images and the bolt may "
+            f"misread it; {if_rare}",
+            RareFluentWarning,
+            stacklevel=2,
+        )
+
+
+def refuse_unseen(
+    counts: LabelCounts, spec_fluents: Collection[str], *, source: str, what_to_do: str
+) -> None:
+    """The refusal of :func:`check_fluents_shown` alone (no warning), for images collected
+    before a classifier is chosen: its warnings wait for the classifier kept."""
+    unknown = tuple(name for name in spec_fluents if name not in counts.positives)
+    if unknown:
+        raise UnknownFluentError(
+            f"spec fluent(s) {list(unknown)} are not among the classifier's "
+            f"{sorted(counts.positives)}",
+            unknown=unknown,
+            known=tuple(counts.positives),
+        )
+    unseen = {
+        name: "true" if counts.positives[name] == 0 else "false"
+        for name in spec_fluents
+        if counts.positives[name] == 0 or counts.negatives(name) == 0
+    }
+    if not unseen:
+        return
+    them = "it" if len(unseen) == 1 else "them"
+    raise UnseenFluentError(
+        f"{source} never show "
+        + " or ".join(f"{name!r} {value}" for name, value in unseen.items())
+        + f", and a spec uses {them}: the classifier could not learn to tell when {them} "
+        f"{'holds' if len(unseen) == 1 else 'hold'}, so the bolt would read {them} the same "
+        f"whatever the agent does and the spec could not steer it. {what_to_do}",
+        fluents=tuple(unseen),
+        images=counts.images,
+    )
 
 
 class DatasetSplit(NamedTuple):

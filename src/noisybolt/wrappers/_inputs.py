@@ -46,12 +46,22 @@ def coerce_specs(specs: Spec | str | Sequence[Spec | str]) -> list[Spec]:
     return out
 
 
+#: The advice of a refusal (or warning) of the images a classifier by name would learn
+#: from, in the wrappers' keyword arguments.
+_WHAT_TO_DO = (
+    "Pass detector='synthetic' or 'oracle' (no classifier), collect more images "
+    "(classifier_samples=N), or label a world whose random play shows the fluent both ways"
+)
+_IF_RARE = "collect more images (classifier_samples=N) or pass detector='synthetic' or 'oracle'"
+
+
 def resolve_detector(
     detector: FluentDetector | str,
     fluent_names: Sequence[str],
     *,
     seed: int = 0,
     samples: Callable[[], Any] | None = None,
+    specs: Sequence[Spec] = (),
 ) -> FluentDetector:
     """A detector object, or one built by name (see :data:`DetectorName`).
 
@@ -62,10 +72,18 @@ def resolve_detector(
         seed: seeds the synthetic detector's noise or the classifier's training.
         samples: for ``"classifier"``: returns a labelled
             :class:`~noisybolt.perception.dataset.FluentDataset` to train on.
+        specs: the bolt's specs; a classifier by name must see each fluent they use both
+            true and false in its samples.
 
     Raises:
         UnknownNameError: an unknown name (listing the known ones).
         ConfigError: an object that is not a detector.
+        UnseenFluentError: the samples never show a fluent of ``specs`` true, or never
+            false (the classifier could not learn it; no classifier is trained).
+
+    Warns:
+        RareFluentWarning: the samples show one such fluent true, or false, in fewer
+            than :data:`~noisybolt.perception.dataset.RARE_FLUENT_IMAGES` images.
     """
     from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
 
@@ -77,9 +95,20 @@ def resolve_detector(
         if detector == "classifier":
             if samples is None:
                 raise ConfigError("a classifier by name needs labelled samples to train on")
+            from noisybolt.logic.syntax import atoms, parse_ltlf
+            from noisybolt.perception.dataset import LabelCounts, check_fluents_shown
             from noisybolt.perception.training import TrainingConfig, train_classifier
 
-            result = train_classifier(samples(), training=TrainingConfig(seed=seed), progress=False)
+            data = samples()
+            check_fluents_shown(
+                LabelCounts.of(data),
+                sorted({name for spec in specs for name in atoms(parse_ltlf(spec.formula))}),
+                source=f"the {len(data):,} images collected from the env's random play (seed "
+                f"{seed}) to train the bolt's classifier",
+                what_to_do=_WHAT_TO_DO,
+                if_rare=_IF_RARE,
+            )
+            result = train_classifier(data, training=TrainingConfig(seed=seed), progress=False)
             return result.detector
         raise UnknownNameError(
             f"unknown detector {detector!r}; known: {', '.join(DETECTOR_NAMES)}, or pass a "

@@ -140,6 +140,7 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         )
         super().__init__(env)
         fluent_names = fluent_names_of(env)
+        specs = coerce_specs(specs)
         detector = resolve_detector(
             detector,
             fluent_names,
@@ -147,11 +148,12 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             samples=lambda: collect_labelled_samples(
                 env, num_samples=classifier_samples, seed=seed
             ),
+            specs=specs,
         )
         self._detector = detector
         self._thresholds = thresholds
         parts = build_bolt(
-            coerce_specs(specs),
+            specs,
             detector,
             fluent_names,
             n_envs=1,

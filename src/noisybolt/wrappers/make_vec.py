@@ -72,6 +72,7 @@ def make_bolted_vec_env(
         raise ConfigError(f"n_envs must be an integer >= 1, got {n_envs!r}")
     if not callable(env_fn):
         raise ConfigError(f"env_fn must be a function returning a labelled env, got {env_fn!r}")
+    specs = coerce_specs(specs)
     world = LabelledVectorEnv([env_fn] * n_envs)
     detector_seed = 0 if seed is None else seed
     detector = resolve_detector(
@@ -81,11 +82,12 @@ def make_bolted_vec_env(
         samples=lambda: collect_labelled_samples(
             env_fn(), num_samples=classifier_samples, seed=detector_seed
         ),
+        specs=specs,
     )
     venv = SB3VecEnv(world)
     bolted = BoltVecEnv(
         VecMonitor(venv) if monitor else venv,
-        coerce_specs(specs),
+        specs,
         detector,
         world=world,
         thresholds=thresholds,
