@@ -43,10 +43,10 @@ def test_runs_recorded_before_the_bolts_view_was_kept_have_no_such_row() -> None
 
 
 def test_sigterm_interrupts_a_training_like_ctrl_c_and_only_meanwhile() -> None:
-    from noisybolt.cli.train import _sigterm_as_interrupt
+    from noisybolt.cli import sigterm_as_interrupt
 
     before = signal.getsignal(signal.SIGTERM)
-    with pytest.raises(KeyboardInterrupt), _sigterm_as_interrupt():
+    with pytest.raises(KeyboardInterrupt), sigterm_as_interrupt():
         os.kill(os.getpid(), signal.SIGTERM)  # the handler runs before the next line
     assert signal.getsignal(signal.SIGTERM) == before
 

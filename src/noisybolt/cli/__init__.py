@@ -10,7 +10,9 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Iterator, Sequence
 
@@ -49,11 +51,35 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        with _plain_warnings(f"noisybolt {args.command}"):
+        with _plain_warnings(f"noisybolt {args.command}"), sigterm_as_interrupt():
             return int(args.func(args) or 0)
     except NoisyboltError as error:
         print(f"noisybolt {args.command}: error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Training saves a checkpoint on the way out and says how to resume; the rest
+        # is a plain line, not a traceback through the library.
+        print(f"noisybolt {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``, a batch scheduler's notice) raises KeyboardInterrupt meanwhile,
+    so that a stopped command (a training, a sweep's trial) saves a checkpoint as Ctrl-C
+    does."""
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal handlers can only be set from the main thread
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextlib.contextmanager

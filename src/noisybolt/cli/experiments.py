@@ -8,6 +8,7 @@ input (found before anything runs).
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -261,9 +262,18 @@ def _sweep(args: argparse.Namespace) -> int:
         workers=_workers(args),
         retries=args.retries,
     )
-    result = run_sweep(
-        config, out, backend=args.backend, workers=_workers(args), address=args.address, argv=argv
-    )
+    try:
+        result = run_sweep(
+            config, out, backend=args.backend, workers=_workers(args), address=args.address,
+            argv=argv,
+        )  # fmt: skip
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM (the CLI's main)
+        print(
+            f"sweep {config.name} interrupted: the running trial saved a checkpoint; run the "
+            "same command to resume",
+            file=sys.stderr,
+        )
+        return 130
     print(result.files["markdown"].read_text())
     unfinished = len(result.records) - result.n_done - result.n_failed
     if unfinished:

@@ -3,11 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import re
-import signal
-import threading
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -334,24 +330,6 @@ def _default_out(overrides: dict[str, Any]) -> Path:
     return Path("runs") / f"{world.replace(':', '.')}-{algo}-seed{seed}"
 
 
-@contextlib.contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    """SIGTERM (``kill``, a batch scheduler's notice) raises KeyboardInterrupt meanwhile, so
-    that a stopped training saves a checkpoint as Ctrl-C does."""
-
-    def interrupt(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    if threading.current_thread() is not threading.main_thread():
-        yield  # signal handlers can only be set from the main thread
-        return
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
 def _train(args: argparse.Namespace) -> int:
     from noisybolt.agents.training import TrainConfig, train
     from noisybolt.rundir import RunDirectory
@@ -383,17 +361,16 @@ def _train(args: argparse.Namespace) -> int:
             "spec (noisybolt check says more): the agent must trade the goal for the bolt"
         )
     print(describe_scheme(config))
-    with _sigterm_as_interrupt():
-        try:
-            result = train(
-                config,
-                out,
-                resume=args.resume,
-                restart=args.restart,
-                retrain_classifier=args.retrain_classifier,
-            )
-        except KeyboardInterrupt:
-            return 130  # train() saved a checkpoint and said how to resume
+    try:  # SIGTERM too (the CLI's main): train() saves a checkpoint, says how to resume
+        result = train(
+            config,
+            out,
+            resume=args.resume,
+            restart=args.restart,
+            retrain_classifier=args.retrain_classifier,
+        )
+    except KeyboardInterrupt:
+        return 130
     print(
         format_eval_table(
             result.final.to_dict(),
