@@ -20,7 +20,13 @@ from torch import nn
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["CNN_KINDS", "BoltFeaturesExtractor", "check_cnn", "conv_stack"]
+__all__ = [
+    "CNN_KINDS",
+    "BoltFeaturesExtractor",
+    "check_agent_observation",
+    "check_cnn",
+    "conv_stack",
+]
 
 #: Images with both sides at least this large get the Nature-DQN convolutions.
 LARGE_IMAGE_MIN_SIDE = 36
@@ -102,6 +108,36 @@ def _is_vector(space: gym.Space) -> bool:
     if isinstance(space, (gym.spaces.Discrete, gym.spaces.MultiDiscrete, gym.spaces.MultiBinary)):
         return True
     return isinstance(space, gym.spaces.Box) and len(space.shape) == 1
+
+
+def check_agent_observation(space: gym.Space, *, world: str) -> None:
+    """Refuses an agent's observation the agents cannot read, before anything is trained:
+    an image ``(H, W, C)`` or ``(C, H, W)``, a flat ``Box`` vector, or a ``Discrete``,
+    ``MultiDiscrete`` or ``MultiBinary`` state are read; a ``Dict`` or ``Tuple`` (SB3 takes
+    no nested spaces beside the bolt's own ``dfa`` entry), a ``Text`` or ``Graph``, or a
+    ``Box`` of 2 or 4+ axes are not, and no hyperparameter changes that.
+
+    Raises:
+        ConfigError: naming the world, its space and how to flatten it.
+
+    Example:
+        >>> check_agent_observation(gym.spaces.Box(0, 255, (84, 84, 3), np.uint8), world="w")
+        >>> check_agent_observation(
+        ...     gym.spaces.Dict({"pos": gym.spaces.Discrete(4)}), world="w")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: world 'w' gives the agent Dict('pos': Discrete(4)): ...
+    """
+    if _is_vector(space):
+        return
+    if isinstance(space, gym.spaces.Box) and len(space.shape) == 3:
+        return
+    raise ConfigError(
+        f"world {world!r} gives the agent {space}: the agents read an image (H, W, C), a "
+        "flat Box vector or a Discrete/MultiDiscrete/MultiBinary state; flatten the "
+        "observation in the world's factory (gymnasium.wrappers.FlattenObservation, or "
+        "a wrapper of your own keeping the image) before FluentLabels"
+    )
 
 
 def _channels_first(shape: tuple[int, ...]) -> bool:

@@ -1,0 +1,58 @@
+"""A world whose agent observation the agents cannot read (a Dict, a 2-D Box) is refused
+up front, by name, with how to flatten it: SB3 would otherwise fail deep in the model's
+constructor, in words that blame the hyperparameters."""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+from noisybolt.cli import main
+
+WORLD = """
+import gymnasium as gym
+import numpy as np
+import noisybolt
+
+
+class Nested(gym.ObservationWrapper):
+    def __init__(self, env):
+        super().__init__(env)
+        self.observation_space = {space}
+
+    def observation(self, obs):
+        return {value}
+
+
+def make():
+    lake = Nested(gym.make("FrozenLake-v1", is_slippery=False, render_mode="rgb_array"))
+    fluents = {{"top": lambda e: e.unwrapped.s < 4}}
+    return noisybolt.FluentLabels(lake, fluents=fluents, return_bounds=(0, 1))
+"""
+DICT = ('gym.spaces.Dict({"cell": env.observation_space})', '{"cell": obs}')
+GRID = ("gym.spaces.Box(0, 1, (4, 4), np.float32)", "np.eye(4, dtype=np.float32)")
+
+
+@pytest.mark.parametrize(("space", "shown"), [(DICT, "Dict('cell': Discrete(16))"), (GRID, "Box(")])
+def test_an_unreadable_agent_observation_is_refused_before_training(
+    space: tuple[str, str],
+    shown: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
+    (tmp_path / "nestedlake.py").write_text(WORLD.format(space=space[0], value=space[1]))
+    shutil.rmtree(tmp_path / "__pycache__", ignore_errors=True)
+    sys.modules.pop("nestedlake", None)
+    argv = ["train", "--world", "nestedlake:make", "--spec", "F(top)", "--detector", "oracle"]
+    assert main([*argv, "--frames", "64", "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert f"world 'nestedlake:make' gives the agent {shown}" in err
+    assert "FlattenObservation" in err and "hyperparameters" not in err
+    assert not (tmp_path / "run").exists()
+    sys.modules.pop("nestedlake", None)
