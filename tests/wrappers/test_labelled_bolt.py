@@ -188,6 +188,49 @@ def test_batched_bolt_equals_single_wrappers_across_episodes() -> None:
     assert n_done >= n  # the comparison crossed episode boundaries
 
 
+class _Unsure:
+    """Reads every fluent right, never surely: 0.8 where it holds, 0.3 where it does not
+    (the same for every env, so batched and single bolts see the same probabilities)."""
+
+    needs_truth = True
+    fluent_names = tuple(FLUENTS)
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        assert truth is not None
+        return np.where(truth, 0.8, 0.3).astype(np.float32)
+
+
+def test_batched_belief_bolt_equals_single_wrappers_on_a_users_env() -> None:
+    n, seed = 3, 5
+    batched = make_bolted_vec_env(
+        lambda: lake(slippery=True), n, SPECS, _Unsure(), seed=seed, tracking="belief"
+    )
+    singles = [
+        RestrainingBoltWrapper(lake(slippery=True), SPECS, _Unsure(), tracking="belief")
+        for _ in range(n)
+    ]
+    obs = batched.reset()
+    single_obs = [s.reset(seed=seed + i)[0] for i, s in enumerate(singles)]
+    assert obs["dfa"].dtype == np.float32 and not np.isin(obs["dfa"], (0.0, 1.0)).all()
+    rng = np.random.default_rng(1)
+    n_done = 0
+    for _ in range(80):
+        for i in range(n):
+            np.testing.assert_allclose(obs["dfa"][i], single_obs[i]["dfa"], atol=1e-6)
+        actions = rng.integers(4, size=n)
+        obs, rewards, dones, infos = batched.step(actions)
+        for i, single in enumerate(singles):
+            sobs, sreward, sterm, strunc, sinfo = single.step(int(actions[i]))
+            assert rewards[i] == pytest.approx(sreward, abs=1e-5)
+            assert dones[i] == (sterm or strunc)
+            np.testing.assert_array_equal(infos[i]["dfa_accepting"], sinfo["dfa_accepting"])
+            if dones[i]:
+                n_done += 1
+                sobs, _ = single.reset()
+            single_obs[i] = sobs
+    assert n_done >= n
+
+
 def test_batched_bolt_reports_goals_to_the_monitor() -> None:
     venv = make_bolted_vec_env(lake, 1, ["G(!in_hole)"], seed=0)
     venv.reset()

@@ -7,11 +7,12 @@ from collections.abc import Callable, Sequence
 import gymnasium as gym
 from stable_baselines3.common.vec_env import VecMonitor
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, CostMode, Spec, Thresholds
+from noisybolt.bolt import DEFAULT_THRESHOLDS, BeliefSettings, CostMode, Spec, Thresholds, Tracking
 from noisybolt.envs.labelled_vec import LabelledVectorEnv
 from noisybolt.envs.labels import collect_labelled_samples
 from noisybolt.envs.sb3 import SB3VecEnv
 from noisybolt.errors import ConfigError
+from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers._inputs import DetectorName, coerce_specs, resolve_detector
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
@@ -27,9 +28,12 @@ def make_bolted_vec_env(
     *,
     seed: int | None = None,
     monitor: bool = True,
+    dfas: Sequence[DFA] | None = None,
     thresholds: Thresholds = DEFAULT_THRESHOLDS,
     cost_mode: CostMode = "count",
     classifier_samples: int = 2000,
+    tracking: Tracking = "threshold",
+    belief: BeliefSettings | None = None,
 ) -> BoltVecEnv:
     """``n_envs`` copies of a labelled env, bolted, as an SB3 ``VecEnv`` ready to train on.
 
@@ -49,7 +53,9 @@ def make_bolted_vec_env(
             name (with ``seed``, or 0).
         monitor: put a ``VecMonitor`` below the bolt (episode returns, lengths and
             ``is_success`` in the logs).
-        thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
+        dfas, thresholds, cost_mode, tracking, belief: as in
+            :class:`~noisybolt.wrappers.RestrainingBoltWrapper` (``tracking="belief"``:
+            ``"dfa"`` holds each spec's beliefs over its states).
         classifier_samples: images to train a ``"classifier"`` detector on.
 
     Raises:
@@ -90,8 +96,11 @@ def make_bolted_vec_env(
         specs,
         detector,
         world=world,
+        dfas=dfas,
         thresholds=thresholds,
         cost_mode=cost_mode,
+        tracking=tracking,
+        belief=belief,
     )
     if seed is not None:
         bolted.seed(seed)
