@@ -29,7 +29,11 @@ from typing import Any
 from noisybolt.errors import ConfigError, CorruptFileError, RunLockedError
 from noisybolt.io import atomic_write_json, atomic_write_text, read_json
 
-__all__ = ["RunDirectory", "config_differences"]
+__all__ = ["CLASSIFIER_STAGES", "RunDirectory", "config_differences"]
+
+#: The stages ``noisybolt classifiers`` runs in one directory, each keeping its settings
+#: under its name in that directory's ``config.json`` (a run's holds its TrainConfig).
+CLASSIFIER_STAGES = ("collect", "train", "report")
 
 
 def _flatten(obj: Any, prefix: str = "") -> dict[str, Any]:

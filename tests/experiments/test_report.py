@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import doctest
+import json
 import re
 from pathlib import Path
 from typing import Any
@@ -145,6 +146,16 @@ def test_report_command(
     assert "markdown:" in capsys.readouterr().out
     assert main(["report", str(tmp_path)]) == 2
     assert "holds neither a run" in capsys.readouterr().err
+    # a `noisybolt classifiers` directory has a config.json (per stage) and a metrics.json
+    # (per epoch) too: named as what it is, not read as a run with corrupt files
+    classifiers = tmp_path / "c"
+    classifiers.mkdir()
+    (classifiers / "config.json").write_text(json.dumps({"collect": {}, "train": {}}))
+    (classifiers / "metrics.json").write_text(json.dumps([{"epoch": 1, "train_loss": 0.5}]))
+    assert main(["report", str(classifiers)]) == 2
+    err = capsys.readouterr().err
+    assert "holds fluent classifiers (noisybolt classifiers: collect, train)" in err
+    assert f"noisybolt classifiers report --out {classifiers}" in err and "corrupt" not in err
     with pytest.raises(ConfigError, match="no evaluations to plot"):
         plot_learning_curves({"seed 0": []}, tmp_path / "x.png", title="empty")
 

@@ -34,11 +34,11 @@ from noisybolt.perception.compat import camera_spec_to_dict
 from noisybolt.perception.dataset import collect_samples, load_dataset, save_dataset
 from noisybolt.perception.metrics import build_report
 from noisybolt.perception.training import TrainingConfig, train_classifier
-from noisybolt.rundir import RunDirectory
+from noisybolt.rundir import CLASSIFIER_STAGES, RunDirectory
 
 __all__ = ["register"]
 
-STAGES = ("collect", "train", "report")
+STAGES = CLASSIFIER_STAGES
 DATASET_FILE = "dataset.npz"
 CLASSIFIER_FILE = "classifier.safetensors"
 

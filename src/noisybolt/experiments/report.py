@@ -44,7 +44,7 @@ from noisybolt.experiments.reporting import (
 )
 from noisybolt.experiments.sweeps import SWEEP_FILE, TrialDirectory, collect_sweep
 from noisybolt.io import atomic_write_text, read_json
-from noisybolt.rundir import RunDirectory
+from noisybolt.rundir import CLASSIFIER_STAGES, RunDirectory
 
 __all__ = [
     "ReportFiles",
@@ -345,6 +345,20 @@ def sweep_report(
     return _write(blocks, root, f"noisybolt sweep {result.name}", write_html=html_page)
 
 
+def _refuse_classifiers_directory(folder: Path) -> None:
+    """``noisybolt classifiers`` keeps its stages' settings in a ``config.json`` too
+    (``{"collect": ..., "train": ...}``): such a directory is named, not read as a run
+    whose files are corrupt."""
+    saved = read_json(folder / "config.json", default=None)
+    if isinstance(saved, dict) and saved and set(saved) <= set(CLASSIFIER_STAGES):
+        stages = ", ".join(k for k in CLASSIFIER_STAGES if k in saved)
+        raise ConfigError(
+            f"{folder} holds fluent classifiers (noisybolt classifiers: {stages}), not a "
+            f"run or a sweep; their report is noisybolt classifiers report --out {folder} "
+            "(report.txt)"
+        )
+
+
 def write_report(path: str | os.PathLike[str], *, html_page: bool = True) -> ReportFiles:
     """The report of a run, a sweep, or a directory of a registered section's results.
 
@@ -355,6 +369,7 @@ def write_report(path: str | os.PathLike[str], *, html_page: bool = True) -> Rep
     if (folder / SWEEP_FILE).exists():
         return sweep_report(folder, html_page=html_page)
     if (folder / "config.json").exists():
+        _refuse_classifiers_directory(folder)
         return run_report(folder, html_page=html_page)
     found = [s for s in _SECTIONS.values() if (folder / s.marker).exists()]
     if not found:
