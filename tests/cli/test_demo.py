@@ -5,6 +5,7 @@ from __future__ import annotations
 import doctest
 import json
 import re
+import warnings
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -90,6 +91,20 @@ def test_demo_spec_runs_the_comparison_for_another_spec(
         assert str(out / name) in printed and (out / name).exists()
 
 
+def test_demo_names_its_rewards_and_warns_of_a_vacuous_spec_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["demo", "--spec", "G(on_edge | !on_edge)", "--detector", "oracle", "--frames", "80"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main([*args, "--episodes", "1", "--out", str(tmp_path / "v")]) == 0
+    printed = capsys.readouterr()
+    assert "pays the paper's rewards: +1 on each step its spec accepts, -0.5" in printed.out
+    said = (printed.out + printed.err).count("holds on every trace")
+    said += sum("holds on every trace" in str(w.message) for w in caught)
+    assert said == 1  # set up three times (the bolt, each training): said once
+
+
 def test_bad_input_is_refused_before_anything_is_trained(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -114,6 +129,14 @@ def test_the_walkthrough_still_walks_the_scripted_episode(
     printed = capsys.readouterr().out
     assert "== One scripted episode through Algorithm 1 ==" in printed
     assert "ground truth: edge: complied, avoid_top_right: complied" in printed
+    # --spec walks that spec alone; the training options, which it would ignore, are refused
+    assert main(["demo", "--walkthrough", "--spec", "F(top_right_corner)"]) == 0
+    printed = capsys.readouterr().out
+    assert "== The spec, compiled to a DFA ==" in printed and "[edge]" not in printed
+    # the script walks down the west wall, never by the top-right corner
+    assert printed.rstrip().endswith("ground truth: F(top_right_corner): violated")
+    assert main(["demo", "--walkthrough", "--frames", "2k", "--episodes", "3"]) == 2
+    assert "--walkthrough trains nothing, so --frames, --episodes" in capsys.readouterr().err
 
 
 def test_docstring_examples() -> None:

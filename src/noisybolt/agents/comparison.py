@@ -192,6 +192,7 @@ def compare_bolted_unbolted(
     spec_obj = specs[0]
     # The detector first (a classifier is trained on the fly and cached the first time),
     # so that the two trainings load the same one and their times compare.
+    log = _each_warning_once(log)  # the bolt is set up three times (here, each training)
     setup = prepare_bolt(bolted_config, seed=seed, progress=progress, log=log)
     trained: dict[bool, tuple[Any, float]] = {}
     for step, bolted in enumerate((False, True), start=1):
@@ -389,3 +390,17 @@ def verdict(comparison: BoltComparison) -> str:
         f"Compliance with {name}: {before:.0%} without the bolt, {after:.0%} with it; "
         "the bolted agent has not learnt the spec yet (train it for more frames)."
     )
+
+
+def _each_warning_once(log: Callable[[str], None]) -> Callable[[str], None]:
+    """``log``, passing each ``warning:`` line on the first time only."""
+    seen: set[str] = set()
+
+    def once(line: str) -> None:
+        if line.startswith("warning:"):
+            if line in seen:
+                return
+            seen.add(line)
+        log(line)
+
+    return once

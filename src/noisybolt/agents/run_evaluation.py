@@ -66,11 +66,17 @@ def load_run_model(
         raise ConfigError(f"{run.path} holds neither model.zip nor a checkpoint")
     if env is None:
         from noisybolt.envs import make_world
+        from noisybolt.logic import compile_ltlf
         from noisybolt.perception.detectors import OracleDetector
 
-        fluents = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-        detector = OracleDetector(fluents.fluent_names)
-        env = make_env(config, detector, training=False, n_envs=config.n_envs)
+        probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+        names = tuple(probe.fluent_names)
+        probe.close()
+        detector = OracleDetector(names)
+        # Only its spaces matter; DFAs compiled here (cached), so that a spec every trace
+        # satisfies is not warned of again by an env that only loads the model.
+        dfas = [compile_ltlf(spec.formula, names) for spec in config.spec_objects()]
+        env = make_env(config, detector, training=False, n_envs=config.n_envs, dfas=dfas)
     return load_model(path, config, env)
 
 

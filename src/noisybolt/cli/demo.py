@@ -38,6 +38,7 @@ from noisybolt.agents.specs import PAPER_SPECS, resolve_spec
 from noisybolt.bolt import Band, confidence_bands
 from noisybolt.cli.train import parse_frames
 from noisybolt.envs.gridworld import GridAction, GridworldEnv
+from noisybolt.errors import ConfigError
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.detectors import BetaNoise, SyntheticDetector
 from noisybolt.wrappers import RestrainingBoltWrapper
@@ -96,50 +97,60 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--spec",
-        default=DEMO_SPEC,
+        default=None,
         help=f"the bolt's spec: a built-in name or an LTLf formula over the gridworld's "
         f"fluents (default {DEMO_SPEC})",
     )
     parser.add_argument(
         "--algo",
-        default=DEMO_ALGO,
+        default=None,
         choices=("ppo", "a2c", "dqn"),
         help=f"the learner (default {DEMO_ALGO})",
     )
     parser.add_argument(
         "--frames",
         type=parse_frames,
-        default=DEMO_FRAMES,
+        default=None,
         help=f"training frames of each agent, e.g. 60k (default {DEMO_FRAMES // 1000}k)",
     )
     parser.add_argument(
         "--detector",
-        default="classifier",
+        default=None,
         choices=("classifier", "oracle", "synthetic"),
         help="the bolt's fluent detector (default: a CNN on its noisy camera)",
     )
     parser.add_argument(
         "--episodes",
         type=int,
-        default=DEMO_EPISODES,
+        default=None,
         help=f"evaluation episodes of each agent (default {DEMO_EPISODES})",
     )
     parser.add_argument("--out", type=Path, default=None, help="output directory")
     parser.set_defaults(func=_run)
 
 
+#: The options of the training demo (its defaults), which the walkthrough trains without.
+_TRAINING_OPTIONS: dict[str, Any] = {
+    "algo": DEMO_ALGO,
+    "frames": DEMO_FRAMES,
+    "detector": "classifier",
+    "episodes": DEMO_EPISODES,
+    "out": None,
+}
+
+
 def _run(args: argparse.Namespace) -> int:
     if args.walkthrough:
-        return run_walkthrough(seed=args.seed)
-    return run_training_demo(
-        spec=args.spec,
-        algo=args.algo,
-        frames=args.frames,
-        detector=args.detector,
-        episodes=args.episodes,
-        seed=args.seed,
-        out=args.out,
-    )
+        given = [f"--{k}" for k in _TRAINING_OPTIONS if getattr(args, k) is not None]
+        if given:
+            raise ConfigError(
+                f"--walkthrough trains nothing, so {', '.join(given)} would be ignored: "
+                "leave them out, or leave out --walkthrough to train"
+            )
+        return run_walkthrough(seed=args.seed, spec=args.spec)
+    options = {k: default if getattr(args, k) is None else getattr(args, k)
+               for k, default in _TRAINING_OPTIONS.items()}  # fmt: skip
+    return run_training_demo(spec=args.spec or DEMO_SPEC, seed=args.seed, **options)
 
 
 def run_training_demo(
@@ -167,6 +178,9 @@ def run_training_demo(
         "step) twice,\nwithout and with a restraining bolt whose spec is "
         f"{spec_text(resolved.name, resolved.formula)}.\n"
         f"The bolt sees the fluents through {eyes}.\n"
+        f"It pays the paper's rewards: +{resolved.terminal_reward:g} on each step its spec "
+        f"accepts, -{resolved.low_confidence_cost:g} for\neach fluent it reads with low "
+        "confidence.\n"
     )
     started = time.monotonic()
     comparison = compare_bolted_unbolted(
@@ -202,17 +216,23 @@ def _fmt_probs(probs: np.ndarray, bands: np.ndarray, names: tuple[str, ...]) -> 
     )
 
 
-def run_walkthrough(*, seed: int = 0) -> int:
-    """Prints the DFAs and the scripted noisy episode; returns 0."""
+def run_walkthrough(*, seed: int = 0, spec: str | None = None) -> int:
+    """Prints the DFAs and the scripted noisy episode (of the paper's four gridworld specs,
+    or of ``spec`` alone); returns 0."""
     env = GridworldEnv(obs_mode="grid")
     fluents = env.fluent_names
-    specs = [resolve_spec(name) for name in GRIDWORLD_SPECS]
-    print("== The paper's gridworld specifications, compiled to DFAs ==\n")
+    specs = [resolve_spec(name) for name in ((spec,) if spec else GRIDWORLD_SPECS)]
+    print(
+        "== The paper's gridworld specifications, compiled to DFAs ==\n"
+        if spec is None
+        else "== The spec, compiled to a DFA ==\n"
+    )
     dfas = []
-    for spec in specs:
-        dfa = compile_ltlf(spec.formula, fluents)
+    for one in specs:
+        dfa = compile_ltlf(one.formula, fluents)
         dfas.append(dfa)
-        print(f"[{spec.name}] {PAPER_SPECS[spec.name]}")
+        if spec is None:  # the paper's own words beside each (the DFA names its formula)
+            print(f"[{one.name}] {PAPER_SPECS[one.name]}")
         print(dfa.describe())
         print()
 
