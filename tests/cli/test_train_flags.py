@@ -201,16 +201,19 @@ def test_specs_may_come_from_a_file_alone_and_none_at_all_is_a_clear_error(
     assert not (tmp_path / "none").exists()
 
 
-def test_low_confidence_is_for_the_synthetic_detector_and_names_the_worlds_fluents(
+def test_options_the_run_would_ignore_are_refused_and_fluents_named(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     base = ["train", "--spec", "edge", "--frames", "64", "--set", "world.n_envs=2"]
     for argv, message in [
         (["--detector", "oracle", "--low-confidence", "on_edge"], "the oracle detector would"),
         (["--detector", "synthetic", "--low-confidence", "on_egde"], "names ['on_egde']"),
+        # the other options a setting of another kind would ignore
+        (["--detector", "synthetic", "--classifier", "c.safetensors"], "the synthetic detector"),
+        (["--detector", "oracle", "--confidence", "0.8"], "with threshold tracking it would"),
     ]:
-        out = tmp_path / argv[1]
+        out = tmp_path / "-".join(argv)
         assert main([*base, *argv, "--out", str(out)]) == 2
         err = capsys.readouterr().err
-        assert message in err and "--low-confidence" in err
+        assert message in err and argv[2] in err
         assert not out.exists()

@@ -222,7 +222,7 @@ def make_detector(
     Raises:
         ConfigError: ``retrain`` with a classifier file given (``config.path``);
             ``low_confidence`` for a detector other than the synthetic one, or naming a
-            fluent the world lacks.
+            fluent the world lacks; ``path`` for a detector other than the classifier.
         UnseenFluentError: a fluent of ``spec_fluents`` the classifier's images never
             show true, or never false.
     """
@@ -235,6 +235,12 @@ def make_detector(
             f"detector.low_confidence (--low-confidence {' '.join(config.low_confidence)}) "
             f"sets what the synthetic detector sees with low confidence; the {config.kind} "
             "detector would ignore it: use --detector synthetic, or leave it out"
+        )
+    if config.path and config.kind != "classifier":
+        raise ConfigError(
+            f"detector.path (--classifier {config.path}) is a classifier file; the "
+            f"{config.kind} detector would ignore it: use --detector classifier, or leave "
+            "it out"
         )
     unknown = sorted(set(config.low_confidence) - set(fluent_names))
     if unknown:

@@ -350,6 +350,12 @@ def _train(args: argparse.Namespace) -> int:
         out = args.out or _default_out(overrides)
         if out.exists() and not out.is_dir():
             raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
+    if "bolt.confidence" in overrides and config.tracking != "belief":
+        raise ConfigError(
+            f"--confidence {config.confidence:g} is the probability at which belief tracking "
+            f"counts a spec accepted; with {config.tracking} tracking it would be ignored: "
+            "add --tracking belief, or leave it out"
+        )
     from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
     if config.reward == "compliance" and not args.resume and "bolt.reward_scale" not in overrides:
