@@ -217,3 +217,19 @@ def test_options_the_run_would_ignore_are_refused_and_fluents_named(
         err = capsys.readouterr().err
         assert message in err and argv[2] in err
         assert not out.exists()
+
+
+def test_the_scheme_line_follows_the_checks(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # How the bolt pays is said once the run can start: not above an unrelated error.
+    base = ["train", "--detector", "oracle", "--frames", "64", "--eval-freq", "0"]
+    base += ["--eval-episodes", "1", "--set", "world.n_envs=2", "--no-progress"]
+    bad = ["--spec", "F(lava)", "--reward", "paper", "--out", str(tmp_path / "bad")]
+    assert main([*base, *bad]) == 2
+    printed = capsys.readouterr()
+    assert "'lava'" in printed.err and "reward scheme" not in printed.out
+    assert main([*base, "--spec", "edge", "--reward", "paper", "--out", str(tmp_path / "ok")]) == 0
+    assert "reward scheme: paper (each spec's terminal reward" in capsys.readouterr().out
+    assert main([*base, "--spec", "edge", "--unbolted", "--out", str(tmp_path / "off")]) == 0
+    assert "unbolted: the specs are tracked for compliance only" in capsys.readouterr().out

@@ -112,9 +112,11 @@ __all__ = [
     "WorldConfig",
     "check_hyperparameter_values",
     "checked_value",
+    "describe_scheme",
     "nested_config",
     "override_paths",
     "schema_paths",
+    "spec_worths",
     "value_from_text",
 ]
 
@@ -720,3 +722,36 @@ def _scale_from_world(config: TrainConfig) -> float:
             stacklevel=2,
         )
     return compliance_scale(bounds)
+
+
+def describe_scheme(config: TrainConfig) -> str:
+    """One line saying how the run's bolt pays (the scale chosen, for ``compliance``)."""
+    if not config.bolted:
+        return "unbolted: the specs are tracked for compliance only, with no rewards"
+    if config.reward == "paper":
+        return "reward scheme: paper (each spec's terminal reward on every accepting step)"
+    shaping = "with" if config.shaping else "without"
+    return (
+        f"reward scheme: compliance, {shaping} progress shaping; complying is worth, at the "
+        f"episode's end, {spec_worths(config)} (scale {config.reward_scale:g}; "
+        "--reward-scale, or a spec's own reward_scale, to change it)"
+    )
+
+
+def spec_worths(config: Any) -> str:
+    """What complying with each spec pays: one figure when all are paid alike, else each
+    spec's (one with a ``reward_scale`` of its own, from ``--spec-set`` or a specs file).
+
+    Example:
+        >>> from types import SimpleNamespace as N
+        >>> spec = lambda name, worth: N(name=name, formula=name, terminal_reward=worth)
+        >>> spec_worths(N(spec_objects=lambda: [spec("edge", 20.0), spec("tr", 20.0)]))
+        '20 per spec'
+        >>> spec_worths(N(spec_objects=lambda: [spec("edge", 20.0), spec("tr", 50.0)]))
+        'edge 20, tr 50'
+    """
+    specs = config.spec_objects()
+    worths = {spec.terminal_reward for spec in specs}
+    if len(worths) == 1:
+        return f"{worths.pop():g} per spec"
+    return ", ".join(f"{spec.name or spec.formula} {spec.terminal_reward:g}" for spec in specs)

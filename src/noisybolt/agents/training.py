@@ -69,6 +69,7 @@ from noisybolt.agents.config import (
     RESUMABLE_KEYS,
     DetectorConfig,
     TrainConfig,
+    describe_scheme,
 )
 from noisybolt.agents.detectors import (
     classifier_architecture,
@@ -211,6 +212,7 @@ def train(
     )
     tensorboard = str(run.file("tensorboard"))
     fresh = _make_model(config, env, tensorboard_log=tensorboard) if not resume else None
+    log(describe_scheme(config))  # once every check has passed
 
     with run.lock(argv):
         run.remove_partial_files()  # of a writer killed mid-write: no one writes now

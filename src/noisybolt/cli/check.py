@@ -41,9 +41,9 @@ def register(subparsers: Any) -> None:
 
 
 def _check(args: argparse.Namespace) -> int:
+    from noisybolt.agents.config import spec_worths
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
-    from noisybolt.cli.train import spec_worths
     from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.errors import ConfigError, EstimatedBoundsWarning
     from noisybolt.experiments.checks import (

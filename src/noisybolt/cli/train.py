@@ -366,7 +366,6 @@ def _train(args: argparse.Namespace) -> int:
             "warning: no episode of this world reaches the goal while complying with every "
             "spec (noisybolt check says more): the agent must trade the goal for the bolt"
         )
-    print(describe_scheme(config))
     try:  # SIGTERM too (the CLI's main): train() saves a checkpoint, says how to resume
         result = train(
             config,
@@ -387,39 +386,6 @@ def _train(args: argparse.Namespace) -> int:
     )
     print(f"\nrun directory: {result.run_dir}")
     return 0
-
-
-def describe_scheme(config: Any) -> str:
-    """One line saying how the run's bolt pays (the scale chosen, for ``compliance``)."""
-    if not config.bolted:
-        return "unbolted: the specs are tracked for compliance only, with no rewards"
-    if config.reward == "paper":
-        return "reward scheme: paper (each spec's terminal reward on every accepting step)"
-    shaping = "with" if config.shaping else "without"
-    return (
-        f"reward scheme: compliance, {shaping} progress shaping; complying is worth, at the "
-        f"episode's end, {spec_worths(config)} (scale {config.reward_scale:g}; "
-        "--reward-scale, or a spec's own reward_scale, to change it)"
-    )
-
-
-def spec_worths(config: Any) -> str:
-    """What complying with each spec pays: one figure when all are paid alike, else each
-    spec's (one with a ``reward_scale`` of its own, from ``--spec-set`` or a specs file).
-
-    Example:
-        >>> from types import SimpleNamespace as N
-        >>> spec = lambda name, worth: N(name=name, formula=name, terminal_reward=worth)
-        >>> spec_worths(N(spec_objects=lambda: [spec("edge", 20.0), spec("tr", 20.0)]))
-        '20 per spec'
-        >>> spec_worths(N(spec_objects=lambda: [spec("edge", 20.0), spec("tr", 50.0)]))
-        'edge 20, tr 50'
-    """
-    specs = config.spec_objects()
-    worths = {spec.terminal_reward for spec in specs}
-    if len(worths) == 1:
-        return f"{worths.pop():g} per spec"
-    return ", ".join(f"{spec.name or spec.formula} {spec.terminal_reward:g}" for spec in specs)
 
 
 def format_eval_table(
