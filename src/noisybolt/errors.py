@@ -16,6 +16,7 @@ __all__ = [
     "ConfigError",
     "CorruptFileError",
     "DenseTableError",
+    "DetectorOutputError",
     "EstimatedBoundsWarning",
     "FluentFunctionError",
     "IncompatibleError",
@@ -99,6 +100,11 @@ class IncompatibleError(NoisyboltError, ValueError):
 
 class CorruptFileError(NoisyboltError, ValueError):
     """A saved file (dataset, classifier, checkpoint, cache entry) is truncated or corrupt."""
+
+
+class DetectorOutputError(ConfigError):
+    """A fluent detector's ``predict`` returned what the bolt cannot read: not one row of
+    probabilities in [0, 1] per image and one column per fluent, as floats."""
 
 
 class FluentFunctionError(ConfigError):

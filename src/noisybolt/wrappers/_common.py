@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -19,7 +20,8 @@ from noisybolt.bolt import (
     Thresholds,
     Tracking,
 )
-from noisybolt.errors import IncompatibleError, UnsatisfiableSpecError
+from noisybolt.bolt.bands import check_probs
+from noisybolt.errors import DetectorOutputError, IncompatibleError, UnsatisfiableSpecError
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.protocols import FluentDetector
@@ -30,6 +32,7 @@ __all__ = [
     "bolt_info",
     "build_bolt",
     "check_satisfiable",
+    "detector_output",
     "dfa_view",
     "dict_observation_space",
     "observes_beliefs",
@@ -205,6 +208,35 @@ agent to ignore the bolt); fix the formula
                 UserWarning,
                 stacklevel=4,  # the caller of the wrapper that called build_bolt
             )
+
+
+def detector_output(probs: Any, detector: FluentDetector, *, rows: int) -> np.ndarray:
+    """A detector's ``predict`` output as the bolt reads it and ``info["fluent_probs"]``
+    keeps it: float64 ``[rows, n_fluents]`` in [0, 1]. A list or a torch tensor (on any
+    device, with or without gradients) is converted; anything else is refused by name.
+
+    Raises:
+        DetectorOutputError: the wrong shape or dtype, NaN, or a value outside [0, 1].
+
+    Example:
+        >>> from noisybolt.perception.detectors import OracleDetector
+        >>> detector_output([[0.25, 1.0]], OracleDetector(("a", "b")), rows=1)
+        array([[0.25, 1.  ]])
+        >>> detector_output([[1, 0]], OracleDetector(("a", "b")), rows=1)  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.DetectorOutputError: OracleDetector.predict gave what the bolt ...
+    """
+    if hasattr(probs, "detach") and hasattr(probs, "cpu"):  # a torch tensor
+        probs = probs.detach().cpu().numpy()
+    names = tuple(detector.fluent_names)
+    try:
+        return check_probs(probs, n_envs=rows, n_fluents=len(names), fluents=names)
+    except ValueError as error:
+        raise DetectorOutputError(
+            f"{type(detector).__name__}.predict gave what the bolt cannot read: {error} "
+            f"(for {rows} image(s) and the fluents {list(names)})"
+        ) from None
 
 
 def dict_observation_space(

@@ -47,6 +47,7 @@ from noisybolt.perception.protocols import FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
     build_bolt,
+    detector_output,
     dfa_view,
     dict_observation_space,
     observes_beliefs,
@@ -179,7 +180,8 @@ class BoltVecEnv(VecEnvWrapper):
         return batched_labels_from_info(info, self.num_envs, where=where, rows=rows)
 
     def _probs(self, images: np.ndarray, truth: np.ndarray) -> np.ndarray:
-        return self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
+        probs = self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
+        return detector_output(probs, self._detector, rows=len(images))
 
     def _obs(self, image: Any, dfa: np.ndarray) -> dict[str, Any]:
         return {"image": image, "dfa": dfa.copy()}

@@ -23,6 +23,7 @@ from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
     build_bolt,
+    detector_output,
     dfa_view,
     dict_observation_space,
     observes_beliefs,
@@ -172,8 +173,12 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def _look(self, info: dict[str, Any], where: str) -> tuple[np.ndarray, np.ndarray]:
         image, truth = labels_from_info(info, where=where)
-        probs = self._detector.predict(
-            image[None], truth=truth[None] if self._detector.needs_truth else None
+        probs = detector_output(
+            self._detector.predict(
+                image[None], truth=truth[None] if self._detector.needs_truth else None
+            ),
+            self._detector,
+            rows=1,
         )
         return probs, truth[None]
 
