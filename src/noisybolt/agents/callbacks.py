@@ -134,7 +134,8 @@ class EvaluationCallback(BaseCallback):
         self.history.append({"frames": frames, **result.to_dict()})
         self.run.write_metrics(self.history)
         for key in ("env_return_mean", "length_mean", "goal_rate", "success_rate"):
-            model.logger.record(f"eval/{key}", getattr(result, key))
+            if getattr(result, key) is not None:  # goal_rate: None for a world without goal
+                model.logger.record(f"eval/{key}", getattr(result, key))
         for name, rate in result.compliance.items():
             model.logger.record(f"eval/compliance/{name}", rate)
         if self.callback_on_new_best is not None:

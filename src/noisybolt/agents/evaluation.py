@@ -29,7 +29,9 @@ class EpisodeRecord:
         length: number of steps.
         goal: whether the episode reached the task's goal: ``info["is_success"]`` of its
             last step (SB3's convention; the gridworld's worlds set it on termination),
-            else "terminated, not truncated".
+            else "terminated, not truncated"; None where the world declares no goal
+            (:func:`~noisybolt.perception.protocols.goal_declared`: Breakout, a
+            :class:`~noisybolt.FluentLabels` env without ``success``).
         compliant: per spec, whether the true trace is accepted by its DFA.
         bolt_accepting: per spec, whether the bolt's own DFA (run on what it *perceived*)
             ended the episode accepting; empty where not recorded.
@@ -38,7 +40,7 @@ class EpisodeRecord:
     env_return: float
     bolt_return: float
     length: int
-    goal: bool
+    goal: bool | None
     compliant: tuple[bool, ...]
     bolt_accepting: tuple[bool, ...] = ()
 
@@ -46,6 +48,9 @@ class EpisodeRecord:
 @dataclass(frozen=True)
 class EvalResult:
     """Summary over K episodes (means and standard deviations over episodes).
+
+    ``success_rate`` is the share of episodes that reach the goal and comply with every
+    spec; for a world without a goal (``goal_rate`` None), that comply with every spec.
 
     ``false_acceptance`` is, per spec, the fraction of episodes whose bolt DFA ended
     accepting while the true trace was not accepted: what the bolt paid for and never
@@ -59,7 +64,7 @@ class EvalResult:
     env_return_std: float
     bolt_return_mean: float
     length_mean: float
-    goal_rate: float
+    goal_rate: float | None
     compliance: dict[str, float]
     success_rate: float
     episodes: tuple[EpisodeRecord, ...] = field(repr=False, default=())
@@ -76,7 +81,8 @@ class EvalResult:
 
 
 def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> EvalResult:
-    """Aggregates episode records; ``success`` = reaches the goal and complies with all specs.
+    """Aggregates episode records; ``success`` = reaches the goal and complies with all
+    specs (with no goal declared: complies with all specs).
 
     Example:
         >>> eps = [EpisodeRecord(90.0, 5.0, 7, True, (True,)),
@@ -84,12 +90,20 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
         >>> r = summarise(eps, ["edge"])
         >>> r.env_return_mean, r.goal_rate, r.compliance, r.success_rate
         (30.0, 0.5, {'edge': 0.5}, 0.5)
+        >>> no_goal = [EpisodeRecord(1.0, 0.0, 9, None, (True,)),
+        ...            EpisodeRecord(3.0, 0.0, 9, None, (True,))]
+        >>> r = summarise(no_goal, ["edge"])
+        >>> r.goal_rate, r.success_rate
+        (None, 1.0)
     """
     if not episodes:
         raise ValueError("cannot summarise zero episodes")
     returns = np.array([e.env_return for e in episodes])
     compliant = np.array([e.compliant for e in episodes], dtype=bool).reshape(len(episodes), -1)
-    goal = np.array([e.goal for e in episodes])
+    declared = [e.goal is not None for e in episodes]
+    if any(declared) and not all(declared):
+        raise ValueError("some episodes record a goal and some do not: one world's episodes")
+    goal = np.array([bool(e.goal) for e in episodes]) if all(declared) else None
     false_acceptance: dict[str, float] = {}
     if all(len(e.bolt_accepting) == compliant.shape[1] for e in episodes):
         bolt = np.array([e.bolt_accepting for e in episodes], dtype=bool).reshape(compliant.shape)
@@ -101,9 +115,11 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
         env_return_std=float(returns.std()),
         bolt_return_mean=float(np.mean([e.bolt_return for e in episodes])),
         length_mean=float(np.mean([e.length for e in episodes])),
-        goal_rate=float(goal.mean()),
+        goal_rate=None if goal is None else float(goal.mean()),
         compliance={name: float(compliant[:, i].mean()) for i, name in enumerate(spec_names)},
-        success_rate=float((goal & compliant.all(axis=1)).mean()),
+        success_rate=float(
+            (compliant.all(axis=1) if goal is None else goal & compliant.all(axis=1)).mean()
+        ),
         episodes=tuple(episodes),
         false_acceptance=false_acceptance,
     )
@@ -153,6 +169,8 @@ def evaluate_bolted_policy(
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
     n_envs = env.num_envs
+    # Through the VecEnv wrappers to SB3VecEnv; an env that does not say has a goal.
+    has_goal = bool(getattr(env, "declares_goal", True))
     targets = np.array([(n_episodes + i) // n_envs for i in range(n_envs)], dtype=int)
     counts = np.zeros(n_envs, dtype=int)
     env_ret = np.zeros(n_envs)
@@ -175,7 +193,7 @@ def evaluate_bolted_policy(
                 continue
             if counts[i] < targets[i]:
                 truncated = bool(info.get("TimeLimit.truncated", False))
-                goal = bool(info.get("is_success", not truncated))
+                goal = bool(info.get("is_success", not truncated)) if has_goal else None
                 episodes.append(
                     EpisodeRecord(
                         env_return=float(env_ret[i]),

@@ -32,7 +32,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 from noisybolt.bolt.schemes import ReturnBounds
-from noisybolt.envs.labels import batched_labels_from_info, fluent_names_of
+from noisybolt.envs.labels import batched_labels_from_info, declares_goal_of, fluent_names_of
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.perception.protocols import (
     BOLT_IMAGE_KEY,
@@ -69,6 +69,8 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         if len(names) != 1:
             raise ConfigError(f"the envs of one world must share their fluents, got {names}")
         self._fluent_names = names.pop()
+        #: Whether its episodes have a goal (:func:`~noisybolt.envs.labels.declares_goal_of`).
+        self.declares_goal = any(declares_goal_of(env) for env in self._venv.envs)
         self.num_envs = self._venv.num_envs
         self.single_observation_space = self._venv.single_observation_space
         self.single_action_space = self._venv.single_action_space

@@ -47,6 +47,7 @@ __all__ = [
     "FluentLabels",
     "batched_labels_from_info",
     "collect_labelled_samples",
+    "declares_goal_of",
     "fluent_names_of",
     "labels_from_info",
     "render_camera",
@@ -192,6 +193,13 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         return self._return_bounds
 
     @property
+    def declares_goal(self) -> bool:
+        """Whether its episodes have a goal to reach (``success`` given): evaluations
+        report goal rates only for such a world, and count compliance alone as success
+        for one without."""
+        return self._success is not None
+
+    @property
     def grid_layout(self) -> GridLayout | None:
         """The declared grid (None: the world declared none, so no heat-maps)."""
         return self._grid
@@ -300,6 +308,26 @@ def _call_fluent(fluent: str, fn: FluentFn, world: Any) -> bool:
             fluent=fluent,
         )
     return bool(value)
+
+
+def declares_goal_of(env: gym.Env) -> bool:
+    """Whether a labelled env has a goal (``declares_goal`` anywhere in its wrapper stack,
+    as :class:`FluentLabels` sets it); an env labelled by other means that does not say
+    is taken to have one (its ``info["is_success"]``, where it sets it, is the goal).
+
+    Example:
+        >>> import gymnasium as gym
+        >>> lake = gym.make("FrozenLake-v1", render_mode="rgb_array")
+        >>> fluents = {"top": lambda e: e.s < 4}
+        >>> declares_goal_of(FluentLabels(lake, fluents=fluents, success="top"))
+        True
+        >>> declares_goal_of(FluentLabels(lake, fluents=fluents))
+        False
+    """
+    try:
+        return bool(env.get_wrapper_attr("declares_goal"))
+    except AttributeError:
+        return True
 
 
 def fluent_names_of(env: gym.Env) -> tuple[str, ...]:

@@ -39,7 +39,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import ConfigError
-from noisybolt.perception.protocols import CameraSpec
+from noisybolt.perception.protocols import CameraSpec, goal_declared
 
 __all__ = ["SB3VecEnv"]
 
@@ -104,18 +104,26 @@ class SB3VecEnv(VecEnv):
         dones = terminated | truncated
         infos: list[dict[str, Any]] = [{"TimeLimit.truncated": False} for _ in range(self.num_envs)]
         success = bool(getattr(self.venv, "termination_is_success", False))
+        goal = self.declares_goal
         # A world of labelled envs says itself, in the ended step's info.
         final = vinfo.get("final_info", {})
         said = final.get("is_success"), final.get("_is_success")
         for i in np.flatnonzero(dones):
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-            # SB3's convention (Monitor, EvalCallback): did the ended episode succeed?
-            if said[0] is not None and said[1] is not None and said[1][i]:
-                infos[i]["is_success"] = bool(said[0][i])
-            else:
-                infos[i]["is_success"] = success and bool(terminated[i])
             infos[i]["terminal_observation"] = vinfo["final_obs"][i]
+            # SB3's convention (Monitor, EvalCallback): did the ended episode succeed?
+            # Not said at all for a world without a goal.
+            if goal and said[0] is not None and said[1] is not None and said[1][i]:
+                infos[i]["is_success"] = bool(said[0][i])
+            elif goal:
+                infos[i]["is_success"] = success and bool(terminated[i])
         return obs, rewards.astype(np.float32), dones, infos
+
+    @property
+    def declares_goal(self) -> bool:
+        """Whether the world's episodes have a goal (:func:`goal_declared`): only then does
+        an ended episode's info say ``is_success``."""
+        return goal_declared(self.venv)
 
     @property
     def batched_info(self) -> dict[str, Any]:

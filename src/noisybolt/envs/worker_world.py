@@ -60,7 +60,7 @@ from gymnasium.vector import AutoresetMode
 
 from noisybolt.envs.deferred import DeferredArray
 from noisybolt.errors import ConfigError, WorldWorkerError
-from noisybolt.perception.protocols import FINAL_INFO_KEY, CameraSpec
+from noisybolt.perception.protocols import FINAL_INFO_KEY, CameraSpec, goal_declared
 
 __all__ = ["WorkerWorld"]
 
@@ -157,6 +157,7 @@ class WorkerWorld(gym.vector.VectorEnv):
                 f"world {name!r} does not reset in the same step; WorkerWorld needs one that does"
             )
         self.termination_is_success: bool = world["termination_is_success"]
+        self.declares_goal: bool = world["declares_goal"]
         self._fluent_names: tuple[str, ...] = world["fluent_names"]
         self._camera_spec: CameraSpec = world["camera_spec"]
         self._return_bounds = world["return_bounds"]
@@ -447,6 +448,7 @@ def _work(
                 "single_action_space": world.single_action_space,
                 "autoreset_mode": world.metadata.get("autoreset_mode"),
                 "termination_is_success": bool(getattr(world, "termination_is_success", False)),
+                "declares_goal": goal_declared(world),
                 "fluent_names": tuple(world.fluent_names),
                 "camera_spec": world.camera_spec,
                 "return_bounds": bounds,

@@ -202,7 +202,7 @@ def measure_corners(
     tally = {name: sum(c == name for c, _ in recorded) for name in _CATEGORIES}
     return CornerVisits(
         episodes=result.n_episodes,
-        goal=sum(e.goal for e in result.episodes),
+        goal=sum(bool(e.goal) for e in result.episodes),
         compliant=sum(all(e.compliant) for e in result.episodes),
         positions=tuple(p for _, p in recorded),
         **tally,

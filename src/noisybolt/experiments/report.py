@@ -153,10 +153,15 @@ def evaluation_table(
         ),
         ("bolt return (shaping, apart)", f"{final.get('bolt_return_mean', 0.0):.2f}"),
         ("episode length N_steps", f"{final['length_mean']:.1f}"),
-        ("goal rate", percent(final["goal_rate"])),
         *((f"compliance [{k}]", percent(v)) for k, v in final.get("compliance", {}).items()),
-        ("goal and compliant", percent(final["success_rate"])),
     ]
+    # A world without a goal (goal_rate None) counts compliance alone as success.
+    has_goal = final.get("goal_rate") is not None
+    if has_goal:
+        rows.insert(4, ("goal rate", percent(final["goal_rate"])))
+        rows.append(("goal and compliant", percent(final["success_rate"])))
+    elif len(final.get("compliance", {})) > 1:
+        rows.append(("compliant with every spec", percent(final["success_rate"])))
     falsely = describe_false_acceptance(final)
     if falsely is not None:
         rows.append(("bolt falsely accepting (episodes)", falsely))
@@ -164,7 +169,8 @@ def evaluation_table(
         rows.append(("frames trained", f"{frames:,}"))
     if frames is not None or frames_to_comply is not None:
         reached = "not reached" if frames_to_comply is None else f"{frames_to_comply:,}"
-        rows.append(("N_frames (first >= 95% compliant at goal)", reached))
+        at_goal = " at goal" if has_goal else ""
+        rows.append((f"N_frames (first >= 95% compliant{at_goal})", reached))
     return Table(("metric", "value"), tuple(rows))
 
 

@@ -58,6 +58,7 @@ __all__ = [
     "BoltObservable",
     "CameraSpec",
     "FluentDetector",
+    "goal_declared",
 ]
 
 #: ``info`` key of the bolt camera's image of the state just reached (see the module docs).
@@ -128,6 +129,26 @@ class BoltObservable(Protocol):
     def true_fluents(self) -> np.ndarray:
         """bool ``[num_envs, n_fluents]``: the ground-truth fluents now."""
         ...
+
+
+def goal_declared(world: object) -> bool:
+    """Whether a vectorised world's episodes have a goal to reach: its ``declares_goal``
+    if it says (a world of :class:`~noisybolt.FluentLabels` envs: whether ``success`` was
+    given), else its ``termination_is_success`` (the gridworld: an episode ends only at
+    the goal; Breakout: a game ends lost). A world without one gets no goal rate, and its
+    evaluations count compliance alone as success.
+
+    Example:
+        >>> from types import SimpleNamespace as N
+        >>> goal_declared(N(termination_is_success=True)), goal_declared(N())
+        (True, False)
+        >>> goal_declared(N(declares_goal=True, termination_is_success=False))
+        True
+    """
+    declared = getattr(world, "declares_goal", None)
+    if declared is not None:
+        return bool(declared)
+    return bool(getattr(world, "termination_is_success", False))
 
 
 @runtime_checkable

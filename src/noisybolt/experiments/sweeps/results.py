@@ -174,7 +174,8 @@ class SweepResult:
                 "Mean ± std over each group's finished seeds of the final evaluation; "
                 "N_frames: first evaluation with ≥ 95% of episodes reaching the goal while "
                 "complying with every spec (ground truth), mean over the seeds that reached "
-                "it."
+                "it; in a world without a goal (goal rate —), complying with every spec is "
+                "what counts."
             ),
             self.to_table(),
             *([Text("Failed trials:"), Text("\n".join(failed))] if failed else []),
