@@ -142,6 +142,13 @@ def test_corrupt_dataset_is_a_clear_error(tmp_path, capsys):
     assert "corrupt" in capsys.readouterr().err
 
 
+def test_train_without_a_dataset_says_to_collect_one(tmp_path, capsys):
+    assert run(["classifiers", "train", "--out", str(tmp_path / "none"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"no dataset at {tmp_path / 'none' / 'dataset.npz'}" in err
+    assert "noisybolt classifiers collect" in err and "Traceback" not in err
+
+
 def test_gridworld_with_regional_noise(tmp_path, capsys):
     out = tmp_path / "grid"
     common = ["--out", str(out), "--quiet"]

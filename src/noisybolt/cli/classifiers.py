@@ -240,6 +240,11 @@ def _collect(args: argparse.Namespace) -> int:
 def _train(args: argparse.Namespace) -> int:
     run = RunDirectory(args.out)
     dataset_path = args.dataset or run.file(DATASET_FILE)
+    if not Path(dataset_path).is_file():
+        raise ConfigError(
+            f"no dataset at {dataset_path}: collect one first (noisybolt classifiers collect "
+            f"--world W --out {args.out}), or give --dataset FILE"
+        )
     dataset = load_dataset(dataset_path)
     config = ClassifierConfig(channels=args.channels)
     training = TrainingConfig(
