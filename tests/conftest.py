@@ -1,12 +1,14 @@
 """Shared test settings: one torch thread (see FACTS.md), Hypothesis profiles; the
-repository's scripts as modules (``load_script``)."""
+repository's scripts as modules (``load_script``); a user's world module in a test's own
+directory (``world_module``)."""
 
 from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -63,3 +65,26 @@ def _private_cache_dir(tmp_path_factory: pytest.TempPathFactory) -> None:
     """Compiled DFAs and on-the-fly classifiers go to a temporary cache, not ~/.cache."""
     if "NOISYBOLT_CACHE_DIR" not in os.environ:
         os.environ["NOISYBOLT_CACHE_DIR"] = str(tmp_path_factory.mktemp("noisybolt-cache"))
+
+
+@pytest.fixture
+def world_module(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> Iterator[Callable[[str, str], str]]:
+    """Writes a user's world module into the test's own directory, made the current one
+    (as ``--world module:function`` imports it), and returns its name; the module is
+    forgotten again afterwards, and the import's addition to ``sys.path`` undone."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
+    written: list[str] = []
+
+    def write(name: str, source: str) -> str:
+        (tmp_path / f"{name}.py").write_text(source)
+        shutil.rmtree(tmp_path / "__pycache__", ignore_errors=True)  # a rewrite is reread
+        sys.modules.pop(name, None)
+        written.append(name)
+        return name
+
+    yield write
+    for name in written:
+        sys.modules.pop(name, None)

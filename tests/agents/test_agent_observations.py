@@ -4,8 +4,7 @@ constructor, in words that blame the hyperparameters."""
 
 from __future__ import annotations
 
-import shutil
-import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -41,18 +40,13 @@ def test_an_unreadable_agent_observation_is_refused_before_training(
     space: tuple[str, str],
     shown: str,
     tmp_path: Path,
-    monkeypatch: pytest.MonkeyPatch,
+    world_module: Callable[[str, str], str],
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
-    (tmp_path / "nestedlake.py").write_text(WORLD.format(space=space[0], value=space[1]))
-    shutil.rmtree(tmp_path / "__pycache__", ignore_errors=True)
-    sys.modules.pop("nestedlake", None)
+    world_module("nestedlake", WORLD.format(space=space[0], value=space[1]))
     argv = ["train", "--world", "nestedlake:make", "--spec", "F(top)", "--detector", "oracle"]
     assert main([*argv, "--frames", "64", "--out", str(tmp_path / "run")]) == 2
     err = capsys.readouterr().err
     assert f"world 'nestedlake:make' gives the agent {shown}" in err
     assert "FlattenObservation" in err and "hyperparameters" not in err
     assert not (tmp_path / "run").exists()
-    sys.modules.pop("nestedlake", None)

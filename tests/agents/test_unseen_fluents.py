@@ -11,9 +11,8 @@ is collected since ``detector.final_views``: tests/perception/test_final_views.p
 from __future__ import annotations
 
 import re
-import shutil
-import sys
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -49,16 +48,13 @@ SMALL = DetectorConfig(kind="classifier", samples=64, epochs=1, restarts=1)
 
 
 @pytest.fixture
-def lake(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Any:
+def lake(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, world_module: Callable[[str, str], str]
+) -> Any:
     """The world's module in the current directory, and a cache of this test's own."""
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
     monkeypatch.setenv("NOISYBOLT_CACHE_DIR", str(tmp_path / "cache"))
-    (tmp_path / "unseenlake.py").write_text(WORLD)
-    shutil.rmtree(tmp_path / "__pycache__", ignore_errors=True)
-    sys.modules.pop("unseenlake", None)
-    yield make_world(NAME, num_envs=1, seed=0)
-    sys.modules.pop("unseenlake", None)
+    world_module("unseenlake", WORLD)
+    return make_world(NAME, num_envs=1, seed=0)
 
 
 def _detector(lake: Any, spec_fluents: tuple[str, ...], config: DetectorConfig = SMALL) -> Any:

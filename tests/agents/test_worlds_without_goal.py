@@ -5,8 +5,7 @@ stop-when-solved could never be reached whatever the agent learnt."""
 
 from __future__ import annotations
 
-import shutil
-import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
@@ -72,13 +71,9 @@ def make():
 
 
 def test_a_run_in_a_world_without_goal_reports_no_goal_rate(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, world_module: Callable[[str, str], str], capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
-    (tmp_path / "nogoallake.py").write_text(WORLD)
-    shutil.rmtree(tmp_path / "__pycache__", ignore_errors=True)
-    sys.modules.pop("nogoallake", None)
+    world_module("nogoallake", WORLD)
     argv = ["train", "--world", "nogoallake:make", "--spec", "F(top)", "--detector", "oracle"]
     argv += ["--frames", "64", "--eval-freq", "0", "--eval-episodes", "2", "--no-progress"]
     assert main([*argv, "--set", "world.n_envs=2", "--out", str(tmp_path / "run")]) == 0
@@ -86,4 +81,3 @@ def test_a_run_in_a_world_without_goal_reports_no_goal_rate(
     assert "goal rate" not in printed and "goal and compliant" not in printed
     # F(top) holds from the start: every evaluation complies, so N_frames is reached
     assert "N_frames (first >= 95% compliant)" in printed and "not reached" not in printed
-    sys.modules.pop("nogoallake", None)

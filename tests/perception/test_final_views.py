@@ -10,8 +10,7 @@ after that step is the next episode's first one (the start, cell 0), and only th
 from __future__ import annotations
 
 import json
-import shutil
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -56,16 +55,13 @@ SMALL = DetectorConfig(kind="classifier", samples=64, epochs=1, restarts=1)
 
 
 @pytest.fixture
-def lake(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Any:
+def lake(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, world_module: Callable[[str, str], str]
+) -> Any:
     """The world's module in the current directory, and a cache of this test's own."""
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "path", list(sys.path))  # the import adds the folder to it
     monkeypatch.setenv("NOISYBOLT_CACHE_DIR", str(tmp_path / "cache"))
-    (tmp_path / "finallake.py").write_text(WORLD)
-    shutil.rmtree(tmp_path / "__pycache__", ignore_errors=True)
-    sys.modules.pop("finallake", None)
-    yield make_world(NAME, num_envs=1, seed=0)
-    sys.modules.pop("finallake", None)
+    world_module("finallake", WORLD)
+    return make_world(NAME, num_envs=1, seed=0)
 
 
 def _replay(n_envs: int, rounds: int, seed: int) -> tuple[int, int, int]:
