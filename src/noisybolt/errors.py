@@ -27,6 +27,7 @@ __all__ = [
     "SmallIntegerImagesWarning",
     "SpecSyntaxError",
     "StaleInfoError",
+    "UnboundedEpisodesWarning",
     "UnknownFluentError",
     "UnknownNameError",
     "UnlabelledEnvError",
@@ -218,6 +219,13 @@ class EstimatedBoundsWarning(UserWarning):
     """The world declares no bounds on its episodes' returns, so the ``compliance`` scale
     was set from bounds estimated by random play; declare them (``return_bounds=``) or give
     the scale to be sure compliance comes first."""
+
+
+class UnboundedEpisodesWarning(UserWarning):
+    """A user's env has no time limit, so an episode its policy never ends (a loop by a
+    wall) would stall training's episode statistics and every evaluation: its episodes are
+    cut at :data:`noisybolt.envs.registry.DEFAULT_MAX_EPISODE_STEPS` steps; wrap the env in
+    ``gymnasium.wrappers.TimeLimit`` to choose."""
 
 
 class RareFluentWarning(UserWarning):

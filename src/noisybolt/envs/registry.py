@@ -29,6 +29,7 @@ import importlib
 import inspect
 import os
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -38,6 +39,7 @@ import gymnasium as gym
 from noisybolt.errors import (
     BackendUnavailableError,
     ConfigError,
+    UnboundedEpisodesWarning,
     UnknownNameError,
     UnlabelledEnvError,
     WorldFactoryError,
@@ -165,8 +167,24 @@ def _import_here_too(module_name: str) -> Any:
         return importlib.import_module(module_name)
 
 
+#: Steps at which the episodes of a factory world's env without a time limit of its own
+#: are cut (truncated), with an :class:`~noisybolt.errors.UnboundedEpisodesWarning`.
+DEFAULT_MAX_EPISODE_STEPS = 10_000
+
+
+def _has_time_limit(env: gym.Env) -> bool:
+    layer: Any = env
+    while isinstance(layer, gym.Wrapper):
+        if isinstance(layer, gym.wrappers.TimeLimit):
+            return True
+        layer = layer.env
+    return False
+
+
 def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
-    """``factory()``, checked to be one labelled Gymnasium env."""
+    """``factory()``, checked to be one labelled Gymnasium env; one without a time limit
+    (``gym.make`` of an env registered without ``max_episode_steps``, or an env made
+    directly) gets one of :data:`DEFAULT_MAX_EPISODE_STEPS` steps, said once."""
     from noisybolt.envs.labels import fluent_names_of
 
     try:
@@ -191,6 +209,16 @@ def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
             "noisybolt.FluentLabels(env, fluents={name: fn(env) -> bool}, ...)",
             path=path,
         ) from None
+    if not _has_time_limit(env):
+        warnings.warn(
+            f"world {path!r}: its env has no time limit, so an episode its policy never "
+            f"ends would stall every evaluation; its episodes are cut at "
+            f"{DEFAULT_MAX_EPISODE_STEPS:,} steps (wrap the env in "
+            "gymnasium.wrappers.TimeLimit to choose)",
+            UnboundedEpisodesWarning,
+            stacklevel=2,
+        )
+        env = gym.wrappers.TimeLimit(env, max_episode_steps=DEFAULT_MAX_EPISODE_STEPS)
     return env
 
 
@@ -235,9 +263,11 @@ def make_single_world(name: str, **settings: Any) -> gym.Env:
 def _no_settings(name: str, settings: dict[str, Any]) -> None:
     given = sorted(k for k, v in settings.items() if v not in (None, "none"))
     if given:
+        noise = "noise" in given
+        where = " (put the camera's noise in the factory's FluentLabels)" if noise else ""
         raise ConfigError(
             f"world {name!r} is built by its factory alone and takes no settings; got "
-            f"{', '.join(given)} (put the camera's noise in the factory's FluentLabels)"
+            f"{', '.join(given)}{where}"
         )
 
 
