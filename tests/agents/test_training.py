@@ -486,6 +486,32 @@ def test_an_interrupted_run_keeps_its_frames_and_resumes(
     assert result.history[0]["frames"] == 1024  # kept across the interrupt
 
 
+def test_an_interrupt_in_the_final_evaluation_keeps_every_frame(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Ctrl-C (or SIGTERM) while the trained model is evaluated a last time: no periodic
+    # checkpoint covers the last frames (none at all here), yet nothing is lost.
+    from noisybolt.agents import callbacks
+
+    original = callbacks.EvaluationCallback.evaluate
+
+    def interrupted(self: callbacks.EvaluationCallback) -> object:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(callbacks.EvaluationCallback, "evaluate", interrupted)
+    said: list[str] = []
+    config = _config(frames=1024, eval_freq=0, checkpoint_freq=0)
+    with pytest.raises(KeyboardInterrupt):
+        train(config, tmp_path / "run", log=said.append)
+    latest = json.loads((tmp_path / "run" / "checkpoints" / "latest.json").read_text())
+    assert latest["frames"] >= 1024
+    assert any("interrupted in the final evaluation" in line for line in said)
+    monkeypatch.setattr(callbacks.EvaluationCallback, "evaluate", original)
+    result = train(config, tmp_path / "run", resume=True, log=_quiet)  # evaluates, finishes
+    assert result.frames == latest["frames"] and result.history[-1]["frames"] == result.frames
+    assert (tmp_path / "run" / "model.zip").exists()
+
+
 def test_entropy_schedule_for_dqn_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="DQN has no entropy bonus"):
         _config(algo="dqn", overrides={"ent_coef_final": 0.0})  # by the config itself

@@ -134,9 +134,10 @@ def check_agent_observation(space: gym.Space, *, world: str) -> None:
         return
     raise ConfigError(
         f"world {world!r} gives the agent {space}: the agents read an image (H, W, C), a "
-        "flat Box vector or a Discrete/MultiDiscrete/MultiBinary state; flatten the "
-        "observation in the world's factory (gymnasium.wrappers.FlattenObservation, or "
-        "a wrapper of your own keeping the image) before FluentLabels"
+        "flat Box vector or a Discrete/MultiDiscrete/MultiBinary state; reduce the "
+        "observation to one in the world's factory, before FluentLabels: keep its image "
+        "(MiniGrid: minigrid.wrappers.ImgObsWrapper) or flatten it "
+        "(gymnasium.wrappers.FlattenObservation, for spaces of boxes and discretes)"
     )
 
 

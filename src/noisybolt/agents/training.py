@@ -421,11 +421,20 @@ def _learn(
         )
     evaluation.init_callback(model)
     checkpoints.init_callback(model)
-    final = (
-        evaluation.evaluate()
-        if not history or history[-1]["frames"] != model.num_timesteps
-        else None
-    )
+    try:
+        final = (
+            evaluation.evaluate()
+            if not history or history[-1]["frames"] != model.num_timesteps
+            else None
+        )
+    except KeyboardInterrupt:
+        # Every frame is trained: keep them (a resume evaluates and finishes the run).
+        checkpoints.checkpoint()
+        log(
+            f"interrupted in the final evaluation, {model.num_timesteps:,} frames trained: "
+            f"checkpoint saved; finish with --resume --out {run.path}"
+        )
+        raise
     if final is None:
         final = _result_from_record(history[-1], spec_names)
     checkpoints.checkpoint()

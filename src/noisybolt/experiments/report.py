@@ -253,10 +253,12 @@ def run_report(
     if isinstance(summary, dict):
         reached = summary.get("frames_to_comply")
         threshold = config["evaluation"].get("success_threshold", 0.95)
+        final = summary.get("final")
+        has_goal = not isinstance(final, dict) or final.get("goal_rate") is not None
         blocks.append(
             Text(
                 f"Frames trained: {summary.get('frames', 0):,}. N_frames (first evaluation with "
-                f"≥ {threshold:.0%} of episodes at the goal and "
+                f"≥ {threshold:.0%} of episodes {'at the goal and ' if has_goal else ''}"
                 f"compliant): {f'{reached:,}' if reached is not None else 'not reached'}."
             )
         )
