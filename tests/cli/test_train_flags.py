@@ -211,6 +211,7 @@ def test_options_the_run_would_ignore_are_refused_and_fluents_named(
         # the other options a setting of another kind would ignore
         (["--detector", "synthetic", "--classifier", "c.safetensors"], "the synthetic detector"),
         (["--detector", "oracle", "--confidence", "0.8"], "with threshold tracking it would"),
+        (["--detector", "oracle", "--min-dwell", "1"], "with threshold tracking it would"),
     ]:
         out = tmp_path / "-".join(argv)
         assert main([*base, *argv, "--out", str(out)]) == 2
@@ -233,3 +234,19 @@ def test_the_scheme_line_follows_the_checks(
     assert "reward scheme: paper (each spec's terminal reward" in capsys.readouterr().out
     assert main([*base, "--spec", "edge", "--unbolted", "--out", str(tmp_path / "off")]) == 0
     assert "unbolted: the specs are tracked for compliance only" in capsys.readouterr().out
+
+
+def test_min_dwell_reaches_the_belief_bolt(tmp_path: Path) -> None:
+    from noisybolt.agents.environments import prepare_bolt
+    from noisybolt.agents.training import TrainConfig
+
+    argv = ["train", "--spec", "edge", "--detector", "oracle", "--tracking", "belief"]
+    argv += ["--min-dwell", "1", "--frames", "64", "--eval-freq", "0", "--eval-episodes", "1"]
+    out = tmp_path / "run"
+    assert main([*argv, "--set", "world.n_envs=2", "--no-progress", "--out", str(out)]) == 0
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["bolt"]["min_dwell"] == 1
+    setup = prepare_bolt(TrainConfig.from_dict(saved), seed=0, log=lambda _: None)
+    assert setup.belief is not None and setup.belief.min_dwell == 1  # through the EM too
+    assert main([*argv, "--min-dwell", "0", "--out", str(tmp_path / "bad")]) == 2  # the last
+    assert not (tmp_path / "bad").exists()

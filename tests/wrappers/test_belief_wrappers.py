@@ -187,3 +187,35 @@ def test_single_wrapper_with_explicit_threshold_is_bit_identical_to_the_default(
         if term_a or trunc_a:
             obs_a, _ = default.reset()
             obs_b, _ = threshold.reset()
+
+
+def test_a_condition_met_in_one_step_is_credited_only_below_the_two_step_dwell() -> None:
+    # FrozenLake, right along the top row: the agent is on cell 1 for exactly one step,
+    # then on cell 2. Belief tracking's default model has a fluent stay true two steps
+    # once true (min_dwell=2, against one-frame glitches): even the oracle's certainty
+    # that at1 held for one step is not believed, and the spec is not credited; with
+    # min_dwell=1 it is, as threshold tracking credits it.
+    from noisybolt.envs.labels import FluentLabels
+
+    fluents = {"at1": lambda e: e.s == 1, "at2": lambda e: e.s == 2}
+    spec = "F(at1 & X(at2))"
+    accepted = {}
+    for name, kwargs in {
+        "threshold": {},
+        "belief, min_dwell 2": {"tracking": "belief"},
+        "belief, min_dwell 1": {"tracking": "belief", "belief": BeliefSettings(min_dwell=1)},
+    }.items():
+        lake = FluentLabels(
+            gym.make("FrozenLake-v1", is_slippery=False, render_mode="rgb_array"), fluents=fluents
+        )
+        bolted = RestrainingBoltWrapper(lake, [spec], OracleDetector(lake.fluent_names), **kwargs)
+        bolted.reset(seed=0)
+        for _ in range(3):  # right: cells 1, 2, 3
+            *_, info = bolted.step(2)
+        assert info["true_accepting"].tolist() == [True]
+        accepted[name] = bool(info["dfa_accepting"][0])
+    assert accepted == {
+        "threshold": True,
+        "belief, min_dwell 2": False,
+        "belief, min_dwell 1": True,
+    }

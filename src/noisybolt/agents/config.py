@@ -143,6 +143,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
     "bolt.tracking": "threshold",
     "bolt.confidence": 0.9,
+    # before bolt.min_dwell existed belief tracking assumed two steps
+    "bolt.min_dwell": 2,
     # before world.workers existed every world ran in the training process
     "world.workers": 0,
     # before world.overlap existed every rollout stepped all games at once
@@ -222,6 +224,7 @@ class TrainConfig:
     shaping = _Alias[bool]("bolt.shaping")
     tracking = _Alias[str]("bolt.tracking")
     confidence = _Alias[float]("bolt.confidence")
+    min_dwell = _Alias[int]("bolt.min_dwell")
     thresholds = _Alias[Mapping[str, float]]("bolt.thresholds")
     cost_mode = _Alias[str]("bolt.cost_mode")
     bolted = _Alias[bool]("bolt.bolted")
@@ -441,7 +444,9 @@ class TrainConfig:
     @property
     def belief_settings(self) -> BeliefSettings | None:
         """The bolt's belief-tracking settings (None under threshold tracking)."""
-        return BeliefSettings(confidence=self.confidence) if self.tracking == "belief" else None
+        if self.tracking != "belief":
+            return None
+        return BeliefSettings(confidence=self.confidence, min_dwell=self.min_dwell)
 
     def spec_objects(self) -> list[Spec]:
         """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted)."""

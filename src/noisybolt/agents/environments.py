@@ -400,6 +400,7 @@ def belief_from_play(
         [np.concatenate(frames)],
         training_prior=0.5 if prior is None else prior,
         confidence=settings.confidence,
+        min_dwell=settings.min_dwell,
         monotone=tuple(settings.monotone) or tuple(monotone),
     )
 

@@ -111,6 +111,10 @@ class BoltConfig:
             :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
         confidence: ``belief`` only: the probability of the paid-for condition at which a
             spec counts as accepting and is paid, in (0.5, 1).
+        min_dwell: ``belief`` only: the fewest steps a fluent, once true, is believed to
+            stay true (:class:`~noisybolt.bolt.BeliefSettings`): 2 rides out one-frame
+            glitches of the detector but never credits a condition met in one step; 1
+            credits it.
         thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
         cost_mode: ``"count"`` or ``"proportional"``.
         bolted: False trains the same agent without a bolt (for comparison): specs are
@@ -123,6 +127,7 @@ class BoltConfig:
     shaping: bool = True
     tracking: str = "threshold"
     confidence: float = 0.9
+    min_dwell: int = 2
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
     bolted: bool = True
@@ -141,7 +146,8 @@ class BoltConfig:
                 f"bolt.cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
             )
         check_tracking(self.tracking)
-        BeliefSettings(confidence=self.confidence)  # ConfidenceLevelError outside (0.5, 1)
+        # ConfidenceLevelError outside (0.5, 1); ConfigError for a min_dwell below 1
+        BeliefSettings(confidence=self.confidence, min_dwell=self.min_dwell)
 
     @property
     def scheme(self) -> RewardScheme:

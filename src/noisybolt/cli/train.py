@@ -49,6 +49,7 @@ FLAG_PATHS: dict[str, str] = {
     "--no-shaping": "bolt.shaping",
     "--tracking": "bolt.tracking",
     "--confidence": "bolt.confidence",
+    "--min-dwell": "bolt.min_dwell",
     "--cost-mode": "bolt.cost_mode",
     "--unbolted": "bolt.bolted",
     "--detector": "detector.kind",
@@ -186,6 +187,12 @@ def register(subparsers: Any) -> None:
         "--confidence",
         type=float,
         help="belief tracking: the probability at which a spec counts as accepted and is paid",
+    )
+    flag(
+        "--min-dwell",
+        type=int,
+        help="belief tracking: the fewest steps a fluent, once true, is believed to stay true "
+        "(default 2: rides out one-frame glitches; 1 credits a condition met in one step)",
     )
     flag(
         "--unbolted",
@@ -350,12 +357,13 @@ def _train(args: argparse.Namespace) -> int:
         out = args.out or _default_out(overrides)
         if out.exists() and not out.is_dir():
             raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
-    if "bolt.confidence" in overrides and config.tracking != "belief":
-        raise ConfigError(
-            f"--confidence {config.confidence:g} is the probability at which belief tracking "
-            f"counts a spec accepted; with {config.tracking} tracking it would be ignored: "
-            "add --tracking belief, or leave it out"
-        )
+    for path, flag_name in (("bolt.confidence", "--confidence"), ("bolt.min_dwell", "--min-dwell")):
+        if path in overrides and config.tracking != "belief":
+            raise ConfigError(
+                f"{flag_name} {overrides[path]} sets how belief tracking reads the detector; "
+                f"with {config.tracking} tracking it would be ignored: add --tracking "
+                "belief, or leave it out"
+            )
     from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
     if config.reward == "compliance" and not args.resume and "bolt.reward_scale" not in overrides:
