@@ -707,9 +707,15 @@ ESTIMATE_STEPS = 4096
 def _scale_from_world(config: TrainConfig) -> float:
     """The ``compliance`` scale from the world's declared return bounds, or, for a world
     that declares none, from bounds estimated by seeded random play (with a warning)."""
+    from noisybolt.agents.environments import check_world_fits
+
     probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-    bounds = world_return_bounds(probe)
-    probe.close()
+    try:
+        bounds = world_return_bounds(probe)
+        if bounds is None:  # what cannot run is refused before random play estimates them
+            check_world_fits(config, probe)
+    finally:
+        probe.close()
     if bounds is None:
         # A user's env rarely knows its bounds; refusing to train would send every new
         # user to a flag. Random play's returns are an estimate, said so, not a bound.

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Any, Literal, overload
 
 import numpy as np
@@ -431,8 +432,38 @@ def _random_play_infos(
         world.close()
 
 
+def check_world_fits(config: TrainConfig, world: Any) -> None:
+    """The cheap checks of a run against its world, for before anything costly (the
+    compliance scale's random play, a classifier's training): the agent can read the
+    world's observation and the algorithm act in its actions, and every spec compiles
+    over its fluents.
+
+    Raises:
+        ConfigError: an observation the agents cannot read, or an algorithm that cannot
+            act there; UnknownFluentError, UnsatisfiableSpecError, SpecSyntaxError: a spec.
+    """
+    from noisybolt.agents.models import check_action_space
+
+    agent_space = getattr(world, "single_observation_space", None)
+    if agent_space is not None:
+        check_agent_observation(agent_space, world=config.world)
+    actions = getattr(world, "single_action_space", None)
+    if actions is not None:
+        check_action_space(config, actions)
+    # The specs as given: their rewards may wait for the scale this check comes before.
+    given = [
+        SimpleNamespace(formula=spec["formula"], name=spec.get("name") or spec["formula"])
+        for spec in config.bolt.specs
+    ]
+    _check_specs_against_world(config, tuple(world.fluent_names), log=lambda _: None, specs=given)
+
+
 def _check_specs_against_world(
-    config: TrainConfig, fluent_names: Sequence[str], *, log: Callable[[str], None] = print
+    config: TrainConfig,
+    fluent_names: Sequence[str],
+    *,
+    log: Callable[[str], None] = print,
+    specs: Sequence[Any] | None = None,
 ) -> list[Any]:
     """Compiles every spec over the world's fluents (errors list the world's fluents).
 
@@ -441,7 +472,7 @@ def _check_specs_against_world(
             satisfies gets a warning through ``log`` (the bolt would ask for nothing).
     """
     dfas = []
-    for spec in config.spec_objects():
+    for spec in config.spec_objects() if specs is None else specs:
         try:
             dfas.append(compile_ltlf(spec.formula, fluent_names))
         except RecursionError:

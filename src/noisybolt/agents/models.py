@@ -67,14 +67,7 @@ def make_model(
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     if trial and "buffer_size" in params:
         params["buffer_size"] = 1
-    allowed = ACTION_SPACES.get(config.algo)
-    if allowed is not None and not isinstance(env.action_space, allowed):
-        others = [name for name in ALGORITHMS if name not in ACTION_SPACES]
-        raise ConfigError(
-            f"{config.algo.upper()} takes only {' or '.join(a.__name__ for a in allowed)} "
-            f"actions, and world {config.world!r} acts in {env.action_space}; train it with "
-            f"--algo {' or '.join(others)}"
-        )
+    check_action_space(config, env.action_space)
     cls = run_algorithm_class(config)
     try:
         model = cls(
@@ -93,6 +86,23 @@ def make_model(
             f"({type(error).__name__}: {error}); fix them (--hp KEY=VALUE)"
         ) from None
     return model
+
+
+def check_action_space(config: TrainConfig, action_space: spaces.Space) -> None:
+    """Refuses an algorithm that cannot act in the world's action space (DQN on a
+    continuous or multi-part one), naming those that can.
+
+    Raises:
+        ConfigError: naming the algorithm, the world's space and the alternatives.
+    """
+    allowed = ACTION_SPACES.get(config.algo)
+    if allowed is not None and not isinstance(action_space, allowed):
+        others = [name for name in ALGORITHMS if name not in ACTION_SPACES]
+        raise ConfigError(
+            f"{config.algo.upper()} takes only {' or '.join(a.__name__ for a in allowed)} "
+            f"actions, and world {config.world!r} acts in {action_space}; train it with "
+            f"--algo {' or '.join(others)}"
+        )
 
 
 def run_algorithm_class(config: TrainConfig) -> type[BaseAlgorithm]:
