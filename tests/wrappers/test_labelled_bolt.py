@@ -161,7 +161,12 @@ def test_batched_bolt_equals_single_wrappers_across_episodes() -> None:
     assert isinstance(batched, BoltVecEnv)
     singles = [RestrainingBoltWrapper(lake(slippery=True), SPECS, "oracle") for _ in range(n)]
     obs = batched.reset()
-    single_obs = [s.reset(seed=seed + i)[0] for i, s in enumerate(singles)]
+    single_resets = [s.reset(seed=seed + i) for i, s in enumerate(singles)]
+    single_obs = [o for o, _ in single_resets]
+    for i, (_, info) in enumerate(single_resets):  # the first letter, as each single says it
+        for key in ("true_fluents", "fluent_probs", "dfa_states", "true_dfa_states"):
+            np.testing.assert_array_equal(batched.reset_infos[i][key], info[key])
+        assert batched.reset_infos[i]["true_accepting"].tolist() == info["true_accepting"].tolist()
     rng = np.random.default_rng(0)
     n_done = n_success = 0
     for _ in range(120):

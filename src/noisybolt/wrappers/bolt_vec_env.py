@@ -191,9 +191,20 @@ class BoltVecEnv(VecEnvWrapper):
         obs = self.venv.reset()
         images, truth = self._labels("reset")
         probs = self._probs(images, truth)
-        self.bolt.reset(probs)
+        out = self.bolt.reset(probs)
         if self._records:
             self._truth.reset(truth)
+            # What the single wrapper's reset info says of the first letter, per env.
+            self.reset_infos = [
+                {
+                    "true_fluents": truth[i],
+                    "fluent_probs": probs[i],
+                    "dfa_states": out.next_states[i],
+                    "true_dfa_states": self._truth.states[i].copy(),
+                    "true_accepting": self._truth.accepting[i],
+                }
+                for i in range(self.num_envs)
+            ]
         return self._obs(obs, dfa_view(self.bolt))
 
     def step_wait(self) -> VecEnvStepReturn:
