@@ -74,13 +74,15 @@ def wilson_interval(successes: float, n: int, z: float = 1.96) -> tuple[float, f
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def pooled(records: dict[int, dict], last: int) -> dict[str, float]:
-    """A run's last ``last`` evaluations together: frames spanned, episodes, column share
-    (episode-weighted) and its Wilson interval, mean score and left bricks gone with the
-    standard error of the evaluations' means (0 for one evaluation)."""
+def pooled(records: dict[int, dict], last: int, upto: int | None = None) -> dict[str, float]:
+    """A run's last ``last`` evaluations (at or below ``upto`` frames, so that runs that
+    trained for different lengths compare at the same frames) together: frames spanned,
+    episodes, column share (episode-weighted) and its Wilson interval, mean score and left
+    bricks gone with the standard error of the evaluations' means (0 for one evaluation)."""
     if last < 1:
         raise ValueError(f"--pool takes a number of evaluations >= 1, got {last}")
-    chosen = [records[f] for f in sorted(records)[-last:]]
+    kept = sorted(f for f in records if upto is None or f <= upto)
+    chosen = [records[f] for f in kept[-last:]]
     if not chosen:
         raise ValueError("the run has no evaluation yet")
     episodes = [int(r["n_episodes"]) for r in chosen]
@@ -118,6 +120,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--pool", type=int, default=0, metavar="K", help="pool the last K evaluations per run"
     )
+    parser.add_argument(
+        "--upto",
+        type=int,
+        default=None,
+        metavar="FRAMES",
+        help="with --pool: only evaluations at or below FRAMES (runs compared at equal frames)",
+    )
     args = parser.parse_args(argv)
     runs: list[Path] = args.runs
     records = [_records(r) for r in runs]
@@ -125,10 +134,10 @@ def main(argv: list[str] | None = None) -> None:
         print("| run | frames | episodes | column cleared (95 % CI) | score | left bricks gone |")
         print("|---|---|---:|---|---:|---:|")
         for run, rec in zip(runs, records, strict=True):
-            if not rec:
+            if not rec or (args.upto is not None and min(rec) > args.upto):
                 print(f"| {run.name} | no evaluation yet | | | | |")
                 continue
-            p = pooled(rec, args.pool)
+            p = pooled(rec, args.pool, args.upto)
             print(
                 f"| {run.name} | {p['first'] // 1000}k–{p['last'] // 1000}k | {p['episodes']} | "
                 f"{p['cleared']:.0%} ({p['cleared_low']:.0%}–{p['cleared_high']:.0%}) | "

@@ -54,6 +54,8 @@ def test_pooled_weighs_shares_by_episodes_and_takes_only_the_last_k(
     }
     p = script.pooled(records, 2)
     assert (p["first"], p["last"], p["episodes"]) == (200_000, 300_000, 12)
+    early = script.pooled(records, 2, upto=250_000)  # compared at equal frames
+    assert (early["first"], early["last"], early["episodes"]) == (100_000, 200_000, 16)
     assert p["cleared"] == pytest.approx((0.5 * 8 + 0.25 * 4) / 12)  # 5 of 12 episodes
     assert (p["cleared_low"], p["cleared_high"]) == pytest.approx(script.wilson_interval(5, 12))
     assert p["score"] == pytest.approx(12.0) and p["score_se"] == pytest.approx(2.0)  # sd 2.83/√2
