@@ -707,7 +707,7 @@ ESTIMATE_STEPS = 4096
 def _scale_from_world(config: TrainConfig) -> float:
     """The ``compliance`` scale from the world's declared return bounds, or, for a world
     that declares none, from bounds estimated by seeded random play (with a warning)."""
-    from noisybolt.agents.environments import check_world_fits
+    from noisybolt.agents.world_checks import check_world_fits
 
     probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
     try:

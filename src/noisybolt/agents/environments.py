@@ -24,7 +24,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from types import SimpleNamespace
 from typing import Any, Literal, overload
 
 import numpy as np
@@ -34,16 +33,13 @@ from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.detectors import make_detector
 from noisybolt.agents.extractor import check_agent_observation
 from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
+from noisybolt.agents.world_checks import check_specs_against_world
 from noisybolt.bolt import BeliefSettings, Thresholds
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import (
     ConfigError,
-    SpecSyntaxError,
-    UnknownFluentError,
-    UnsatisfiableSpecError,
 )
-from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
 from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, FluentDetector
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
@@ -321,7 +317,7 @@ def prepare_bolt(
     probe.close()
     if agent_space is not None:  # before a classifier is trained for a run that cannot start
         check_agent_observation(agent_space, world=config.world)
-    dfas = _check_specs_against_world(config, fluents, log=log)
+    dfas = check_specs_against_world(config, fluents, log=log)
     detector = make_detector(
         config.detector,
         world=config.world,
@@ -430,76 +426,6 @@ def _random_play_infos(
             yield world.step(world.action_space.sample())[4]
     finally:
         world.close()
-
-
-def check_world_fits(config: TrainConfig, world: Any) -> None:
-    """The cheap checks of a run against its world, for before anything costly (the
-    compliance scale's random play, a classifier's training): the agent can read the
-    world's observation and the algorithm act in its actions, and every spec compiles
-    over its fluents.
-
-    Raises:
-        ConfigError: an observation the agents cannot read, or an algorithm that cannot
-            act there; UnknownFluentError, UnsatisfiableSpecError, SpecSyntaxError: a spec.
-    """
-    from noisybolt.agents.models import check_action_space
-
-    agent_space = getattr(world, "single_observation_space", None)
-    if agent_space is not None:
-        check_agent_observation(agent_space, world=config.world)
-    actions = getattr(world, "single_action_space", None)
-    if actions is not None:
-        check_action_space(config, actions)
-    # The specs as given: their rewards may wait for the scale this check comes before.
-    given = [
-        SimpleNamespace(formula=spec["formula"], name=spec.get("name") or spec["formula"])
-        for spec in config.bolt.specs
-    ]
-    _check_specs_against_world(config, tuple(world.fluent_names), log=lambda _: None, specs=given)
-
-
-def _check_specs_against_world(
-    config: TrainConfig,
-    fluent_names: Sequence[str],
-    *,
-    log: Callable[[str], None] = print,
-    specs: Sequence[Any] | None = None,
-) -> list[Any]:
-    """Compiles every spec over the world's fluents (errors list the world's fluents).
-
-    Raises:
-        UnsatisfiableSpecError: no trace satisfies a spec. A spec that every trace
-            satisfies gets a warning through ``log`` (the bolt would ask for nothing).
-    """
-    dfas = []
-    for spec in config.spec_objects() if specs is None else specs:
-        try:
-            dfas.append(compile_ltlf(spec.formula, fluent_names))
-        except RecursionError:
-            raise SpecSyntaxError(
-                f"spec {spec.name!r} is nested too deeply to compile; write it with fewer "
-                "nested operators",
-                formula=spec.formula,
-            ) from None
-        except UnknownFluentError as error:
-            raise UnknownFluentError(
-                f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the "
-                f"{config.world} does not have; this world's fluents are {list(fluent_names)}",
-                unknown=error.unknown,
-                known=tuple(fluent_names),
-            ) from None
-        if not is_satisfiable(dfas[-1]):
-            raise UnsatisfiableSpecError(
-                f"spec {spec.name!r} is unsatisfiable: no trace of the {config.world}'s "
-                f"fluents satisfies {spec.formula!r}, so no agent can comply; fix the formula",
-                formula=spec.formula,
-            )
-        if is_valid(dfas[-1]):
-            log(
-                f"warning: spec {spec.name!r} holds on every trace ({spec.formula!r}): the "
-                "bolt asks for nothing"
-            )
-    return dfas
 
 
 def _transposed(env: VecEnv) -> VecEnv:

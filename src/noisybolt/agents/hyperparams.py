@@ -21,17 +21,20 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+from gymnasium import spaces
 from stable_baselines3 import A2C, DQN, PPO
 from stable_baselines3.common.base_class import BaseAlgorithm
 
 from noisybolt.errors import ConfigError, UnknownNameError
 
 __all__ = [
+    "ACTION_SPACES",
     "ALGORITHMS",
     "DEFAULT_HYPERPARAMS",
     "META_KEYS",
     "WORLD_KEYS",
     "algorithm_class",
+    "check_action_space",
     "check_hyperparameter_values",
     "frame_schedules",
     "known_hyperparameters",
@@ -318,3 +321,32 @@ def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
                 raise ConfigError(
                     f"hyperparameter {key}={value!r} is out of range: it must be in {interval}"
                 )
+
+
+#: The action spaces of the algorithms that take only some (SB3 asserts them deep inside
+#: the constructor, which reads as a hyperparameter problem; no hyperparameter fixes it).
+ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {"dqn": (spaces.Discrete,)}
+
+
+def check_action_space(algo: str, action_space: spaces.Space, *, world: str) -> None:
+    """Refuses an algorithm that cannot act in a world's action space (DQN on a
+    continuous or multi-part one), naming those that can.
+
+    Raises:
+        ConfigError: naming the algorithm, the world's space and the alternatives.
+
+    Example:
+        >>> check_action_space("ppo", spaces.Box(-1, 1, (1,)), world="car")
+        >>> check_action_space("dqn", spaces.Box(-1, 1, (1,)), world="car")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: DQN takes only Discrete actions, and world 'car' acts in ...
+    """
+    allowed = ACTION_SPACES.get(algo)
+    if allowed is not None and not isinstance(action_space, allowed):
+        others = [name for name in ALGORITHMS if name not in ACTION_SPACES]
+        raise ConfigError(
+            f"{algo.upper()} takes only {' or '.join(a.__name__ for a in allowed)} actions, "
+            f"and world {world!r} acts in {action_space}; train it with --algo "
+            f"{' or '.join(others)}"
+        )

@@ -16,22 +16,22 @@ import zipfile
 from pathlib import Path
 from typing import Any
 
-from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
-from noisybolt.agents.hyperparams import ALGORITHMS, META_KEYS, algorithm_class, frame_schedules
+from noisybolt.agents.hyperparams import (
+    META_KEYS,
+    algorithm_class,
+    check_action_space,
+    frame_schedules,
+)
 from noisybolt.agents.pipeline import overlapped_class
 from noisybolt.agents.policies import policy_class
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
 __all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
-
-#: The action spaces of the algorithms that take only some (SB3 asserts them deep inside
-#: the constructor, which reads as a hyperparameter problem; no hyperparameter fixes it).
-ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {"dqn": (spaces.Discrete,)}
 
 #: The entry of a saved model's ``data`` naming its algorithm (plain JSON).
 ALGO_KEY = "noisybolt_algo"
@@ -67,7 +67,7 @@ def make_model(
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     if trial and "buffer_size" in params:
         params["buffer_size"] = 1
-    check_action_space(config, env.action_space)
+    check_action_space(config.algo, env.action_space, world=config.world)
     cls = run_algorithm_class(config)
     try:
         model = cls(
@@ -86,23 +86,6 @@ def make_model(
             f"({type(error).__name__}: {error}); fix them (--hp KEY=VALUE)"
         ) from None
     return model
-
-
-def check_action_space(config: TrainConfig, action_space: spaces.Space) -> None:
-    """Refuses an algorithm that cannot act in the world's action space (DQN on a
-    continuous or multi-part one), naming those that can.
-
-    Raises:
-        ConfigError: naming the algorithm, the world's space and the alternatives.
-    """
-    allowed = ACTION_SPACES.get(config.algo)
-    if allowed is not None and not isinstance(action_space, allowed):
-        others = [name for name in ALGORITHMS if name not in ACTION_SPACES]
-        raise ConfigError(
-            f"{config.algo.upper()} takes only {' or '.join(a.__name__ for a in allowed)} "
-            f"actions, and world {config.world!r} acts in {action_space}; train it with "
-            f"--algo {' or '.join(others)}"
-        )
 
 
 def run_algorithm_class(config: TrainConfig) -> type[BaseAlgorithm]:
