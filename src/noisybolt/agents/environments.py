@@ -31,9 +31,8 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.detectors import make_detector
-from noisybolt.agents.extractor import check_agent_observation
 from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
-from noisybolt.agents.world_checks import check_specs_against_world
+from noisybolt.agents.world_checks import check_specs_against_world, check_world_spaces
 from noisybolt.bolt import BeliefSettings, Thresholds
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
@@ -313,10 +312,10 @@ def prepare_bolt(
     probe: Any = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
     fluents, camera_spec = tuple(probe.fluent_names), probe.camera_spec
     monotone = tuple(getattr(probe, "monotone_fluents", ()))
-    agent_space = getattr(probe, "single_observation_space", None)
-    probe.close()
-    if agent_space is not None:  # before a classifier is trained for a run that cannot start
-        check_agent_observation(agent_space, world=config.world)
+    try:  # before a classifier is trained for a run that cannot start
+        check_world_spaces(config, probe)
+    finally:
+        probe.close()
     dfas = check_specs_against_world(config, fluents, log=log)
     detector = make_detector(
         config.detector,

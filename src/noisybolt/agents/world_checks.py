@@ -20,7 +20,22 @@ from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
 if TYPE_CHECKING:
     from noisybolt.agents.config import TrainConfig
 
-__all__ = ["check_specs_against_world", "check_world_fits"]
+__all__ = ["check_specs_against_world", "check_world_fits", "check_world_spaces"]
+
+
+def check_world_spaces(config: TrainConfig, world: Any) -> None:
+    """The agent can read the world's observation and the algorithm act in its actions.
+
+    Raises:
+        ConfigError: an observation the agents cannot read (a Dict, a 2-D Box), or an
+            algorithm that cannot act there (DQN on continuous actions).
+    """
+    agent_space = getattr(world, "single_observation_space", None)
+    if agent_space is not None:
+        check_agent_observation(agent_space, world=config.world)
+    actions = getattr(world, "single_action_space", None)
+    if actions is not None:
+        check_action_space(config.algo, actions, world=config.world)
 
 
 def check_world_fits(config: TrainConfig, world: Any) -> None:
@@ -33,12 +48,7 @@ def check_world_fits(config: TrainConfig, world: Any) -> None:
         ConfigError: an observation the agents cannot read, or an algorithm that cannot
             act there; UnknownFluentError, UnsatisfiableSpecError, SpecSyntaxError: a spec.
     """
-    agent_space = getattr(world, "single_observation_space", None)
-    if agent_space is not None:
-        check_agent_observation(agent_space, world=config.world)
-    actions = getattr(world, "single_action_space", None)
-    if actions is not None:
-        check_action_space(config.algo, actions, world=config.world)
+    check_world_spaces(config, world)
     # The specs as given: their rewards may wait for the scale this check comes before.
     given = [
         SimpleNamespace(formula=spec["formula"], name=spec.get("name") or spec["formula"])
