@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
+from noisybolt.bolt.schemes import COMPLIANCE_MARGIN, compliance_scale
 from noisybolt.envs.bounds import ESTIMATE_MARGIN, estimate_return_bounds
 from noisybolt.errors import ConfigError
 
@@ -32,8 +33,20 @@ class ThreeSteps(gym.Env):
         return 0, self.pay * float(action), self.t >= self.length, False, {}
 
 
-def _world(n: int = 4, **kwargs: Any) -> SyncVectorEnv:
-    return SyncVectorEnv([lambda: ThreeSteps(**kwargs)] * n, autoreset_mode=AutoresetMode.SAME_STEP)
+class CostPerStep(ThreeSteps):
+    """Every step pays ``-cost`` whatever the action (Acrobot's pattern, shorter)."""
+
+    def __init__(self, cost: float = 1.0, length: int = 5) -> None:
+        super().__init__(pay=0.0, length=length)
+        self.cost = cost
+
+    def step(self, action: Any) -> tuple[int, float, bool, bool, dict]:
+        obs, _, terminated, truncated, info = super().step(action)
+        return obs, -self.cost, terminated, truncated, info
+
+
+def _world(n: int = 4, env: type[ThreeSteps] = ThreeSteps, **kwargs: Any) -> SyncVectorEnv:
+    return SyncVectorEnv([lambda: env(**kwargs)] * n, autoreset_mode=AutoresetMode.SAME_STEP)
 
 
 def test_bounds_from_the_episodes_random_play_ends_by_hand() -> None:
@@ -79,3 +92,17 @@ def test_bad_budgets_are_refused(steps: Any) -> None:
 def test_a_non_finite_reward_is_refused() -> None:
     with pytest.raises(ConfigError, match="non-finite reward"):
         estimate_return_bounds(_world(pay=np.inf), steps=40)
+
+
+def test_a_constant_cost_per_step_gives_a_width_of_the_longest_episode() -> None:
+    # Every step pays -2 and every episode is 5 steps, so random play returns -10 every
+    # time; an agent ending an episode after one step would return -2: the width is
+    # 2 x (5 - 1) = 8, and the top is raised by the margin as for any estimate.
+    estimate = estimate_return_bounds(_world(env=CostPerStep, cost=2.0), steps=40, seed=0)
+    assert estimate.observed == (-10.0, -10.0) and estimate.longest == 5
+    assert estimate.bounds.low == -10.0
+    assert estimate.bounds.high == pytest.approx(-10.0 + (1 + ESTIMATE_MARGIN) * 8.0)
+    assert compliance_scale(estimate.bounds) == pytest.approx(
+        COMPLIANCE_MARGIN * (1 + ESTIMATE_MARGIN) * 8.0
+    )
+    assert "one step's reward times the longest episode" in estimate.describe()

@@ -102,7 +102,13 @@ class EstimatedBounds:
             f"{lo:g} to {hi:g}, longest {self.longest} steps), raised to "
             f"[{self.bounds.low:g}, {self.bounds.high:g}]"
         )
-        if lo == hi:
+        if lo == hi and self.bounds.width > 0:
+            # e.g. Acrobot: -1 every step, every random episode cut at the time limit.
+            text += (
+                " (random play returned the same every time: the width is one step's reward"
+                " times the longest episode, as an agent may end an episode sooner)"
+            )
+        elif lo == hi:
             # e.g. a sparse goal random play never reached: the gap a trained agent can
             # open is unknown, and the scale falls back to 1.
             text += " (random play returned the same every time: it says nothing of the gap)"
@@ -169,6 +175,13 @@ def estimate_return_bounds(world: Any, *, steps: int = 4096, seed: int = 0) -> E
     seen = returns if returns else running.tolist()
     lo, hi = float(min(seen)), float(max(seen))
     width = max(hi - lo, step_hi - step_lo)
+    if width == 0.0:
+        # Every episode returned the same and every step paid the same reward r (Acrobot:
+        # -1 a step, every random episode cut at the time limit). The returns still differ
+        # by r for each step an agent ends an episode sooner or later, so the width is
+        # |r| over the longest episode's steps; where r is 0 (a sparse goal random play
+        # never reached) nothing says how wide, and the scale falls back to 1.
+        width = max(abs(step_lo), abs(step_hi)) * max(longest - 1, 1)
     if width == 0.0:
         return EstimatedBounds(ReturnBounds(lo, hi), len(returns), played, (lo, hi), longest)
     high = lo + width + ESTIMATE_MARGIN * width
