@@ -45,6 +45,9 @@ SCHEMES = {
     "compliance": {"reward": "compliance"},
     "no-shaping": {"reward": "compliance", "shaping": False},
     "paper": {"reward": "paper"},
+    # The default scheme with belief tracking instead of Algorithm 1's threshold (base
+    # rates estimated in each run, as `noisybolt train --tracking belief` does).
+    "belief": {"reward": "compliance", "tracking": "belief"},
 }
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 __all__ = [
     "BackendUnavailableError",
     "BaseRateError",
+    "BriefFluentWarning",
     "CameraError",
     "CompilationError",
     "ConfidenceLevelError",
@@ -232,6 +233,13 @@ class RareFluentWarning(UserWarning):
     """A fluent some spec uses is true (or false) in only a few of the images a classifier
     learns from (fewer than :data:`noisybolt.agents.detectors.RARE_FLUENT_IMAGES`): its
     validation accuracy rests on a handful of them, and the bolt may read it poorly."""
+
+
+class BriefFluentWarning(UserWarning):
+    """Under belief tracking, a fluent some spec uses is true in the world's play for
+    fewer frames in a row than the bolt needs to believe it, even from a perfect detector
+    (:func:`noisybolt.bolt.belief.frames_to_believe`): a spec met only on such a visit is
+    never credited. ``min_dwell=1`` or threshold tracking may be needed."""
 
 
 class SmallIntegerImagesWarning(UserWarning):

@@ -101,3 +101,24 @@ def test_the_commands_print_noisybolts_warnings_as_a_sentence_and_others_as_pyth
     assert ours == "noisybolt train: warning: declare the bounds\n"
     assert theirs.startswith("lib.py:7: UserWarning: w")
     assert warnings.formatwarning is original
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["reproduce", "table1", "--final-episodes", "0"], "must be at least 1, got '0'"),
+        (["reproduce", "table1", "--eval-episodes", "0"], "must be at least 1, got '0'"),
+        (["reproduce", "case4", "--episodes", "0"], "must be at least 1, got '0'"),
+        (["reproduce", "table1", "--retries", "-1"], "must be at least 0, got '-1'"),
+        (["reproduce", "table1", "--stop-after", "two"], "not a whole number: 'two'"),
+    ],
+)
+def test_counts_of_episodes_are_at_least_one_and_other_counts_not_negative(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from noisybolt.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err

@@ -22,8 +22,9 @@ learner collects overlapped (:mod:`noisybolt.agents.pipeline`).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, overload
 
 import numpy as np
@@ -34,16 +35,23 @@ from noisybolt.agents.detectors import make_detector
 from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
 from noisybolt.agents.world_checks import check_specs_against_world, check_world_spaces
 from noisybolt.bolt import BeliefSettings, Thresholds
+from noisybolt.bolt.belief import frames_to_believe
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
-from noisybolt.errors import (
-    ConfigError,
-)
+from noisybolt.errors import BriefFluentWarning, ConfigError
 from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, FluentDetector
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
-__all__ = ["BoltSetup", "build_bolted_env", "make_env", "make_run_world", "prepare_bolt"]
+__all__ = [
+    "BoltSetup",
+    "build_bolted_env",
+    "make_env",
+    "make_run_world",
+    "prepare_bolt",
+    "true_runs",
+    "warn_of_brief_runs",
+]
 
 #: Evaluation worlds are seeded apart from the training ones.
 EVAL_SEED_OFFSET = 10_000
@@ -340,7 +348,12 @@ def prepare_bolt(
                 "frequencies it was trained on; its prior is taken as 0.5 (train it again "
                 "with --retrain-classifier to record them)"
             )
-        belief = belief_from_play(config, detector, monotone=monotone)
+        belief = belief_from_play(
+            config,
+            detector,
+            monotone=monotone,
+            spec_fluents=tuple(f for f in fluents if any(f in d.relevant_fluents for d in dfas)),
+        )
         rates = np.broadcast_to(np.asarray(belief.base_rates, dtype=float), (len(fluents),))
         log(
             "belief tracking: base rates in play, estimated from the detector on random "
@@ -366,6 +379,7 @@ def belief_from_play(
     n_envs: int = BASE_RATE_PLAY[0],
     steps: int = BASE_RATE_PLAY[1],
     monotone: Sequence[str] = (),
+    spec_fluents: Sequence[str] = (),
 ) -> BeliefSettings:
     """``config.belief_settings`` with base rates estimated from seeded random play, and
     the fluents the world declares ``monotone`` (its ``monotone_fluents``: true once, true
@@ -382,23 +396,98 @@ def belief_from_play(
     Random play is not the trained agent's play: a fluent random play rarely shows (a
     far corner) gets a small rate, floored at ``min_base_rate`` (0.01) so that the bolt
     still believes a trained agent that shows it clearly.
+
+    Warns (:class:`~noisybolt.errors.BriefFluentWarning`) where one of ``spec_fluents`` is
+    true in random play for fewer frames in a row than the resulting settings need to
+    believe it even from a perfect detector (:func:`~noisybolt.bolt.belief.
+    frames_to_believe`): a check of the world against the model, reading the world's
+    labels as the classifier checks do; the estimate itself reads none.
     """
     from noisybolt.perception.base_rates import belief_settings_from_play
 
     settings = config.belief_settings
     assert settings is not None, "belief_from_play is for belief tracking"
-    frames = []
+    frames, truths = [], []
     for info in _random_play_infos(config, seed=config.seed + 1, n_envs=n_envs, steps=steps):
-        truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool) if detector.needs_truth else None
-        frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=truth))
+        truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
+        truths.append(truth)
+        seen_truth = truth if detector.needs_truth else None
+        frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=seen_truth))
     prior = detector.training_prior if isinstance(detector, ClassifierDetector) else None
-    return belief_settings_from_play(
+    estimated = belief_settings_from_play(
         [np.concatenate(frames)],
         training_prior=0.5 if prior is None else prior,
         confidence=settings.confidence,
         min_dwell=settings.min_dwell,
         monotone=tuple(settings.monotone) or tuple(monotone),
     )
+    fluents = tuple(detector.fluent_names)
+    for fluent in spec_fluents:
+        runs = true_runs(np.stack(truths)[:, :, fluents.index(fluent)])
+        warn_of_brief_runs(estimated, fluents, fluent, runs)
+    return estimated
+
+
+def true_runs(truth: np.ndarray) -> np.ndarray:
+    """int64 ``[n_runs]``: the lengths of the runs of True in ``truth`` (bool
+    ``[steps, n_envs]``, each column one env's frames in time order) that begin and end
+    within the frames (a False on each side), so that none is cut short by the window.
+
+    Example:
+        >>> true_runs(np.array([[1, 0], [0, 1], [1, 1], [1, 0], [0, 0]], dtype=bool))
+        array([2, 2])
+    """
+    padded = np.zeros((truth.shape[0] + 2, truth.shape[1]), dtype=np.int8)
+    padded[1:-1] = truth
+    edges = np.diff(padded, axis=0)  # +1 where a run starts, -1 one past its end
+    runs = []
+    for column in range(truth.shape[1]):
+        starts = np.flatnonzero(edges[:, column] == 1)
+        ends = np.flatnonzero(edges[:, column] == -1)
+        inside = (starts > 0) & (ends < truth.shape[0])
+        runs.append((ends - starts)[inside])
+    return np.concatenate(runs) if runs else np.zeros(0, dtype=np.int64)
+
+
+def warn_of_brief_runs(
+    settings: BeliefSettings, fluents: Sequence[str], fluent: str, runs: np.ndarray
+) -> None:
+    """Warns (:class:`BriefFluentWarning`) if some of ``runs`` (lengths of ``fluent``'s
+    true runs in play) are shorter than belief tracking under ``settings`` needs."""
+    if len(runs) == 0:
+        return
+    needed, single = frames_to_believe(settings, fluents, fluent)
+    brief = runs[runs < needed] if needed is not None else runs
+    if len(brief) == 0:
+        return
+    if needed is None:
+        need = f"does not believe {fluent} within 8 frames in a row"
+    else:
+        need = f"believes {fluent} only after {needed} frames of it in a row"
+    shortest = int(brief.min())
+    fix_with_one, _ = frames_to_believe(replace(settings, min_dwell=1), fluents, fluent)
+    if settings.min_dwell > 1 and fix_with_one is not None and fix_with_one <= shortest:
+        advice = "--min-dwell 1 (BeliefSettings(min_dwell=1)) would credit them"
+    else:
+        advice = (
+            "threshold tracking (--tracking threshold) credits them; belief tracking "
+            "needs the world to show it longer"
+        )
+    warnings.warn(
+        BriefFluentWarning(
+            f"belief tracking: in random play, {fluent} was true for fewer frames in a row "
+            f"than the bolt needs in {len(brief)} of its {len(runs)} visits (the shortest "
+            f"{shortest}); under these settings (base rate {_rate_of(settings, fluents, fluent)}"
+            f", min_dwell {settings.min_dwell}, confidence {settings.confidence:g}) the bolt "
+            f"{need}, even from a perfect detector (one frame: P = {single:g}), so a spec "
+            f"met only on such a visit is never credited; {advice}"
+        ),
+        stacklevel=2,
+    )
+
+
+def _rate_of(settings: BeliefSettings, fluents: Sequence[str], fluent: str) -> str:
+    return f"{settings.resolve(fluents).rates[list(fluents).index(fluent)]:.3f}"
 
 
 def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 128) -> np.ndarray:

@@ -115,6 +115,7 @@ __all__ = [
     "BeliefSettings",
     "Tracking",
     "check_tracking",
+    "frames_to_believe",
 ]
 
 #: How the bolt tracks its DFAs: ``"threshold"`` is Algorithm 1 (a fluent is true when
@@ -508,3 +509,56 @@ class BeliefEngine:
         n_specs = letters.shape[1]
         support = self._support[np.arange(n_specs)[None, :], :, letters]  # [E, S, q]
         return popcount(support & low_letters[:, :, None]).astype(np.float64)
+
+
+def frames_to_believe(
+    settings: BeliefSettings, fluents: Sequence[str], fluent: str, *, longest: int = 8
+) -> tuple[int | None, float]:
+    """How many frames in a row a *perfect* detector must show ``fluent`` true before the
+    bolt, tracking ``F(fluent)`` under ``settings``, believes it happened.
+
+    The frames: ``fluent`` clearly false twice, then clearly true ``n`` times, then
+    clearly false three times (the visit over); believed when the probability of
+    acceptance is still at least ``settings.confidence`` at the end. A fluent that a world
+    shows for fewer frames than this is never credited by belief tracking, however good
+    the detector: ``min_dwell`` makes a shorter truth impossible a priori, and a rare
+    fluent's onset costs more than one frame's evidence (``max_log_ratio``) can buy.
+
+    Args:
+        settings: the belief settings (per-fluent values over ``fluents``).
+        fluents: the bolt's vocabulary.
+        fluent: the fluent asked about.
+        longest: the most frames tried.
+
+    Returns:
+        ``(n, p)``: the fewest frames ``n`` (None: not within ``longest``) and the
+        probability of acceptance after a single frame of it.
+
+    Example:
+        >>> frames_to_believe(BeliefSettings(base_rates=0.1), ["x"], "x")
+        (2, 0.05)
+        >>> frames_to_believe(BeliefSettings(base_rates=0.1, min_dwell=1), ["x"], "x")
+        (1, 0.965)
+    """
+    column = list(fluents).index(fluent)
+    ever = DFA.from_function(
+        [fluent],
+        n_states=2,
+        initial_state=0,
+        accepting=[False, True],
+        delta=lambda q, m: 1 if q == 1 or m & 1 else 0,
+    )
+    engine = BeliefEngine([ever], fluents, settings)
+    single = 0.0
+    for n in range(1, longest + 1):
+        seen = np.zeros((2 + n + 3, len(fluents)))  # [frames, n_fluents], others false
+        seen[2 : 2 + n, column] = 1.0
+        joint = engine.reset_joint(seen[:1])
+        for frame in seen[1:]:
+            joint = engine.step_joint(joint, frame[None, :])
+        believed = float(engine.marginals(joint).accepting[0, 0])
+        if n == 1:
+            single = round(believed, 3)
+        if believed >= settings.confidence:
+            return n, single
+    return None, single

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from noisybolt.bolt.belief import TRACKING_MODES
-from noisybolt.cli.train import parse_frames
+from noisybolt.cli.train import parse_frames, whole_number
 
 __all__ = ["register"]
 
@@ -25,16 +25,6 @@ def _positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
-    return value
-
-
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
     return value
 
 
@@ -63,7 +53,7 @@ def _add_backend_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--address", default=None, help="Ray cluster address (with --backend ray)")
     parser.add_argument(
         "--workers",
-        type=_count,
+        type=whole_number(0),
         default=None,
         help="trials at once: local, default 1 (one after the other in this process), more on "
         "a local Ray Tune; ray, default 0 (as the CPUs allow)",
@@ -111,7 +101,9 @@ def register(subparsers: Any) -> None:
     )
     sweep.add_argument("config", type=Path, help="the sweep's YAML file")
     sweep.add_argument("--out", type=Path, default=None, help="default runs/sweeps/<name>")
-    sweep.add_argument("--retries", type=_count, default=None, help="override the config's retries")
+    sweep.add_argument(
+        "--retries", type=whole_number(0), default=None, help="override the config's retries"
+    )
     sweep.add_argument("--report", action="store_true", help="also write report.md/html")
     _add_backend_options(sweep)
     sweep.set_defaults(func=_sweep)
@@ -158,15 +150,18 @@ def register(subparsers: Any) -> None:
         "clip(paper N_frames / 10, 2k, 10k))",
     )
     table1.add_argument(
-        "--eval-episodes", type=_count, default=20, help="episodes per periodic evaluation"
+        "--eval-episodes", type=whole_number(1), default=20, help="episodes per periodic evaluation"
     )
     table1.add_argument(
-        "--final-episodes", type=_count, default=100, help="final evaluation episodes per seed"
+        "--final-episodes",
+        type=whole_number(1),
+        default=100,
+        help="final evaluation episodes per seed",
     )
-    table1.add_argument("--retries", type=_count, default=1)
+    table1.add_argument("--retries", type=whole_number(0), default=1)
     table1.add_argument(
         "--stop-after",
-        type=_count,
+        type=whole_number(0),
         default=3,
         help="stop a seed once this many evaluations in a row have >= 95%% of episodes at "
         "the goal and complying (default 3; 0: every seed trains its whole budget)",
@@ -205,10 +200,13 @@ def register(subparsers: Any) -> None:
         help="frames between periodic evaluations (default frames/30, at most 10k)",
     )
     case4.add_argument(
-        "--eval-episodes", type=_count, default=20, help="episodes per periodic evaluation"
+        "--eval-episodes", type=whole_number(1), default=20, help="episodes per periodic evaluation"
     )
     case4.add_argument(
-        "--episodes", type=_count, default=100, help="episodes per seed whose corners are counted"
+        "--episodes",
+        type=whole_number(1),
+        default=100,
+        help="episodes per seed whose corners are counted",
     )
     case4.add_argument("--algo", default="a2c", help="default a2c (the paper's)")
     case4.add_argument(
@@ -317,7 +315,7 @@ def _table1(args: argparse.Namespace) -> int:
         detector=args.detector,
         noise=args.noise,
         eval_freq=args.eval_freq,
-        eval_episodes=max(1, args.eval_episodes),
+        eval_episodes=args.eval_episodes,
         final_eval_episodes=args.final_episodes,
         retries=args.retries,
         keep_best=not args.last_model,
@@ -357,7 +355,7 @@ def _case4(args: argparse.Namespace) -> int:
         seeds=args.seeds,
         frames=args.frames,
         eval_freq=args.eval_freq,
-        eval_episodes=max(1, args.eval_episodes),
+        eval_episodes=args.eval_episodes,
         episodes=max(1, args.episodes),
         algo=args.algo,
         detector=args.detector,

@@ -4,12 +4,20 @@ from __future__ import annotations
 
 import argparse
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["FLAG_PATHS", "format_eval_table", "parse_frames", "register", "train_overrides"]
+__all__ = [
+    "FLAG_PATHS",
+    "format_eval_table",
+    "parse_frames",
+    "register",
+    "train_overrides",
+    "whole_number",
+]
 
 _SUFFIX = {"": 1, "k": 1_000, "m": 1_000_000}
 
@@ -234,7 +242,10 @@ def register(subparsers: Any) -> None:
     )
     evaluate.add_argument("run_dir", type=Path)
     evaluate.add_argument(
-        "--episodes", type=_episodes, default=50, help="episodes to run (and draw in --heatmap)"
+        "--episodes",
+        type=whole_number(1),
+        default=50,
+        help="episodes to run (and draw in --heatmap)",
     )
     evaluate.add_argument("--seed", type=int, default=12345)
     evaluate.add_argument("--stochastic", action="store_true", help="sample actions")
@@ -249,15 +260,21 @@ def register(subparsers: Any) -> None:
     evaluate.set_defaults(func=_evaluate)
 
 
-def _episodes(text: str) -> int:
-    """``evaluate --episodes``: a whole number of at least one."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
-    return value
+def whole_number(minimum: int) -> Callable[[str], int]:
+    """An argparse type: a whole number of at least ``minimum`` (counts of episodes,
+    retries, workers), refused by name otherwise."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {text!r}")
+        return value
+
+    parse.__name__ = f"whole number >= {minimum}"  # argparse names the type in errors
+    return parse
 
 
 class _SpecSetAction(argparse.Action):

@@ -1,0 +1,105 @@
+"""Belief tracking against worlds whose fluents hold for a single frame.
+
+Belief tracking assumes a fluent, once true, stays true ``min_dwell`` frames, and a rare
+fluent's onset costs more than one frame's evidence can buy: a world that shows a fluent
+for one frame (a FrozenLake cell passed through) is never credited, however good the
+detector. The run's set-up says so, measured on the world's random play.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from noisybolt.agents.environments import prepare_bolt, true_runs, warn_of_brief_runs
+from noisybolt.agents.training import DetectorConfig, TrainConfig
+from noisybolt.bolt import BeliefSettings
+from noisybolt.bolt.belief import frames_to_believe
+from noisybolt.errors import BriefFluentWarning
+
+LAKE = '''
+import gymnasium as gym
+import noisybolt
+
+def make():
+    env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
+    fluents = {"second": lambda e: e.s == 1, "goal": lambda e: e.s == 15}
+    return noisybolt.FluentLabels(env, fluents=fluents, success="goal", return_bounds=(0, 1))
+'''
+
+
+def test_true_runs_are_counted_only_when_whole_within_the_frames() -> None:
+    truth = np.array(
+        [
+            [1, 0, 0],
+            [1, 1, 0],
+            [0, 0, 1],
+            [1, 0, 1],
+            [0, 1, 1],
+            [0, 1, 1],
+        ],
+        dtype=bool,
+    )
+    # env 0: a run cut by the start (not counted), then one of 1; env 1: one of 1, then
+    # one cut by the end; env 2: one cut by the end.
+    assert sorted(true_runs(truth).tolist()) == [1, 1]
+
+
+def test_the_frames_a_perfect_detector_needs_follow_the_dwell_and_the_base_rate() -> None:
+    # min_dwell 2: a truth of one frame is impossible a priori, so two are needed.
+    assert frames_to_believe(BeliefSettings(base_rates=0.3), ["x"], "x")[0] == 2
+    # min_dwell 1, a common fluent: one clear frame (odds 0.15 * e^7 against 1) is enough.
+    n, single = frames_to_believe(BeliefSettings(base_rates=0.3, min_dwell=1), ["x"], "x")
+    assert n == 1 and single >= 0.9
+    # min_dwell 1, a rare one: its onset (0.5 * 0.01) costs more than a frame can buy.
+    n, single = frames_to_believe(BeliefSettings(base_rates=0.01, min_dwell=1), ["x"], "x")
+    assert n == 2 and single < 0.9
+    # The fluent asked about is found by name among others (which stay false).
+    settings = BeliefSettings(base_rates={"y": 0.01, "x": 0.3}, min_dwell=1)
+    assert frames_to_believe(settings, ["y", "x"], "x")[0] == 1
+
+
+def _warned(settings: BeliefSettings, runs: list[int]) -> list[str]:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warn_of_brief_runs(settings, ["x"], "x", np.array(runs))
+    return [str(w.message) for w in caught if issubclass(w.category, BriefFluentWarning)]
+
+
+def test_the_warning_counts_the_brief_visits_and_advises_what_would_credit_them() -> None:
+    assert _warned(BeliefSettings(base_rates=0.3), [2, 5, 3]) == []
+    [message] = _warned(BeliefSettings(base_rates=0.3), [1, 5, 1, 2])
+    assert "in 2 of its 4 visits (the shortest 1)" in message
+    assert "only after 2 frames of it in a row" in message
+    assert "--min-dwell 1" in message
+    # Rare: min_dwell 1 would not help, so the advice is threshold tracking.
+    [message] = _warned(BeliefSettings(base_rates=0.01), [1, 3])
+    assert "--tracking threshold" in message and "--min-dwell 1" not in message
+    assert _warned(BeliefSettings(base_rates=0.01), []) == []
+
+
+@pytest.mark.filterwarnings("ignore::noisybolt.errors.EstimatedBoundsWarning")
+def test_a_run_on_a_world_of_one_frame_visits_is_warned_at_set_up(
+    world_module: Callable[[str, str], str],
+) -> None:
+    world_module("brieflake", LAKE)
+    oracle = DetectorConfig(kind="oracle")
+
+    def set_up(**settings: object) -> list[str]:
+        config = TrainConfig.create(
+            world="brieflake:make", specs=["F(second)"], detector=oracle, **settings
+        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            prepare_bolt(config, seed=0, log=lambda _: None)
+        return [str(w.message) for w in caught if issubclass(w.category, BriefFluentWarning)]
+
+    # Random moves from the start cell step into cell 1 and out again at once most times.
+    [message] = set_up(tracking="belief")
+    assert message.startswith("belief tracking: in random play, second was true")
+    assert "--min-dwell 1" in message
+    assert set_up(tracking="belief", min_dwell=1) == []
+    assert set_up(tracking="threshold") == []  # Algorithm 1 believes a single frame
