@@ -20,7 +20,7 @@ from noisybolt.bolt import BeliefSettings
 from noisybolt.bolt.belief import frames_to_believe
 from noisybolt.errors import BriefFluentWarning
 
-LAKE = '''
+LAKE = """
 import gymnasium as gym
 import noisybolt
 
@@ -28,7 +28,7 @@ def make():
     env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
     fluents = {"second": lambda e: e.s == 1, "goal": lambda e: e.s == 15}
     return noisybolt.FluentLabels(env, fluents=fluents, success="goal", return_bounds=(0, 1))
-'''
+"""
 
 
 def test_true_runs_are_counted_only_when_whole_within_the_frames() -> None:
