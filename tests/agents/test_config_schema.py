@@ -176,6 +176,17 @@ def test_create_with_flat_keywords_is_build_with_paths() -> None:
     assert flat == paths
 
 
+def test_a_detector_kind_alone_is_that_detector_with_its_defaults() -> None:
+    from noisybolt.agents.training import DetectorConfig
+    from noisybolt.errors import UnknownNameError
+
+    by_kind = TrainConfig.create(specs=["edge"], detector="synthetic")
+    assert by_kind == TrainConfig.create(specs=["edge"], detector=DetectorConfig(kind="synthetic"))
+    assert by_kind.detector.kind == "synthetic"
+    with pytest.raises(UnknownNameError, match="unknown detector 'orakel'"):
+        TrainConfig.create(specs=["edge"], detector="orakel")
+
+
 def test_every_flat_name_reads_its_section(config: TrainConfig) -> None:
     assert set(FLAT_PATHS.values()) <= set(schema_paths())
     for name, path in FLAT_PATHS.items():

@@ -340,7 +340,8 @@ class TrainConfig:
     ) -> TrainConfig:
         """:meth:`build` with keyword arguments: ``overrides`` are hyperparameters, and
         ``settings`` flat names (:data:`FLAT_PATHS`: ``tracking``, ``eval_freq``, ...),
-        run-level fields or sections (``detector=DetectorConfig(...)``).
+        run-level fields or sections (``detector=DetectorConfig(...)``, or
+        ``detector="oracle"`` for a detector kind with its defaults).
 
         Example:
             >>> TrainConfig.create(specs=["edge"], reward="paper", tracking="belief").bolt.tracking
@@ -355,6 +356,9 @@ class TrainConfig:
         for key, value in settings.items():
             if dataclasses.is_dataclass(value) and not isinstance(value, type):
                 value = dump(value)
+            elif key == "detector" and isinstance(value, str):
+                # ``detector="oracle"``: the kind, as ``noisybolt train --detector`` takes it
+                key, value = "detector.kind", value
             changes[FLAT_PATHS.get(key, key)] = value
         return cls.build(changes, hp_file=hp_file)
 
