@@ -121,15 +121,16 @@ def test_first_frame_posterior_is_the_base_rate_corrected_detector() -> None:
 
 
 def test_one_step_hand_computed_with_persistence() -> None:
-    # pi = 0.5, s = 0.3: P(on | off) = P(off | on) = 0.15. Frame 1 p = 0.5 (no evidence):
-    # P(x1) = 0.5, accepting 0.5. Frame 2 p = 0.8 (ratio 4): cells (q, x) before the
-    # evidence: x2 on with q = 1 always; x2 off: q = 1 iff x1 on (0.5 * 0.15).
-    # Unnormalised: on 0.5 * 4 = 2.0; off, accepting 0.075; off, q = 0: 0.425.
+    # pi = 0.5, s = 0.3: P(on | off) = 0.15. Frame 1 p = 0.5 (no evidence): x1 off, or
+    # just on (0.5 each), accepting 0.5. min_dwell 2: x just on stays on at frame 2.
+    # Frame 2 p = 0.8 (ratio 4): before the evidence, x2 on with q = 1 always, from x1 on
+    # (0.5) or from off (0.5 * 0.15); x2 off only from x1 off (0.5 * 0.85), q = 0.
+    # Unnormalised: on (0.5 + 0.075) * 4 = 2.3; off: 0.425.
     bolt = belief_bolt(eventually(), "F(x)", switch_rate=0.3)
     bolt.reset(np.array([[0.5]]))
     bolt.step(np.array([[0.8]]))
-    total = 2.0 + 0.075 + 0.425
-    assert bolt.beliefs[0].tolist() == pytest.approx([0.425 / total, 2.075 / total])
+    total = 2.3 + 0.425
+    assert bolt.beliefs[0].tolist() == pytest.approx([0.425 / total, 2.3 / total])
 
 
 def test_doubtful_frame_is_taken_back_by_clear_frames_after_it() -> None:
@@ -204,6 +205,27 @@ def test_min_dwell_two_refutes_a_single_glitch_frame() -> None:
         accepting[dwell] = bolt.beliefs[0, 1]
     assert accepting[1] > 0.3
     assert accepting[2] < 0.05
+
+
+def test_a_glitch_on_the_reset_frame_is_refuted_as_one_on_any_other_frame() -> None:
+    # The same confident false frame, first on the reset frame, then on a later one,
+    # followed by clear frames: with two frames needed, both are taken back. (A fluent
+    # on at reset used to be "held", so the reset-frame glitch latched F(x): 0.92.)
+    after = {}
+    for at in (0, 3):
+        bolt = belief_bolt(eventually(), "F(x)", base_rates=(0.1,))
+        frames = np.full((10, 1, 1), 0.02)
+        frames[at] = 0.97
+        bolt.reset(frames[0])
+        for frame in frames[1:]:
+            bolt.step(frame)
+        after[at] = bolt.beliefs[0, 1]
+    assert after[0] < 0.05 and after[3] < 0.05
+    # While a fluent truly on at reset is believed from its second frame on.
+    bolt = belief_bolt(eventually(), "F(x)", base_rates=(0.1,))
+    bolt.reset(np.array([[0.97]]))
+    bolt.step(np.array([[0.97]]))
+    assert bolt.beliefs[0, 1] > 0.9
 
 
 def test_monotone_fluent_is_refuted_by_the_frames_after_a_false_positive() -> None:

@@ -467,7 +467,11 @@ def warn_of_brief_runs(
     shortest = int(brief.min())
     fix_with_one, _ = frames_to_believe(replace(settings, min_dwell=1), fluents, fluent)
     if settings.min_dwell > 1 and fix_with_one is not None and fix_with_one <= shortest:
-        advice = "--min-dwell 1 (BeliefSettings(min_dwell=1)) would credit them"
+        advice = (
+            "with --min-dwell 1 (BeliefSettings(min_dwell=1)) a perfect detector's "
+            f"{fix_with_one} frame(s) would be, a noisy detector's may still not be; "
+            "threshold tracking (--tracking threshold) believes a single frame"
+        )
     else:
         advice = (
             "threshold tracking (--tracking threshold) credits them; belief tracking "

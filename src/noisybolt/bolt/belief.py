@@ -414,9 +414,12 @@ class BeliefEngine:
         stay = np.ones((len(configs), len(configs)))
         for j in range(m):
             stay *= chain[j][digits[:, j][:, None], digits[:, j][None, :]]
-        # Before the first frame a fluent is off, or on for long enough (held).
+        # On the first frame a fluent is off, or has just come on: it holds min_dwell
+        # frames from there, as from any other onset, so a glitch on the reset frame is
+        # refuted by the next frames as a glitch on any other is (were it "held", one
+        # clear-looking first frame would latch F(x) for the episode).
         rates = model.rates[cols]
-        prior_digit = np.where(digits == held, rates, np.where(digits == 0, 1 - rates, 0.0))
+        prior_digit = np.where(digits == 1, rates, np.where(digits == 0, 1 - rates, 0.0))
         prior = np.prod(prior_digit, axis=1) if m else np.ones(1)
         n_c = len(configs)
         for q in range(n_q):
