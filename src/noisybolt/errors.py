@@ -17,6 +17,7 @@ __all__ = [
     "ConfigError",
     "CorruptFileError",
     "DenseTableError",
+    "DetectorFactoryError",
     "DetectorOutputError",
     "EstimatedBoundsWarning",
     "FluentFunctionError",
@@ -214,6 +215,15 @@ class NoCheckpointError(ConfigError):
 class UnsafeFileError(CorruptFileError):
     """A file in a run directory that noisybolt will not load because loading it could run
     code (a pickle, or a model entry it does not know); the message says what to do."""
+
+
+class DetectorFactoryError(WorldFactoryError):
+    """A detector factory path (``package.module:function``, ``--detector``) does not
+    import, is not callable, or its function does not return a fluent detector.
+
+    Attributes:
+        path: the factory path as given.
+    """
 
 
 class EstimatedBoundsWarning(UserWarning):

@@ -34,9 +34,10 @@ from typing import Any
 import numpy as np
 
 from noisybolt.agents.config import DetectorConfig
+from noisybolt.agents.sections import is_detector_factory
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, DetectorFactoryError, NoisyboltError
 from noisybolt.perception import dataset
 from noisybolt.perception.dataset import RARE_FLUENT_IMAGES, LabelCounts
 from noisybolt.perception.metrics import build_report
@@ -52,6 +53,7 @@ __all__ = [
     "default_classifier_path",
     "make_detector",
     "restart_seed",
+    "user_detector",
 ]
 
 #: An on-the-fly classifier whose worst fluent reaches this accuracy on the held-out
@@ -248,6 +250,10 @@ def make_detector(
             f"detector.low_confidence (--low-confidence) names {unknown}, which the world "
             f"{world!r} does not have; its fluents are {list(fluent_names)}"
         )
+    if is_detector_factory(config.kind):
+        return user_detector(
+            config.kind, fluent_names=fluent_names, camera_spec=camera_spec, seed=config.seed
+        )
     if config.kind == "oracle":
         return OracleDetector(fluent_names)
     if config.kind == "synthetic":
@@ -303,6 +309,64 @@ def make_detector(
             source=f"the {counts.images:,} images the {which} {path} was trained on",
         )
     return detector
+
+
+def user_detector(
+    path: str, *, fluent_names: Sequence[str], camera_spec: Any, seed: int
+) -> FluentDetector:
+    """The detector a user's factory path (``--detector mydetectors:noisy``) makes.
+
+    The function is imported as a world factory is (the current directory searched too)
+    and called with those of the keywords ``fluent_names`` (the world's, in its column
+    order), ``camera_spec`` (the bolt camera's :class:`~noisybolt.perception.protocols.
+    CameraSpec`) and ``seed`` (``detector.seed``, the run's seed unless set) that it names
+    (all of them if it takes ``**kwargs``). It returns a
+    :class:`~noisybolt.perception.protocols.FluentDetector`: ``fluent_names``,
+    ``needs_truth`` (True to be handed the world's true fluents, e.g. a noisy sensor
+    simulated from them) and ``predict(images, *, truth=None)`` giving probabilities
+    ``[n, n_fluents]``; optionally ``training_prior`` (each fluent's frequency in what it
+    was trained on, which belief tracking divides out; 0.5 if absent). Its fluents may be
+    in any order and include others: they are matched to the world's by name.
+
+    Raises:
+        DetectorFactoryError: the path does not import or name a callable, the call
+            fails, or it returns something that is not a detector.
+        IncompatibleError: the detector lacks some of the world's fluents.
+    """
+    import inspect
+
+    from noisybolt.envs.registry import resolve_factory
+    from noisybolt.perception.detectors import match_fluents
+
+    factory = resolve_factory(path, what="detector", error=DetectorFactoryError)
+    offered = {"fluent_names": tuple(fluent_names), "camera_spec": camera_spec, "seed": seed}
+    try:
+        parameters = inspect.signature(factory).parameters
+    except (TypeError, ValueError):  # a builtin without a signature: offer everything
+        parameters = None
+    if parameters is not None and not any(
+        p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()
+    ):
+        offered = {key: value for key, value in offered.items() if key in parameters}
+    try:
+        detector = factory(**offered)
+    except NoisyboltError:
+        raise
+    except Exception as exc:
+        raise DetectorFactoryError(
+            f"detector {path!r}: calling it with {sorted(offered) or 'no arguments'} failed "
+            f"({type(exc).__name__}: {exc}); it is called with those of fluent_names, "
+            "camera_spec and seed that it names",
+            path=path,
+        ) from exc
+    if not isinstance(detector, FluentDetector):
+        raise DetectorFactoryError(
+            f"detector {path!r} returned {type(detector).__name__!r}, not a fluent detector: "
+            "it needs fluent_names, needs_truth and predict(images, *, truth=None) "
+            "(noisybolt.perception.protocols.FluentDetector)",
+            path=path,
+        )
+    return match_fluents(detector, fluent_names)
 
 
 def restart_seed(seed: int, restart: int) -> int:

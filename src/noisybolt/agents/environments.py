@@ -413,7 +413,8 @@ def belief_from_play(
         truths.append(truth)
         seen_truth = truth if detector.needs_truth else None
         frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=seen_truth))
-    prior = detector.training_prior if isinstance(detector, ClassifierDetector) else None
+    # A trained classifier's label frequencies; a user's detector may state its own.
+    prior = getattr(detector, "training_prior", None)
     estimated = belief_settings_from_play(
         [np.concatenate(frames)],
         training_prior=0.5 if prior is None else prior,

@@ -30,9 +30,28 @@ __all__ = [
     "EvaluationConfig",
     "WorldConfig",
     "check_count",
+    "is_detector_factory",
 ]
 
 DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
+
+
+def is_detector_factory(kind: object) -> bool:
+    """Whether a detector kind is a user's factory path ``package.module:function``
+    (see :func:`noisybolt.agents.detectors.make_detector`).
+
+    Example:
+        >>> is_detector_factory("mydetectors:noisy"), is_detector_factory("oracle")
+        (True, False)
+        >>> is_detector_factory("mydetectors:"), is_detector_factory(":noisy")
+        (False, False)
+    """
+    if not isinstance(kind, str):
+        return False
+    module, sep, function = kind.partition(":")
+    return bool(sep and function.isidentifier() and module) and all(
+        part.isidentifier() for part in module.split(".")
+    )
 
 
 def check_count(path: str, value: Any, low: int) -> None:
@@ -163,7 +182,9 @@ class DetectorConfig:
 
     Attributes:
         kind: ``"classifier"`` (a trained CNN on the bolt's noisy camera), ``"oracle"``
-            (ground truth as 0/1) or ``"synthetic"`` (ground truth through seeded Beta noise).
+            (ground truth as 0/1), ``"synthetic"`` (ground truth through seeded Beta
+            noise), or a user's detector as a factory path ``"package.module:function"``
+            (:func:`noisybolt.agents.detectors.make_detector` says how it is called).
         path: the classifier file; None uses a cached one for this world and camera,
             trained on the fly if missing.
         low_confidence: fluents the synthetic detector sees with low confidence.
@@ -193,9 +214,11 @@ class DetectorConfig:
     final_views: bool = True
 
     def __post_init__(self) -> None:
-        if self.kind not in DETECTORS:
+        if self.kind not in DETECTORS and not is_detector_factory(self.kind):
             raise UnknownNameError(
-                f"unknown detector {self.kind!r}; known detectors: {list(DETECTORS)}",
+                f"unknown detector {self.kind!r}; known detectors: {list(DETECTORS)}, or "
+                "your own as a factory path 'package.module:function' (called with the "
+                "world's fluent_names, camera_spec and the detector's seed)",
                 name=self.kind,
                 known=DETECTORS,
             )

@@ -138,7 +138,9 @@ def register(subparsers: Any) -> None:
     flag("--algo", help="ppo, a2c or dqn (default ppo)")
     flag(
         "--detector",
-        help="classifier (trained CNN, default), oracle (ground truth) or synthetic",
+        help="classifier (trained CNN, default), oracle (ground truth), synthetic, or your "
+        "own as package.module:function (called with those of fluent_names, camera_spec "
+        "and seed it names; returns a FluentDetector)",
     )
     flag("--classifier", help="classifier file (default: cached or trained)")
     train.add_argument(

@@ -126,8 +126,13 @@ def is_factory_path(name: str) -> bool:
     return isinstance(name, str) and name not in _WORLDS and ":" in name
 
 
-def resolve_factory(path: str) -> Callable[[], gym.Env]:
+def resolve_factory(
+    path: str, *, what: str = "world", error: type[WorldFactoryError] = WorldFactoryError
+) -> Callable[..., Any]:
     """The function a factory path names (imported; the current directory is searched too).
+
+    ``what`` names the thing made in messages (a world, a detector), and ``error`` is the
+    error raised (a :class:`~noisybolt.errors.WorldFactoryError` or a subclass).
 
     Raises:
         WorldFactoryError: the path is malformed, its module does not import, or it names
@@ -135,22 +140,18 @@ def resolve_factory(path: str) -> Callable[[], gym.Env]:
     """
     module_name, sep, attribute = path.partition(":")
     if not sep or not module_name or not attribute.isidentifier():
-        raise WorldFactoryError(
-            f"a world factory path is 'package.module:factory', got {path!r}", path=path
-        )
+        raise error(f"a {what} factory path is 'package.module:factory', got {path!r}", path=path)
     try:
         module = _import_here_too(module_name)
     except Exception as exc:
-        raise WorldFactoryError(
-            f"world {path!r}: importing {module_name} failed ({type(exc).__name__}: {exc}); "
+        raise error(
+            f"{what} {path!r}: importing {module_name} failed ({type(exc).__name__}: {exc}); "
             "is the module on PYTHONPATH or in the current directory?",
             path=path,
         ) from exc
     factory = getattr(module, attribute, None)
     if not callable(factory):
-        raise WorldFactoryError(
-            f"world {path!r}: {module_name} has no function {attribute!r}", path=path
-        )
+        raise error(f"{what} {path!r}: {module_name} has no function {attribute!r}", path=path)
     return factory
 
 

@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from noisybolt.errors import ConfigError, UnknownFluentError
+from noisybolt.errors import ConfigError, DetectorOutputError, IncompatibleError, UnknownFluentError
 
-__all__ = ["BetaNoise", "OracleDetector", "SyntheticDetector"]
+__all__ = ["BetaNoise", "FluentsByName", "OracleDetector", "SyntheticDetector", "match_fluents"]
 
 
 def _check_truth(
@@ -59,6 +59,108 @@ def _check_names(fluent_names: Sequence[str]) -> tuple[str, ...]:
     if not names or len(set(names)) != len(names):
         raise ConfigError(f"fluent names must be non-empty and distinct: {names}")
     return names
+
+
+class FluentsByName:
+    """A detector's columns matched to a world's fluents by name (see :func:`match_fluents`).
+
+    Its ``fluent_names`` are the world's; ``predict`` asks the detector (handing it the
+    truth in the detector's own column order, if it reads the truth) and returns the
+    world's columns, in the world's order. ``training_prior`` follows the detector's.
+    """
+
+    def __init__(self, detector: Any, fluent_names: Sequence[str]) -> None:
+        self.detector = detector
+        own = tuple(detector.fluent_names)
+        self._own = own
+        self._names = tuple(fluent_names)
+        self._columns = np.array([own.index(f) for f in self._names], dtype=np.int64)
+        # Where the detector's own fluents sit among the world's (reading the truth).
+        self._truth_columns = np.array(
+            [self._names.index(f) if f in self._names else -1 for f in own], dtype=np.int64
+        )
+
+    @property
+    def fluent_names(self) -> tuple[str, ...]:
+        """The world's fluents, in the world's column order."""
+        return self._names
+
+    @property
+    def needs_truth(self) -> bool:
+        """Whether the detector reads the truth."""
+        return bool(self.detector.needs_truth)
+
+    @property
+    def training_prior(self) -> Any:
+        """The detector's ``training_prior`` in the world's order (None if it has none)."""
+        prior = getattr(self.detector, "training_prior", None)
+        if prior is None or np.ndim(prior) == 0:
+            return prior
+        return np.asarray(prior, dtype=np.float64)[self._columns]
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        """The detector's probabilities of the world's fluents, ``[n, n_world_fluents]``."""
+        if truth is not None:
+            truth = np.asarray(truth)[:, self._truth_columns]
+        probs = self.detector.predict(images, truth=truth)
+        if hasattr(probs, "detach"):  # a torch tensor
+            probs = probs.detach().cpu().numpy()
+        try:
+            probs = np.asarray(probs, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise DetectorOutputError(
+                f"detector {type(self.detector).__name__}.predict returned "
+                f"{type(probs).__name__}, not numbers: {exc}"
+            ) from None
+        if probs.ndim != 2 or probs.shape[1] != len(self._own):
+            raise DetectorOutputError(
+                f"detector {type(self.detector).__name__}.predict returned shape "
+                f"{probs.shape}; it must be [n_images, {len(self._own)}], one column per "
+                f"fluent of its own {list(self._own)}"
+            )
+        return probs[:, self._columns]
+
+
+def match_fluents(detector: Any, fluent_names: Sequence[str]) -> Any:
+    """``detector`` itself if it predicts ``fluent_names`` in that order; else, if it
+    predicts every one of them (in another order, or more besides), a
+    :class:`FluentsByName` that reads its columns by name.
+
+    Raises:
+        IncompatibleError: the detector lacks some of the fluents, names one twice, or
+            reads the truth of fluents the world does not have.
+
+    Example:
+        >>> matched = match_fluents(OracleDetector(("b", "t", "extra_seen")), ("t", "b"))
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.IncompatibleError: the detector reads the ground truth of ['extra_seen'], \
+which the world does not have (its fluents are ['t', 'b'])
+        >>> matched = match_fluents(OracleDetector(("b", "t")), ("t", "b"))
+        >>> matched.fluent_names
+        ('t', 'b')
+        >>> matched.predict(np.zeros((1, 1, 1, 3), np.uint8), truth=np.array([[True, False]]))
+        array([[1., 0.]])
+    """
+    own, world = tuple(detector.fluent_names), tuple(fluent_names)
+    if own == world:
+        return detector
+    if len(set(own)) != len(own):
+        raise IncompatibleError(f"the detector names a fluent twice: {list(own)}")
+    missing = [f for f in world if f not in own]
+    if missing:
+        raise IncompatibleError(
+            f"the detector predicts {list(own)} but the world's fluents are {list(world)}: "
+            f"it lacks {missing}; a detector must predict every fluent of the world (in any "
+            "order; others besides are ignored)"
+        )
+    extra = [f for f in own if f not in world]
+    if extra and detector.needs_truth:
+        raise IncompatibleError(
+            f"the detector reads the ground truth of {extra}, which the world does not have "
+            f"(its fluents are {list(world)})"
+        )
+    return FluentsByName(detector, world)
 
 
 class OracleDetector:

@@ -21,9 +21,10 @@ from noisybolt.bolt import (
     Tracking,
 )
 from noisybolt.bolt.bands import check_probs
-from noisybolt.errors import DetectorOutputError, IncompatibleError, UnsatisfiableSpecError
+from noisybolt.errors import DetectorOutputError, UnsatisfiableSpecError
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
+from noisybolt.perception.detectors import match_fluents
 from noisybolt.perception.protocols import FluentDetector
 
 __all__ = [
@@ -81,11 +82,14 @@ class TruthTracker:
 
 
 class BoltParts:
-    """The bolt that shapes the reward and the tracker of the true DFA states."""
+    """The bolt that shapes the reward, the tracker of the true DFA states, and the
+    detector with its columns in the world's order (:func:`~noisybolt.perception.
+    detectors.match_fluents`)."""
 
-    def __init__(self, bolt: RestrainingBolt, truth: TruthTracker) -> None:
+    def __init__(self, bolt: RestrainingBolt, truth: TruthTracker, detector: Any) -> None:
         self.bolt = bolt
         self.truth = truth
+        self.detector = detector
 
 
 def build_bolt(
@@ -124,14 +128,11 @@ def build_bolt(
         UnknownFluentError: a spec reads a fluent the world does not have (the message
             lists the world's fluents).
         UnsatisfiableSpecError: no trace satisfies a spec.
-        IncompatibleError: the detector predicts other fluents than the world's.
+        IncompatibleError: the detector lacks some of the world's fluents
+            (:func:`~noisybolt.perception.detectors.match_fluents`).
     """
     world_fluents = tuple(world_fluents)
-    if tuple(detector.fluent_names) != world_fluents:
-        raise IncompatibleError(
-            f"the detector predicts {list(detector.fluent_names)} but the world's fluents are "
-            f"{list(world_fluents)}; use a detector made for this world"
-        )
+    detector = match_fluents(detector, world_fluents)  # its columns by name
     compiled_here = dfas is None
     if dfas is None:
         dfas = [compile_ltlf(spec.formula, world_fluents) for spec in specs]
@@ -162,7 +163,7 @@ def build_bolt(
         tracking=tracking,
         belief=belief,
     )
-    return BoltParts(bolt, TruthTracker(bolt.dfas, world_fluents, n_envs=n_envs))
+    return BoltParts(bolt, TruthTracker(bolt.dfas, world_fluents, n_envs=n_envs), detector)
 
 
 def check_satisfiable(

@@ -156,7 +156,7 @@ class BoltVecEnv(VecEnvWrapper):
         self.bolt = parts.bolt
         self._truth = parts.truth
         self._source = source
-        self._detector = detector
+        self._detector = parts.detector
         self._thresholds = thresholds
         self._records = bool(info_records)
         super().__init__(

@@ -151,7 +151,6 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ),
             specs=specs,
         )
-        self._detector = detector
         self._thresholds = thresholds
         parts = build_bolt(
             specs,
@@ -167,6 +166,7 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         )
         self.bolt = parts.bolt
         self._truth = parts.truth
+        self._detector = parts.detector
         self.observation_space = dict_observation_space(
             env.observation_space, self.bolt.n_states, beliefs=observes_beliefs(self.bolt)
         )
