@@ -24,6 +24,7 @@ __all__ = [
     "IncompatibleError",
     "NoCheckpointError",
     "NoisyboltError",
+    "ObservationSpaceError",
     "RareFluentWarning",
     "RunLockedError",
     "SmallIntegerImagesWarning",
@@ -124,6 +125,12 @@ class FluentFunctionError(ConfigError):
 
 class CameraError(ConfigError):
     """A bolt camera raised, or returned an image that is not uint8 ``[H, W, 3]`` of one shape."""
+
+
+class ObservationSpaceError(ConfigError):
+    """An env offered to the bolt observes a structured space (a ``Dict``, a ``Tuple``)
+    that would be nested under the bolt's ``"image"`` entry, which SB3 cannot train on:
+    reduce it to its image or flatten it in the env first."""
 
 
 class UnlabelledEnvError(ConfigError):

@@ -18,7 +18,11 @@ from noisybolt.agents.training import DetectorConfig
 from noisybolt.cli import main
 from noisybolt.envs.gridworld import GridworldEnv
 from noisybolt.errors import DetectorFactoryError, IncompatibleError, UnknownNameError
-from noisybolt.perception.detectors import FluentsByName, SyntheticDetector, match_fluents
+from noisybolt.perception.detectors import (
+    FluentsByName,
+    SyntheticDetector,
+    match_fluents,
+)
 from noisybolt.wrappers import RestrainingBoltWrapper
 
 SPECS = [resolve_spec("edge"), resolve_spec("one_corner_once")]

@@ -157,3 +157,33 @@ def test_batched_bolt_equals_single_wrappers(obs_mode: str) -> None:
                 sobs, _ = single.reset()
             single_obs[i] = sobs
     assert n_done >= n  # the comparison crossed episode boundaries
+
+
+@pytest.mark.parametrize(
+    "space",
+    [
+        gym.spaces.Dict({"pos": gym.spaces.Discrete(4)}),
+        gym.spaces.Tuple((gym.spaces.Discrete(32), gym.spaces.Discrete(11))),
+    ],
+)
+def test_a_structured_observation_is_refused_by_both_bolts_before_anything_is_built(
+    space: gym.Space,
+) -> None:
+    # SB3 takes no space nested under the bolt's "image" entry; it used to fail inside
+    # PPO's constructor with NotImplementedError. Refused before a classifier is trained.
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+    from noisybolt.envs import SB3VecEnv
+    from noisybolt.errors import ObservationSpaceError
+    from noisybolt.wrappers import BoltVecEnv
+
+    class Structured(gym.Env):
+        observation_space = space
+        action_space = gym.spaces.Discrete(2)
+        fluent_names = ("x",)
+
+    with pytest.raises(ObservationSpaceError, match="FlattenObservation"):
+        RestrainingBoltWrapper(Structured(), ["F(x)"], "classifier")
+    vector = SyncVectorEnv([Structured], autoreset_mode=AutoresetMode.SAME_STEP)
+    with pytest.raises(ObservationSpaceError, match='nested under the bolt\'s "image"'):
+        BoltVecEnv(SB3VecEnv(vector), ["F(x)"], OracleDetector(("x",)))

@@ -21,7 +21,7 @@ from noisybolt.bolt import (
     Tracking,
 )
 from noisybolt.bolt.bands import check_probs
-from noisybolt.errors import DetectorOutputError, UnsatisfiableSpecError
+from noisybolt.errors import DetectorOutputError, ObservationSpaceError, UnsatisfiableSpecError
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import match_fluents
@@ -32,6 +32,7 @@ __all__ = [
     "TruthTracker",
     "bolt_info",
     "build_bolt",
+    "check_flat_observation",
     "check_satisfiable",
     "detector_output",
     "dfa_view",
@@ -238,6 +239,43 @@ def detector_output(probs: Any, detector: FluentDetector, *, rows: int) -> np.nd
             f"{type(detector).__name__}.predict gave what the bolt cannot read: {error} "
             f"(for {rows} image(s) and the fluents {list(names)})"
         ) from None
+
+
+#: The observations the bolt puts under ``"image"``: SB3, which one-hot encodes the
+#: ``"dfa"`` beside it, takes no space nested inside a ``Dict``.
+FLAT_SPACES = (
+    gym.spaces.Box,
+    gym.spaces.Discrete,
+    gym.spaces.MultiDiscrete,
+    gym.spaces.MultiBinary,
+)
+
+
+def check_flat_observation(space: gym.Space) -> None:
+    """Refuses an env observation the bolted ``Dict{"image", "dfa"}`` cannot carry to a
+    learner: a ``Dict``, ``Tuple`` or other structured space would be nested under
+    ``"image"``, which SB3 refuses (``NotImplementedError: Nested observation spaces``).
+
+    Raises:
+        ObservationSpaceError: naming the space and how to reduce it.
+
+    Example:
+        >>> check_flat_observation(gym.spaces.Box(0, 255, (8, 8, 3), np.uint8))
+        >>> check_flat_observation(gym.spaces.Tuple((gym.spaces.Discrete(2),)))
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ObservationSpaceError: the env's observation space \
+Tuple(Discrete(2)) would be nested under the bolt's "image" entry, ...
+    """
+    if isinstance(space, FLAT_SPACES):
+        return
+    raise ObservationSpaceError(
+        f"the env's observation space {space} would be nested under the bolt's \"image\" "
+        "entry, and SB3 takes no nested spaces: reduce it in the env you bolt to a Box "
+        "(an image or a vector) or a Discrete/MultiDiscrete/MultiBinary state: keep its "
+        "image (MiniGrid: minigrid.wrappers.ImgObsWrapper) or flatten it "
+        "(gymnasium.wrappers.FlattenObservation)"
+    )
 
 
 def dict_observation_space(

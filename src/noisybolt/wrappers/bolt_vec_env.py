@@ -47,6 +47,7 @@ from noisybolt.perception.protocols import FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
     build_bolt,
+    check_flat_observation,
     detector_output,
     dfa_view,
     dict_observation_space,
@@ -115,6 +116,7 @@ class BoltVecEnv(VecEnvWrapper):
                 "end_on_violation is not supported by the batched bolt; use "
                 "RestrainingBoltWrapper around single environments for it"
             )
+        check_flat_observation(venv.observation_space)
         source = venv.unwrapped
         if not isinstance(source, SB3VecEnv):
             raise ConfigError(

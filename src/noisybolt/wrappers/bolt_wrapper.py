@@ -23,6 +23,7 @@ from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
     build_bolt,
+    check_flat_observation,
     detector_output,
     dfa_view,
     dict_observation_space,
@@ -140,6 +141,7 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             belief=belief,
         )
         super().__init__(env)
+        check_flat_observation(env.observation_space)  # before a classifier is trained
         fluent_names = fluent_names_of(env)
         specs = coerce_specs(specs)
         detector = resolve_detector(
