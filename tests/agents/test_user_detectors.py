@@ -37,6 +37,9 @@ class Reversed:
         self.inner = SyntheticDetector(fluent_names, seed=seed)
         self.fluent_names = tuple(reversed(fluent_names))
 
+    def reseed(self, seed: int) -> None:  # as the bolts call it on reset(seed=)
+        self.inner.reseed(seed)
+
     def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> Any:
         assert truth is not None  # handed in this detector's own (reversed) order
         return self.inner.predict(images, truth=truth[:, ::-1])[:, ::-1]

@@ -187,3 +187,20 @@ def test_a_structured_observation_is_refused_by_both_bolts_before_anything_is_bu
     vector = SyncVectorEnv([Structured], autoreset_mode=AutoresetMode.SAME_STEP)
     with pytest.raises(ObservationSpaceError, match='nested under the bolt\'s "image"'):
         BoltVecEnv(SB3VecEnv(vector), ["F(x)"], OracleDetector(("x",)))
+
+
+def test_a_seeded_reset_sees_the_same_synthetic_noise_again() -> None:
+    # The env's camera and the detector's noise both restart from reset(seed=): two
+    # seeded episodes with the same actions read the same probabilities, another seed not.
+    env = GridworldEnv()
+    wrapped = RestrainingBoltWrapper(env, SPECS, SyntheticDetector(env.fluent_names, seed=0))
+
+    def episode(seed: int) -> np.ndarray:
+        probs = [wrapped.reset(seed=seed)[1]["fluent_probs"]]
+        for action in [0, 1, 2, 0, 0, 3, 1]:
+            probs.append(wrapped.step(action)[4]["fluent_probs"])
+        return np.array(probs)
+
+    first = episode(3)
+    np.testing.assert_array_equal(first, episode(3))
+    assert not np.array_equal(first, episode(4))

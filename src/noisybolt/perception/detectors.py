@@ -34,7 +34,14 @@ import numpy as np
 
 from noisybolt.errors import ConfigError, DetectorOutputError, IncompatibleError, UnknownFluentError
 
-__all__ = ["BetaNoise", "FluentsByName", "OracleDetector", "SyntheticDetector", "match_fluents"]
+__all__ = [
+    "BetaNoise",
+    "FluentsByName",
+    "OracleDetector",
+    "SyntheticDetector",
+    "match_fluents",
+    "reseed_detector",
+]
 
 
 def _check_truth(
@@ -98,6 +105,10 @@ class FluentsByName:
             return prior
         return np.asarray(prior, dtype=np.float64)[self._columns]
 
+    def reseed(self, seed: int) -> None:
+        """The detector's ``reseed``, if it has one (see :func:`reseed_detector`)."""
+        reseed_detector(self.detector, seed)
+
     def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
         """The detector's probabilities of the world's fluents, ``[n, n_world_fluents]``."""
         if truth is not None:
@@ -119,6 +130,15 @@ class FluentsByName:
                 f"fluent of its own {list(self._own)}"
             )
         return probs[:, self._columns]
+
+
+def reseed_detector(detector: Any, seed: int | None) -> None:
+    """Restarts a detector's randomness from ``seed`` where it has any: the bolts call
+    this on ``reset(seed=)`` (and SB3's ``VecEnv.seed``), so that seeded episodes see the
+    same noise again. A detector without a ``reseed(seed)`` method is left alone (a
+    classifier is deterministic); a user's noisy detector may define one."""
+    if seed is not None and callable(getattr(detector, "reseed", None)):
+        detector.reseed(seed)
 
 
 def match_fluents(detector: Any, fluent_names: Sequence[str]) -> Any:
@@ -303,6 +323,21 @@ class SyntheticDetector:
         self._a_neg, self._b_neg = params[:, 1, 0], params[:, 1, 1]
         self._seed = seed
         self._rng = np.random.default_rng(seed)
+
+    def reseed(self, seed: int) -> None:
+        """Restarts the noise from ``seed`` (with the detector's own seed), as an env's
+        ``reset(seed=)`` restarts its randomness: a bolted env reset with the same seed
+        then sees the same probabilities again.
+
+        Example:
+            >>> d = SyntheticDetector(("x",), seed=0)
+            >>> truth = np.ones((1, 1), bool)
+            >>> d.reseed(5); a = d.predict(np.zeros((1, 1, 1, 3), np.uint8), truth=truth)
+            >>> d.reseed(5); b = d.predict(np.zeros((1, 1, 1, 3), np.uint8), truth=truth)
+            >>> bool((a == b).all())
+            True
+        """
+        self._rng = np.random.default_rng([self._seed, int(seed)])
 
     @classmethod
     def fit(

@@ -43,6 +43,7 @@ from noisybolt.envs.labels import batched_labels_from_info
 from noisybolt.envs.sb3 import SB3VecEnv
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.logic.dfa import DFA
+from noisybolt.perception.detectors import reseed_detector
 from noisybolt.perception.protocols import FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
@@ -187,6 +188,13 @@ class BoltVecEnv(VecEnvWrapper):
 
     def _obs(self, image: Any, dfa: np.ndarray) -> dict[str, Any]:
         return {"image": image, "dfa": dfa.copy()}
+
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
+        """Seeds the next reset of the environments (SB3's ``VecEnv.seed``) and restarts
+        the detector's noise from ``seed`` (:func:`~noisybolt.perception.detectors.
+        reseed_detector`)."""
+        reseed_detector(self._detector, seed)
+        return self.venv.seed(seed)
 
     def reset(self) -> VecEnvObs:
         """Resets every environment; every DFA reads its first observation."""

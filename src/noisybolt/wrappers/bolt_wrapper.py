@@ -19,6 +19,7 @@ from noisybolt.bolt import (
 )
 from noisybolt.envs.labels import collect_labelled_samples, fluent_names_of, labels_from_info
 from noisybolt.logic.dfa import DFA
+from noisybolt.perception.detectors import reseed_detector
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
@@ -192,6 +193,7 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Resets the env and lets every DFA read the first observation."""
         obs, info = self.env.reset(seed=seed, options=options)
+        reseed_detector(self._detector, seed)  # seeded episodes see the same noise
         probs, truth = self._look(info, "reset")
         out = self.bolt.reset(probs)
         self._truth.reset(truth)
