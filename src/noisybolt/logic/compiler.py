@@ -7,6 +7,7 @@ import os
 from collections.abc import Sequence
 from typing import Literal
 
+from noisybolt.errors import CompilationError
 from noisybolt.logic import cache as dfa_cache
 from noisybolt.logic.dfa import DFA
 from noisybolt.logic.mona import compile_mona, find_mona, mona_version, require_mona
@@ -54,8 +55,10 @@ def compile_ltlf(
         fluents: the vocabulary, in mask-bit order. None: the formula's atoms, sorted.
             Fluents the formula does not mention are don't-cares.
         backend: ``"mona"`` (ltlf2dfa's encoding run by MONA), ``"bdd"`` (progression over
-            BDDs in Python; no binary needed) or ``"auto"`` (MONA when installed).
-        timeout: seconds the backend may take.
+            BDDs in Python; no binary needed) or ``"auto"`` (MONA when installed, the
+            BDD progression where MONA is not, or where it times out or fails).
+        timeout: seconds each backend may take (under ``"auto"``, MONA and then the
+            progression may each take this long).
         cache: True for the default cache directory (``$NOISYBOLT_CACHE_DIR`` or
             ``~/.cache/noisybolt/dfa``), a directory, or False for no cache.
 
@@ -81,33 +84,57 @@ def compile_ltlf(
     parsed = parse_ltlf(formula)
     vocabulary = resolve_vocabulary(formula, parsed, fluents)
     chosen = resolve_backend(backend)
-    mona = require_mona() if chosen == "mona" else None
-    version = mona_version(mona) if mona is not None else bdd_backend_version()
+    # Under "auto" MONA goes first and the BDD progression takes over if MONA times out
+    # or fails: MONA's time grows steeply on long chains of X (20 nested conjuncts of
+    # G(a -> X^k b): past 60 s) that the progression compiles in about a second.
+    order = ["mona", "bdd"] if backend == "auto" and chosen == "mona" else [chosen]
     key = normalise(parsed)
     directory = dfa_cache.cache_directory(cache)
+    versions = {
+        name: mona_version(require_mona()) if name == "mona" else bdd_backend_version()
+        for name in order
+    }
     if directory is not None:
-        found = dfa_cache.load(
-            directory,
-            formula=key,
-            fluents=vocabulary,
-            backend=chosen,
-            backend_version=version,
-            source=formula,
+        for name in order:
+            found = dfa_cache.load(
+                directory,
+                formula=key,
+                fluents=vocabulary,
+                backend=name,
+                backend_version=versions[name],
+                source=formula,
+            )
+            if found is not None:
+                return found
+    failures: list[CompilationError] = []
+    for name in order:
+        try:
+            if name == "mona":
+                raw = compile_mona(
+                    parsed, vocabulary, formula=formula, timeout=timeout, mona=require_mona()
+                )
+            else:
+                raw = compile_progression(parsed, vocabulary, formula=formula, timeout=timeout)
+        except CompilationError as error:
+            failures.append(error)
+            continue
+        dfa = DFA.from_diagram(
+            vocabulary,
+            initial_state=raw.initial_state,
+            accepting=raw.accepting,
+            diagram=raw.diagram,
+            formula=formula,
+            minimise=True,
         )
-        if found is not None:
-            return found
-    if chosen == "mona":
-        raw = compile_mona(parsed, vocabulary, formula=formula, timeout=timeout, mona=mona)
-    else:
-        raw = compile_progression(parsed, vocabulary, formula=formula, timeout=timeout)
-    dfa = DFA.from_diagram(
-        vocabulary,
-        initial_state=raw.initial_state,
-        accepting=raw.accepting,
-        diagram=raw.diagram,
+        if directory is not None:
+            dfa_cache.store(
+                directory, dfa, formula=key, backend=name, backend_version=versions[name]
+            )
+        return dfa
+    if len(failures) == 1:
+        raise failures[0]
+    raise CompilationError(
+        f"neither backend compiled {formula!r}: MONA: {failures[0]}; the BDD progression: "
+        f"{failures[1]}",
         formula=formula,
-        minimise=True,
-    )
-    if directory is not None:
-        dfa_cache.store(directory, dfa, formula=key, backend=chosen, backend_version=version)
-    return dfa
+    ) from failures[-1]

@@ -148,7 +148,8 @@ def compile_mona(
         except subprocess.TimeoutExpired:
             raise CompilationError(
                 f"MONA did not finish compiling {formula!r} within {timeout:g} s; raise "
-                "timeout=, or split the formula into several specs",
+                "timeout=, use backend='bdd' (the BDD progression, often much faster on "
+                "long chains of X), or split the formula into several specs",
                 formula=formula,
             ) from None
         except OSError as error:
