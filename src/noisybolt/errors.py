@@ -31,6 +31,7 @@ __all__ = [
     "SpecSyntaxError",
     "StaleInfoError",
     "UnboundedEpisodesWarning",
+    "UnknownBaseRatesWarning",
     "UnknownFluentError",
     "UnknownNameError",
     "UnlabelledEnvError",
@@ -237,6 +238,13 @@ class EstimatedBoundsWarning(UserWarning):
     """The world declares no bounds on its episodes' returns, so the ``compliance`` scale
     was set from bounds estimated by random play; declare them (``return_bounds=``) or give
     the scale to be sure compliance comes first."""
+
+
+class UnknownBaseRatesWarning(UserWarning):
+    """Belief tracking was set up without the fluents' base rates in play, so it takes
+    the detector's training prior (0.5) for them, which protects rare fluents poorly
+    against faint, steady false readings: estimate them with
+    :func:`noisybolt.perception.base_rates.belief_settings_from_play`."""
 
 
 class UnboundedEpisodesWarning(UserWarning):

@@ -219,3 +219,23 @@ def test_a_condition_met_in_one_step_is_credited_only_below_the_two_step_dwell()
         "belief, min_dwell 2": False,
         "belief, min_dwell 1": True,
     }
+
+
+def test_belief_tracking_without_base_rates_is_warned_of_in_the_api() -> None:
+    import warnings
+
+    from noisybolt.errors import UnknownBaseRatesWarning
+
+    def warned(belief: BeliefSettings | None) -> list[str]:
+        env = GridworldEnv()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            RestrainingBoltWrapper(
+                env, SPECS, OracleDetector(env.fluent_names), tracking="belief", belief=belief
+            )
+        return [str(w.message) for w in caught if w.category is UnknownBaseRatesWarning]
+
+    [message] = warned(None)
+    assert "belief_settings_from_play" in message
+    assert len(warned(BeliefSettings())) == 1
+    assert warned(BeliefSettings(base_rates=0.1)) == []

@@ -80,7 +80,7 @@ Example:
     >>> start = engine.reset_joint(np.array([[0.02]]))  # a clear "no" on the first frame
     >>> joint = engine.step_joint(start, np.array([[0.7]]))  # then one doubtful frame
     >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)
-    0.113
+    0.114
     >>> joint = engine.step_joint(joint, np.array([[0.02]]))  # a clear "no" takes it back
     >>> round(float(engine.marginals(joint).accepting[0, 0]), 3)
     0.006

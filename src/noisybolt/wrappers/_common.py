@@ -21,7 +21,12 @@ from noisybolt.bolt import (
     Tracking,
 )
 from noisybolt.bolt.bands import check_probs
-from noisybolt.errors import DetectorOutputError, ObservationSpaceError, UnsatisfiableSpecError
+from noisybolt.errors import (
+    DetectorOutputError,
+    ObservationSpaceError,
+    UnknownBaseRatesWarning,
+    UnsatisfiableSpecError,
+)
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid, masks_from_bool_matrix
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import match_fluents
@@ -150,6 +155,19 @@ def build_bolt(
             ]
         terms = ProgressShaping(
             dfas, scales=scales, gamma=progress_gamma, shaping=shaping, letters=letters
+        )
+    if tracking == "belief" and (belief is None or belief.base_rates is None):
+        warnings.warn(
+            UnknownBaseRatesWarning(
+                "belief tracking without base_rates takes each fluent's frequency in play "
+                "to be the detector's training prior (0.5): a rare fluent's onset then "
+                "costs little, and faint but steady readings of it (p = 0.2 on every "
+                "frame) add up to a false F(x) within a few hundred steps; estimate the "
+                "rates from the detector on unlabelled play with noisybolt.perception."
+                "base_rates.belief_settings_from_play (noisybolt train does so itself), "
+                "or give them: BeliefSettings(base_rates={fluent: rate})"
+            ),
+            stacklevel=4,  # the caller of the wrapper that called build_bolt
         )
     bolt = RestrainingBolt(
         specs,
