@@ -380,3 +380,20 @@ def test_a_sweep_trial_killed_before_its_first_checkpoint_starts_over(tmp_path: 
     run_trial(TrialTask(trial={**trial, "config": config.to_dict()}, run_dir=str(folder)))
     assert json.loads((folder / "summary.json").read_text())["frames"] == 512
     assert [m["frames"] for m in json.loads((folder / "metrics.json").read_text())] == [512]
+
+
+def test_each_start_records_the_software_it_ran_on(tmp_path: Path) -> None:
+    from importlib import metadata
+
+    from noisybolt.rundir import RunDirectory
+
+    run = RunDirectory(tmp_path / "run")
+    run.path.mkdir()
+    run.record_versions(frames=0)
+    (run.path / "versions.json").write_text('{"half": ')  # torn by hand: started again
+    run.record_versions(frames=0)
+    run.record_versions(frames=2048)
+    records = json.loads((run.path / "versions.json").read_text())
+    assert [r["frames"] for r in records] == [0, 2048]
+    assert records[0]["packages"]["torch"] == metadata.version("torch")
+    assert records[0]["python"] == ".".join(map(str, sys.version_info[:3]))

@@ -4,6 +4,7 @@ Layout of a run directory::
 
     config.json     the resolved configuration (what actually ran, defaults included)
     command.txt     the exact command line, shell-quoted
+    versions.json   Python's, the platform's and the main packages' versions, per start
     metrics.json    a list of records (rewritten atomically, never appended in place)
     .lock           held (``flock``) by the one process writing the run; names its holder
     ...             whatever the run produces (checkpoints/, model.zip, plots)
@@ -29,7 +30,13 @@ from typing import Any
 from noisybolt.errors import ConfigError, CorruptFileError, RunLockedError
 from noisybolt.io import atomic_write_json, atomic_write_text, read_json
 
-__all__ = ["CLASSIFIER_STAGES", "RunDirectory", "config_differences"]
+__all__ = [
+    "CLASSIFIER_STAGES",
+    "RECORDED_PACKAGES",
+    "RunDirectory",
+    "config_differences",
+    "software_versions",
+]
 
 #: The stages ``noisybolt classifiers`` runs in one directory, each keeping its settings
 #: under its name in that directory's ``config.json`` (a run's holds its TrainConfig).
@@ -218,6 +225,17 @@ class RunDirectory:
         text = _command_text(sys.argv if argv is None else argv)
         atomic_write_text(self.file("command.txt"), text)
 
+    def record_versions(self, *, frames: int) -> None:
+        """Adds this process's software (:func:`software_versions`) to ``versions.json``:
+        a list, one record per start or resume, with the frames it started from."""
+        path = self.file("versions.json")
+        try:
+            records = read_json(path, default=[], kind=list)
+        except CorruptFileError:
+            records = []  # a record of provenance, not results: start it again
+        records.append({"frames": int(frames), **software_versions()})
+        atomic_write_json(path, records)
+
     def write_metrics(self, records: Sequence[Mapping[str, Any]]) -> None:
         """Rewrites ``metrics.json`` with all records (atomic, so never half-written)."""
         atomic_write_json(self.file("metrics.json"), [dict(r) for r in records])
@@ -239,6 +257,42 @@ class RunDirectory:
                 "'frames'; restore it from a copy, or remove it and train again"
             )
         return [dict(r) for r in data]
+
+
+#: The packages whose versions a run records (those installed).
+RECORDED_PACKAGES = (
+    "noisybolt",
+    "stable-baselines3",
+    "torch",
+    "gymnasium",
+    "numpy",
+    "minigrid",
+    "ale-py",
+    "ltlf2dfa",
+)
+
+
+def software_versions() -> dict[str, Any]:
+    """Python, the platform and :data:`RECORDED_PACKAGES`' versions (None: not installed).
+
+    Example:
+        >>> sorted(software_versions())[:3]
+        ['packages', 'platform', 'python']
+    """
+    import platform
+    from importlib import metadata
+
+    packages: dict[str, str | None] = {}
+    for name in RECORDED_PACKAGES:
+        try:
+            packages[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            packages[name] = None
+    return {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "packages": packages,
+    }
 
 
 def _command_text(argv: Sequence[str]) -> str:

@@ -172,3 +172,5 @@ def test_train_and_resume_rebuild_the_users_detector(
     resume = ["train", "--out", str(out), "--resume", "--frames", "128", "--no-progress"]
     assert main(resume) == 0
     assert userdetectors.calls and userdetectors.calls[0] == ("Seeded", 4)
+    started = json.loads((out / "versions.json").read_text())  # the start, then the resume
+    assert [r["frames"] for r in started] == [0, 64]

@@ -237,6 +237,7 @@ def train(
             model = fresh
         run.write_config(config.to_dict())
         run.write_command(argv)
+        run.record_versions(frames=model.num_timesteps)
         return _learn(
             config,
             run,
