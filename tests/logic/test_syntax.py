@@ -40,9 +40,23 @@ def test_glued_operator_gets_a_hint() -> None:
     assert caught.value.position == 2
 
 
-def test_uppercase_atom_gets_a_hint() -> None:
-    with pytest.raises(SpecSyntaxError, match="atoms are lowercase"):
-        parse_ltlf("F(Door)")
+@pytest.mark.parametrize(
+    ("formula", "hint"),
+    [
+        ("F(Door)", "hint: fluent names are lowercase: write 'door'"),
+        ("F(Right_Edge)", "hint: fluent names are lowercase: write 'right_edge'"),
+        ("G(topRow)", "hint: fluent names are lowercase: write 'toprow'"),
+        ("G(a) & Q", "hint: atoms are lowercase ([a-z][a-z0-9_]*); uppercase letters are"),
+        ("F(Right)", "write 'R x' or 'R(x)', or, for a fluent, write it lowercase: 'right'"),
+        ("top W edge", "hint: W (weak until) is not in this syntax: write 'a W b' as '(a U b)"),
+        ("a M b", "hint: M (strong release) is not in this syntax"),
+        ("N a", "hint: N (weak next) is written WX here"),
+    ],
+)
+def test_uppercase_names_and_other_dialects_get_a_hint(formula: str, hint: str) -> None:
+    with pytest.raises(SpecSyntaxError) as caught:
+        parse_ltlf(formula)
+    assert hint in str(caught.value)
 
 
 def test_multiline_formula_names_the_line() -> None:

@@ -45,6 +45,13 @@ __all__ = [
 FLUENT_NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 _OPERATOR_GLUED = re.compile(r"(WX|[XFGUR])[a-z]")
+_WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+#: Operators of other LTL dialects that ltlf2dfa's grammar lacks, and how to write them.
+_OTHER_DIALECTS = {
+    "W": "W (weak until) is not in this syntax: write 'a W b' as '(a U b) | G(a)'",
+    "M": "M (strong release) is not in this syntax: write 'a M b' as '(a R b) & F(a)'",
+    "N": "N (weak next) is written WX here: 'WX a'",
+}
 _lock = threading.Lock()
 
 
@@ -109,9 +116,22 @@ def _syntax_error(formula: str, error: Any) -> SpecSyntaxError:
     else:
         what = f"unexpected {formula[position]!r}"
     hint = ""
-    if _OPERATOR_GLUED.match(formula, position):
-        op = _OPERATOR_GLUED.match(formula, position).group(1)  # type: ignore[union-attr]
+    start = position
+    while start > 0 and (formula[start - 1].isalnum() or formula[start - 1] == "_"):
+        start -= 1
+    word = _WORD.match(formula, start)
+    name = word.group(0) if word else ""
+    glued = _OPERATOR_GLUED.match(formula, position)
+    plain_word = not any(c.isupper() for c in name[1:]) and "_" not in name
+    if name in _OTHER_DIALECTS:
+        hint = f"\nhint: {_OTHER_DIALECTS[name]}"
+    elif glued and start == position and plain_word:
+        op = glued.group(1)
         hint = f"\nhint: separate the operator from its operand: write '{op} x' or '{op}(x)'"
+        if len(name) > 2:
+            hint += f", or, for a fluent, write it lowercase: {name.lower()!r}"
+    elif len(name) > 1 and any(c.isupper() for c in name):
+        hint = f"\nhint: fluent names are lowercase: write {name.lower()!r}"
     elif formula[position : position + 1].isupper():
         hint = "\nhint: atoms are lowercase ([a-z][a-z0-9_]*); uppercase letters are operators"
     return SpecSyntaxError(
