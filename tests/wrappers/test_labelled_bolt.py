@@ -164,7 +164,9 @@ def test_batched_bolt_equals_single_wrappers_across_episodes() -> None:
     single_resets = [s.reset(seed=seed + i) for i, s in enumerate(singles)]
     single_obs = [o for o, _ in single_resets]
     for i, (_, info) in enumerate(single_resets):  # the first letter, as each single says it
-        for key in ("true_fluents", "fluent_probs", "dfa_states", "true_dfa_states"):
+        keys = ("true_fluents", "fluent_probs", "dfa_states", "true_dfa_states")
+        keys += ("dfa_accepting", "dfa_violated", "confidence_bands")  # as a step's info
+        for key in keys:
             np.testing.assert_array_equal(batched.reset_infos[i][key], info[key])
         assert batched.reset_infos[i]["true_accepting"].tolist() == info["true_accepting"].tolist()
     rng = np.random.default_rng(0)

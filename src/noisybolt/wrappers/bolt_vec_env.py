@@ -205,11 +205,15 @@ class BoltVecEnv(VecEnvWrapper):
         if self._records:
             self._truth.reset(truth)
             # What the single wrapper's reset info says of the first letter, per env.
+            bands = confidence_bands(probs, self._thresholds)
             self.reset_infos = [
                 {
                     "true_fluents": truth[i],
                     "fluent_probs": probs[i],
+                    "confidence_bands": bands[i],
                     "dfa_states": out.next_states[i],
+                    "dfa_accepting": out.accepting[i],
+                    "dfa_violated": out.violated[i],
                     "true_dfa_states": self._truth.states[i].copy(),
                     "true_accepting": self._truth.accepting[i],
                 }

@@ -67,7 +67,9 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     per spec ``bolt_terminal`` and ``bolt_low_confidence`` terms, ``fluent_probs``,
     ``confidence_bands``, ``dfa_states``, ``dfa_accepting``, ``dfa_violated``, and, from
     the world's ground truth (metrics only, never in the observation or reward),
-    ``true_fluents``, ``true_dfa_states`` and ``true_accepting``.
+    ``true_fluents``, ``true_dfa_states`` and ``true_accepting``. The reset's ``info``
+    holds the same of the first letter but the rewards (the reset transition's reward is
+    paid with the first step's).
 
     Args:
         env: a labelled environment (see :class:`BoltObservableEnv`), e.g. one wrapped
@@ -200,7 +202,10 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         info = dict(info)
         info.update(
             fluent_probs=probs[0],
+            confidence_bands=confidence_bands(probs, self._thresholds)[0],
             dfa_states=out.next_states[0],
+            dfa_accepting=out.accepting[0],
+            dfa_violated=out.violated[0],
             true_dfa_states=self._truth.states[0].copy(),
             true_accepting=self._truth.accepting[0],
         )
