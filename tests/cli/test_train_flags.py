@@ -250,3 +250,21 @@ def test_min_dwell_reaches_the_belief_bolt(tmp_path: Path) -> None:
     assert setup.belief is not None and setup.belief.min_dwell == 1  # through the EM too
     assert main([*argv, "--min-dwell", "0", "--out", str(tmp_path / "bad")]) == 2  # the last
     assert not (tmp_path / "bad").exists()
+
+
+def test_a_belief_run_is_recorded_and_drawn_with_its_own_bolt(
+    tmp_path: Path, recwarn: pytest.WarningsRecorder
+) -> None:
+    # The recording's policy sees beliefs, as in training (it crashed on the DFA states'
+    # shape), and loading the model warns of no missing base rates (the run has them).
+    from noisybolt.errors import UnknownBaseRatesWarning
+
+    out = tmp_path / "run"
+    argv = ["train", "--spec", "edge", "--detector", "oracle", "--tracking", "belief"]
+    argv += ["--frames", "64", "--eval-freq", "0", "--eval-episodes", "1", "--no-progress"]
+    assert main([*argv, "--set", "world.n_envs=2", "--out", str(out)]) == 0
+    gif, heatmap = tmp_path / "b.gif", tmp_path / "h.png"
+    evaluate = ["evaluate", str(out), "--episodes", "2", "--gif", str(gif)]
+    assert main([*evaluate, "--heatmap", str(heatmap)]) == 0
+    assert gif.stat().st_size > 0 and heatmap.stat().st_size > 0
+    assert not [w for w in recwarn if w.category is UnknownBaseRatesWarning]

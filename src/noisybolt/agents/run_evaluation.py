@@ -12,7 +12,7 @@ import hashlib
 import json
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,13 +20,14 @@ import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
+from noisybolt.agents.environments import BoltSetup
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.training import TrainConfig, make_env, prepare_bolt
+from noisybolt.bolt import Thresholds
 from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import make_single_world, world_display
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
-from noisybolt.perception.protocols import FluentDetector
 from noisybolt.rundir import RunDirectory
 
 __all__ = ["RunEvaluation", "evaluate_run", "load_run_model"]
@@ -76,7 +77,12 @@ def load_run_model(
         # Only its spaces matter; DFAs compiled here (cached), so that a spec every trace
         # satisfies is not warned of again by an env that only loads the model.
         dfas = [compile_ltlf(spec.formula, names) for spec in config.spec_objects()]
-        env = make_env(config, detector, training=False, n_envs=config.n_envs, dfas=dfas)
+        # Belief tracking's base rates do not change the spaces: any will do here.
+        settings = config.belief_settings
+        belief = None if settings is None else replace(settings, base_rates=0.5)
+        env = make_env(
+            config, detector, training=False, n_envs=config.n_envs, dfas=dfas, belief=belief
+        )
     return load_model(path, config, env)
 
 
@@ -109,7 +115,7 @@ def _grid_layout(config: TrainConfig) -> GridLayout:
 
 def _recordings(
     config: TrainConfig,
-    detector: FluentDetector,
+    setup: BoltSetup,
     model: BaseAlgorithm,
     *,
     episodes: int,
@@ -119,7 +125,17 @@ def _recordings(
     from noisybolt.agents.visualize import policy_from_model, record_episode
     from noisybolt.wrappers import RestrainingBoltWrapper
 
-    env = RestrainingBoltWrapper(_single_env(config), config.spec_objects(), detector)
+    # The run's own bolt (its tracking, beliefs and bands), so that the policy sees what
+    # it was trained on: under belief tracking the "dfa" entry is the beliefs.
+    env = RestrainingBoltWrapper(
+        _single_env(config),
+        config.spec_objects(),
+        setup.detector,
+        dfas=setup.dfas,
+        thresholds=Thresholds(**config.thresholds),
+        tracking=config.tracking,  # type: ignore[arg-type]
+        belief=setup.belief,
+    )
     policy = policy_from_model(model, deterministic=deterministic)
     limit = world_display(config.world).gif_steps
     return [record_episode(env, policy, seed=seed + i, max_steps=limit) for i in range(episodes)]
@@ -197,7 +213,7 @@ def evaluate_run(
 
         count = max(1, heatmap_episodes if heatmap is not None else 1)
         recordings = _recordings(
-            config, detector, model, episodes=count, seed=seed, deterministic=deterministic
+            config, setup, model, episodes=count, seed=seed, deterministic=deterministic
         )
         if gif is not None:
             files["gif"] = save_episode_gif(
