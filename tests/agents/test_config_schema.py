@@ -218,3 +218,13 @@ def test_values_from_the_command_line_take_the_settings_type() -> None:
     assert value_from_text("algorithm.hyperparams.policy_kwargs.net_arch", "[32, 32]") == [32, 32]
     with pytest.raises(ConfigError, match=r"unknown config key evaluation\.env"):
         value_from_text("evaluation.env", "8")
+
+
+def test_dqn_is_evaluated_greedily_unless_told_otherwise() -> None:
+    # Sampling DQN's policy is SB3's epsilon-exploration; PPO and A2C sample by default.
+    assert TrainConfig.create(specs=["edge"], algo="dqn").evaluation.deterministic is True
+    assert TrainConfig.create(specs=["edge"], algo="a2c").evaluation.deterministic is False
+    sampled = TrainConfig.create(specs=["edge"], algo="dqn", eval_deterministic=False)
+    assert sampled.evaluation.deterministic is False
+    saved = TrainConfig.from_dict(sampled.to_dict())  # a saved run keeps what it said
+    assert saved.evaluation.deterministic is False

@@ -313,6 +313,9 @@ class TrainConfig:
             if not path.startswith(prefix):
                 set_path(data, path, checked_value(path, value))
         world, algo = data["world"]["name"], data["algorithm"]["name"]
+        if algo == "dqn" and "evaluation.deterministic" not in changes:
+            # DQN's policy is its greedy one; sampling it means SB3's epsilon-exploration.
+            data["evaluation"]["deterministic"] = True
         params = load_hyperparams(world, algo, params_given, hp_file=hp_file)
         for key in sorted(WORLD_KEYS):
             value = params.pop(key, None)

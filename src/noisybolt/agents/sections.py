@@ -279,9 +279,11 @@ class EvaluationConfig:
         freq: frames between evaluations (0: only at the end).
         episodes: episodes per evaluation.
         envs: environments used to evaluate.
-        deterministic: evaluate the greedy policy; by default actions are sampled, as
-            the paper's code base (rl-starter-files) evaluates: a half-trained greedy policy
-            on a grid often loops (turning on the spot) where its sampled one does not.
+        deterministic: evaluate the greedy policy; by default PPO's and A2C's actions are
+            sampled, as the paper's code base (rl-starter-files) evaluates: a half-trained
+            greedy policy on a grid often loops (turning on the spot) where its sampled
+            one does not. DQN's default is greedy (:meth:`TrainConfig.build`): sampling
+            its policy means SB3's epsilon-exploration.
         success_threshold: the share of evaluation episodes that must reach the goal and
             comply with every spec for the run to count as compliant (N_frames).
         stop_after: stop when solved: end training once this many periodic evaluations
