@@ -38,6 +38,7 @@ __all__ = [
     "UnsafeFileError",
     "UnsatisfiableSpecError",
     "UnseenFluentError",
+    "UnseenFluentWarning",
     "WorldFactoryError",
     "WorldWorkerError",
 ]
@@ -245,6 +246,12 @@ class UnknownBaseRatesWarning(UserWarning):
     the detector's training prior (0.5) for them, which protects rare fluents poorly
     against faint, steady false readings: estimate them with
     :func:`noisybolt.perception.base_rates.belief_settings_from_play`."""
+
+
+class UnseenFluentWarning(UserWarning):
+    """A fluent some spec uses was never true (or never false) in a run's random play,
+    with a detector that reads the truth: a spec needing it is met only if a trained
+    agent makes it so, and never if the fluent's function is constant."""
 
 
 class UnboundedEpisodesWarning(UserWarning):

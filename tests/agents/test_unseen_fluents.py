@@ -161,3 +161,26 @@ def test_the_warning_threshold_counts_either_value() -> None:
         check_fluents_shown(always, ["c", "a", "b"], source="the images")
     assert caught.value.fluents == ("a", "b")
     check_fluents_shown(always, ["c"], source="the images")  # a and b: no spec uses them
+
+
+@pytest.mark.parametrize("reward", ["compliance", "paper"])
+def test_a_detector_reading_the_truth_warns_of_a_spec_fluent_random_play_never_shows(
+    lake: Any, reward: str
+) -> None:
+    # The oracle would silently never credit F(off_lake): the run trains to 0 % compliance.
+    from noisybolt.agents.environments import prepare_bolt
+    from noisybolt.errors import UnseenFluentWarning
+
+    def warned(spec: str) -> list[str]:
+        config = TrainConfig.create(
+            world=NAME, specs=[spec], detector=DetectorConfig(kind="oracle"), reward=reward
+        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            prepare_bolt(config, seed=0, log=lambda _: None)
+        return [str(w.message) for w in caught if w.category is UnseenFluentWarning]
+
+    [message] = warned("F(off_lake) | G(top)")
+    assert message.startswith("the specs' fluent off_lake was never true in 2,048 steps")
+    assert "always false" in message
+    assert warned("F(!top)") == []  # seen both ways

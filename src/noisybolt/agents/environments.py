@@ -38,7 +38,7 @@ from noisybolt.bolt import BeliefSettings, Thresholds
 from noisybolt.bolt.belief import frames_to_believe
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
-from noisybolt.errors import BriefFluentWarning, ConfigError
+from noisybolt.errors import BriefFluentWarning, ConfigError, UnseenFluentWarning
 from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, FluentDetector
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
@@ -51,6 +51,7 @@ __all__ = [
     "prepare_bolt",
     "true_runs",
     "warn_of_brief_runs",
+    "warn_of_unseen_fluents",
 ]
 
 #: Evaluation worlds are seeded apart from the training ones.
@@ -325,6 +326,7 @@ def prepare_bolt(
     finally:
         probe.close()
     dfas = check_specs_against_world(config, fluents, log=log)
+    spec_fluents = tuple(f for f in fluents if any(f in d.relevant_fluents for d in dfas))
     detector = make_detector(
         config.detector,
         world=config.world,
@@ -335,11 +337,14 @@ def prepare_bolt(
         log=log,
         retrain=retrain_classifier,
         # what the specs depend on: a classifier that never saw one of these is refused
-        spec_fluents=tuple(f for f in fluents if any(f in d.relevant_fluents for d in dfas)),
+        spec_fluents=spec_fluents,
     )
     letters = None
     if config.progress_gamma is not None:
         letters = _random_play_letters(config)
+    if not isinstance(detector, ClassifierDetector):  # a classifier's images are checked
+        seen = letters if letters is not None else _random_play_letters(config)
+        warn_of_unseen_fluents(seen, fluents, spec_fluents, steps=RANDOM_PLAY_STEPS)
     belief = None
     if config.belief_settings is not None:
         if isinstance(detector, ClassifierDetector) and detector.training_prior is None:
@@ -352,7 +357,7 @@ def prepare_bolt(
             config,
             detector,
             monotone=monotone,
-            spec_fluents=tuple(f for f in fluents if any(f in d.relevant_fluents for d in dfas)),
+            spec_fluents=spec_fluents,
         )
         rates = np.broadcast_to(np.asarray(belief.base_rates, dtype=float), (len(fluents),))
         log(
@@ -495,7 +500,48 @@ def _rate_of(settings: BeliefSettings, fluents: Sequence[str], fluent: str) -> s
     return f"{settings.resolve(fluents).rates[list(fluents).index(fluent)]:.3f}"
 
 
-def _random_play_letters(config: TrainConfig, *, n_envs: int = 16, steps: int = 128) -> np.ndarray:
+#: Random play that the letters a world shows are read from: envs x steps frames.
+RANDOM_PLAY = (16, 128)
+RANDOM_PLAY_STEPS = RANDOM_PLAY[0] * RANDOM_PLAY[1]
+
+
+def warn_of_unseen_fluents(
+    letters: np.ndarray, fluents: Sequence[str], spec_fluents: Sequence[str], *, steps: int
+) -> None:
+    """Warns (:class:`~noisybolt.errors.UnseenFluentWarning`) of each fluent of
+    ``spec_fluents`` that is true in none, or in all, of ``letters`` (bool ``[n,
+    n_fluents]``, the assignments ``steps`` steps of random play showed): a fluent function
+    that never holds (a typo, a state never reached) leaves a spec the bolt can never
+    credit, which training would only show as 0 % compliance.
+
+    Example:
+        >>> import warnings
+        >>> seen = np.array([[True, False], [True, False]])
+        >>> with warnings.catch_warnings(record=True) as caught:
+        ...     warnings.simplefilter("always")
+        ...     warn_of_unseen_fluents(seen, ["a", "won"], ["won"], steps=2048)
+        >>> print(caught[0].message)  # doctest: +ELLIPSIS
+        the specs' fluent won was never true in 2,048 steps of random play: ...
+    """
+    for fluent in spec_fluents:
+        column = letters[:, list(fluents).index(fluent)]
+        if column.all() == column.any():
+            value = "true" if column.any() else "false"
+            warnings.warn(
+                UnseenFluentWarning(
+                    f"the specs' fluent {fluent} was never {'false' if column.any() else 'true'} "
+                    f"in {steps:,} steps of random play: a spec that needs it "
+                    f"{'false' if column.any() else 'true'} is met only if a trained agent "
+                    f"makes it so, and can never be if the fluent's function is always "
+                    f"{value} (check it: `noisybolt check` shows the world's fluents)"
+                ),
+                stacklevel=2,
+            )
+
+
+def _random_play_letters(
+    config: TrainConfig, *, n_envs: int = RANDOM_PLAY[0], steps: int = RANDOM_PLAY[1]
+) -> np.ndarray:
     """The distinct true-fluent assignments a world shows in ``n_envs * steps`` random
     steps (seeded by the run's seed, so training and evaluation see the same)."""
     seen = [
