@@ -49,7 +49,22 @@ def make():
 
 def make_limited():
     return gym.wrappers.TimeLimit(make(), max_episode_steps=7)
+
+
+class SelfLimited(Corridor):
+    # Cuts its own episodes, as MiniGrid's levels do (registered without a limit).
+    max_steps = 9
+
+
+def make_self_limited():
+    fluents = {"end": lambda e: e.cell == 4}
+    return noisybolt.FluentLabels(SelfLimited(), fluents=fluents, camera=lamp)
 """
+
+
+@pytest.fixture(autouse=True)
+def _forget_the_warnings(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(registry, "_UNBOUNDED_WARNED", set())
 
 
 def test_an_env_without_time_limit_is_cut_and_said_once(
@@ -68,6 +83,18 @@ def test_an_env_without_time_limit_is_cut_and_said_once(
         limited = make_world("corridor:make_limited", num_envs=1, seed=0)
     limited.reset(seed=0)
     assert [bool(limited.step(np.array([1]))[3][0]) for _ in range(7)] == [False] * 6 + [True]
+    with warnings.catch_warnings():  # said once a process, however often it is built
+        warnings.simplefilter("error", UnboundedEpisodesWarning)
+        make_world("corridor:make", num_envs=1, seed=0)
+
+
+def test_an_env_that_states_its_own_max_steps_is_taken_at_its_word(
+    world_module: Callable[[str, str], str],
+) -> None:
+    world_module("corridor", WORLD)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnboundedEpisodesWarning)
+        make_world("corridor:make_self_limited", num_envs=1, seed=0)
 
 
 def test_training_in_a_world_that_never_ends_an_episode_finishes(

@@ -174,12 +174,20 @@ DEFAULT_MAX_EPISODE_STEPS = 10_000
 
 
 def _has_time_limit(env: gym.Env) -> bool:
+    """A ``TimeLimit`` among its wrappers, or an env that cuts its own episodes after a
+    ``max_steps`` it states (MiniGrid's levels, registered without ``max_episode_steps``)."""
     layer: Any = env
     while isinstance(layer, gym.Wrapper):
         if isinstance(layer, gym.wrappers.TimeLimit):
             return True
         layer = layer.env
-    return False
+    own = getattr(env.unwrapped, "max_steps", None)
+    return isinstance(own, int) and not isinstance(own, bool) and own > 0
+
+
+#: Factory paths already warned of having no time limit in this process (the world is
+#: built several times a run: its probe, training, evaluation).
+_UNBOUNDED_WARNED: set[str] = set()
 
 
 def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
@@ -211,6 +219,9 @@ def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
             path=path,
         ) from None
     if not _has_time_limit(env):
+        if path in _UNBOUNDED_WARNED:
+            return gym.wrappers.TimeLimit(env, max_episode_steps=DEFAULT_MAX_EPISODE_STEPS)
+        _UNBOUNDED_WARNED.add(path)
         warnings.warn(
             f"world {path!r}: its env has no time limit, so an episode its policy never "
             f"ends would stall every evaluation; its episodes are cut at "
