@@ -212,6 +212,7 @@ def test_options_the_run_would_ignore_are_refused_and_fluents_named(
         (["--detector", "synthetic", "--classifier", "c.safetensors"], "the synthetic detector"),
         (["--detector", "oracle", "--confidence", "0.8"], "with threshold tracking it would"),
         (["--detector", "oracle", "--min-dwell", "1"], "with threshold tracking it would"),
+        (["--detector", "oracle", "--reward", "paper", "--no-shaping"], "the paper scheme has"),
     ]:
         out = tmp_path / "-".join(argv)
         assert main([*base, *argv, "--out", str(out)]) == 2

@@ -84,7 +84,8 @@ def _check(args: argparse.Namespace) -> int:
     for spec, dfa in zip(config.spec_objects(), setup.dfas, strict=True):
         distance = int(distance_to_acceptance(dfa)[dfa.initial_state])
         print(
-            f"spec {spec.name!r}: satisfiable; DFA of {dfa.n_states} states, "
+            f"spec {spec.name!r}: satisfiable; DFA of {dfa.n_states} "
+            f"state{'' if dfa.n_states == 1 else 's'}, "
             f"{distance} letter(s) from acceptance at the start"
         )
     for line in lines:

@@ -383,6 +383,11 @@ def _train(args: argparse.Namespace) -> int:
                 f"with {config.tracking} tracking it would be ignored: add --tracking "
                 "belief, or leave it out"
             )
+    if "bolt.shaping" in overrides and config.reward == "paper":
+        raise ConfigError(
+            "--no-shaping turns off the compliance scheme's progress shaping; the paper "
+            "scheme has none, so it would be ignored: add --reward compliance, or leave it out"
+        )
     from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
 
     if config.reward == "compliance" and not args.resume and "bolt.reward_scale" not in overrides:

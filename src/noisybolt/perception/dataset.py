@@ -228,13 +228,14 @@ def refuse_unseen(
     }
     if not unseen:
         return
-    them = "it" if len(unseen) == 1 else "them"
+    one = len(unseen) == 1
+    them, they = ("it", "it holds") if one else ("them", "they hold")
     raise UnseenFluentError(
         f"{source} never show "
         + " or ".join(f"{name!r} {value}" for name, value in unseen.items())
-        + f", and a spec uses {them}: the classifier could not learn to tell when {them} "
-        f"{'holds' if len(unseen) == 1 else 'hold'}, so the bolt would read {them} the same "
-        f"whatever the agent does and the spec could not steer it. {what_to_do}",
+        + f", and a spec uses {them}: the classifier could not learn to tell when {they}, "
+        f"so the bolt would read {them} the same whatever the agent does and the spec "
+        f"could not steer it. {what_to_do}",
         fluents=tuple(unseen),
         images=counts.images,
     )
