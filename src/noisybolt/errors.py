@@ -22,6 +22,7 @@ __all__ = [
     "EstimatedBoundsWarning",
     "FluentFunctionError",
     "IncompatibleError",
+    "LargeCameraWarning",
     "NoCheckpointError",
     "NoisyboltError",
     "ObservationSpaceError",
@@ -259,6 +260,11 @@ class UnboundedEpisodesWarning(UserWarning):
     wall) would stall training's episode statistics and every evaluation: its episodes are
     cut at :data:`noisybolt.envs.registry.DEFAULT_MAX_EPISODE_STEPS` steps; wrap the env in
     ``gymnasium.wrappers.TimeLimit`` to choose."""
+
+
+class LargeCameraWarning(UserWarning):
+    """A classifier is about to be trained on the fly on a large camera (a user's env's
+    full render), which takes hours on a CPU: give the world a smaller camera."""
 
 
 class RareFluentWarning(UserWarning):

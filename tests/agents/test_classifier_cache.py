@@ -241,3 +241,18 @@ def test_a_classifier_trained_with_restarts_compares_them_on_held_out_images() -
     assert len(trained) == 2 and len(compared) == 2
     assert "on 64 bolt images (seed 0)" in trained[0]
     assert f"on 128 bolt images (seed {restart_seed(0, 1)})" in trained[1]
+
+
+def test_a_large_camera_is_warned_of_before_a_classifier_is_trained_on_it() -> None:
+    import warnings
+
+    from noisybolt.agents.detectors import warn_of_large_camera
+    from noisybolt.errors import LargeCameraWarning
+    from noisybolt.perception.protocols import CameraSpec
+
+    with pytest.warns(LargeCameraWarning, match=r"500x500 images.*about 35 times.*\[::6, ::6\]"):
+        warn_of_large_camera(CameraSpec("pendulum", 500, 500), samples=4000, epochs=30)
+    with warnings.catch_warnings():  # the shipped worlds' cameras say nothing
+        warnings.simplefilter("error", LargeCameraWarning)
+        warn_of_large_camera(CameraSpec("breakout", 84, 84), samples=4000, epochs=30)
+        warn_of_large_camera(CameraSpec("wide", 64, 128), samples=4000, epochs=30)

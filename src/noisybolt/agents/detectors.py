@@ -26,6 +26,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import warnings
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -37,7 +38,12 @@ from noisybolt.agents.config import DetectorConfig
 from noisybolt.agents.sections import is_detector_factory
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
-from noisybolt.errors import ConfigError, DetectorFactoryError, NoisyboltError
+from noisybolt.errors import (
+    ConfigError,
+    DetectorFactoryError,
+    LargeCameraWarning,
+    NoisyboltError,
+)
 from noisybolt.perception import dataset
 from noisybolt.perception.dataset import RARE_FLUENT_IMAGES, LabelCounts
 from noisybolt.perception.metrics import build_report
@@ -46,6 +52,7 @@ from noisybolt.perception.protocols import FluentDetector
 __all__ = [
     "ACCEPT_ACCURACY",
     "HELD_OUT_SAMPLES",
+    "LARGE_CAMERA_SIDE",
     "RARE_FLUENT_IMAGES",
     "best_of_restarts",
     "check_fluents_shown",
@@ -54,6 +61,7 @@ __all__ = [
     "make_detector",
     "restart_seed",
     "user_detector",
+    "warn_of_large_camera",
 ]
 
 #: An on-the-fly classifier whose worst fluent reaches this accuracy on the held-out
@@ -287,6 +295,7 @@ def make_detector(
             "`noisybolt classifiers train` (or omit --classifier to use the cached one)"
         )
     if config.path is None and (retrain or not path.exists()):
+        warn_of_large_camera(camera_spec, samples=config.samples, epochs=config.epochs)
         why = "retraining it" if retrain else "no cached classifier for this camera"
         log(f"{why}: training one ({path})")
         _train_classifier_on_the_fly(
@@ -411,6 +420,32 @@ def best_of_restarts(
         if worst >= ACCEPT_ACCURACY:
             break
     return best
+
+
+#: The most pixels on a side of a camera a classifier is trained on without a warning
+#: (the shipped worlds' cameras: 48 and 84).
+LARGE_CAMERA_SIDE = 128
+
+
+def warn_of_large_camera(camera: Any, *, samples: int, epochs: int) -> None:
+    """Warns (:class:`~noisybolt.errors.LargeCameraWarning`) before a classifier is
+    trained on the fly on a camera larger than :data:`LARGE_CAMERA_SIDE` on a side: a
+    user's env's full render (Pendulum's 500x500) costs its convolutions about 35 times
+    an 84x84 image's, so training takes hours on a CPU and looks like a hang."""
+    height, width = int(camera.height), int(camera.width)
+    if max(height, width) <= LARGE_CAMERA_SIDE:
+        return
+    step = -(-max(height, width) // 84)  # the stride that brings it to about 84 pixels
+    warnings.warn(
+        LargeCameraWarning(
+            f"the bolt's camera gives {height}x{width} images: a classifier trained on "
+            f"{samples:,} of them for {epochs} epochs costs about "
+            f"{height * width / 84**2:.0f} times what it does on 84x84 ones, hours on a "
+            "CPU. Give the world a smaller camera (FluentLabels(..., camera=lambda env: "
+            f"env.render()[::{step}, ::{step}])), or use --detector synthetic"
+        ),
+        stacklevel=3,
+    )
 
 
 def _train_classifier_on_the_fly(
