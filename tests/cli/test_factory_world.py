@@ -7,6 +7,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -67,8 +68,42 @@ def test_a_factory_world_is_built_from_its_path(in_examples: None) -> None:
     assert world.camera_spec.shape == (256, 256, 3)
     single = make_single_world(WORLD)
     assert single.reset(seed=0)[1]["true_fluents"].tolist() == [True, False]
-    with pytest.raises(ConfigError, match="takes no settings; got noise"):
+    with pytest.raises(ConfigError, match="takes no setting 'noise' \\(give the factory a noise"):
         make_world(WORLD, num_envs=1, noise="gaussian:sigma=5")
+
+
+PARAMETRISED = """
+import gymnasium as gym
+import noisybolt
+
+
+def make(top=4, noise="none"):
+    env = gym.make("FrozenLake-v1", render_mode="rgb_array", is_slippery=False)
+    fluents = {"far": lambda e: e.unwrapped.s >= top}
+    return noisybolt.FluentLabels(env, fluents=fluents, noise=noise, return_bounds=(0, 1))
+"""
+
+
+def test_a_factory_takes_the_world_settings_it_names_as_keywords(
+    world_module: Any, tmp_path: Path
+) -> None:
+    world_module("paramlake", PARAMETRISED)
+    far = lambda **settings: make_world("paramlake:make", num_envs=1, seed=0, **settings)  # noqa: E731
+    for settings, expected in (({}, False), ({"top": 0}, True)):
+        world = far(**settings)
+        world.reset(seed=0)
+        assert world.true_fluents().tolist() == [[expected]]
+    assert far(noise="gaussian:sigma=5").camera_spec.noise != far().camera_spec.noise
+    with pytest.raises(ConfigError, match=r"no setting 'size'; it takes \['top', 'noise'\]"):
+        far(size=3)
+    # From the command line: --set world.kwargs.top=0, recorded, so resume rebuilds it.
+    out = tmp_path / "run"
+    argv = ["train", "--world", "paramlake:make", "--spec", "F(far)", "--detector", "oracle"]
+    argv += ["--set", "world.kwargs.top=0", "--frames", "64", "--eval-freq", "0"]
+    assert main([*argv, "--eval-episodes", "1", "--no-progress", "--out", str(out)]) == 0
+    assert json.loads((out / "config.json").read_text())["world"]["kwargs"] == {"top": 0}
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["final"]["compliance"]["F(far)"] == 1.0  # far from the start, by top=0
 
 
 def test_a_factory_world_without_its_own_file_gets_the_documented_defaults() -> None:

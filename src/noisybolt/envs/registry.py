@@ -51,6 +51,7 @@ __all__ = [
     "DEFAULT_WORLD",
     "WorldDisplay",
     "check_world",
+    "factory_settings",
     "is_factory_path",
     "known_worlds",
     "make_single_world",
@@ -190,14 +191,16 @@ def _has_time_limit(env: gym.Env) -> bool:
 _UNBOUNDED_WARNED: set[str] = set()
 
 
-def _labelled_env(path: str, factory: Callable[[], gym.Env]) -> gym.Env:
-    """``factory()``, checked to be one labelled Gymnasium env; one without a time limit
-    (``gym.make`` of an env registered without ``max_episode_steps``, or an env made
-    directly) gets one of :data:`DEFAULT_MAX_EPISODE_STEPS` steps, said once."""
+def _labelled_env(
+    path: str, factory: Callable[..., gym.Env], settings: dict[str, Any] | None = None
+) -> gym.Env:
+    """``factory(**settings)``, checked to be one labelled Gymnasium env; one without a
+    time limit (``gym.make`` of an env registered without ``max_episode_steps``, or an env
+    made directly) gets one of :data:`DEFAULT_MAX_EPISODE_STEPS` steps, said once."""
     from noisybolt.envs.labels import fluent_names_of
 
     try:
-        env = factory()
+        env = factory(**(settings or {}))
     except Exception as exc:
         # The user's own code: say which factory failed and how, not a traceback.
         raise WorldFactoryError(
@@ -257,30 +260,68 @@ def make_single_world(name: str, **settings: Any) -> gym.Env:
 
     Args:
         name: a registered world or a factory path.
-        **settings: the world's settings (registered worlds only).
+        **settings: the world's settings (a factory path's: keywords of its factory).
 
     Raises:
-        ConfigError: settings given to a factory-path world.
+        ConfigError: a setting the world (or the factory) does not take.
         UnknownNameError, WorldFactoryError: as :func:`check_world`.
     """
     check_world(name)
     if is_factory_path(name):
-        _no_settings(name, settings)
-        return _labelled_env(name, resolve_factory(name))
+        factory = resolve_factory(name)
+        return _labelled_env(name, factory, factory_settings(name, factory, settings))
     module_name, _, attribute = _SINGLE[name].partition(":")
     env: gym.Env = getattr(importlib.import_module(module_name), attribute)(**settings)
     return env
 
 
-def _no_settings(name: str, settings: dict[str, Any]) -> None:
-    given = sorted(k for k, v in settings.items() if v not in (None, "none"))
-    if given:
-        noise = "noise" in given
-        where = " (put the camera's noise in the factory's FluentLabels)" if noise else ""
-        raise ConfigError(
-            f"world {name!r} is built by its factory alone and takes no settings; got "
-            f"{', '.join(given)}{where}"
+def factory_settings(
+    name: str, factory: Callable[..., Any], settings: dict[str, Any]
+) -> dict[str, Any]:
+    """The settings a factory-path world is built with: those given (``world.kwargs``,
+    ``--noise``, ``--obs-mode``; unset ones, None or noise ``"none"``, are left to the
+    factory's own defaults), each one the factory takes as a keyword.
+
+    Raises:
+        ConfigError: a setting the factory does not take, naming the ones it does.
+
+    Example:
+        >>> def make(size=4, noise="none"): ...
+        >>> factory_settings("m:make", make, {"noise": "none", "obs_mode": None, "size": 8})
+        {'size': 8}
+    """
+    import inspect
+
+    given = {
+        k: v for k, v in settings.items() if v is not None and not (k == "noise" and v == "none")
+    }
+    if not given:
+        return {}
+    try:
+        parameters = inspect.signature(factory).parameters
+    except (TypeError, ValueError):
+        return given  # no signature to check against: the call will say
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+        return given
+    takes = [
+        p.name
+        for p in parameters.values()
+        if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    ]
+    unknown = sorted(set(given) - set(takes))
+    if unknown:
+        noise = "noise" in unknown
+        where = (
+            " (give the factory a noise parameter and pass it to FluentLabels(..., noise=))"
+            if noise
+            else ""
         )
+        raise ConfigError(
+            f"world {name!r}: its factory takes no setting {', '.join(map(repr, unknown))}"
+            f"{where}; it takes {takes or 'none'} (world.kwargs are passed to the factory "
+            "as keywords)"
+        )
+    return given
 
 
 def world_fingerprint(
@@ -391,10 +432,10 @@ def make_world(
     if is_factory_path(name):
         from noisybolt.envs.labelled_vec import LabelledVectorEnv
 
-        _no_settings(name, {"noise": noise, "obs_mode": obs_mode, **kwargs})
         env_fn = resolve_factory(name)
-        first = _labelled_env(name, env_fn)
-        fns = [lambda: first] + [lambda: _labelled_env(name, env_fn)] * (num_envs - 1)
+        given = factory_settings(name, env_fn, {"noise": noise, "obs_mode": obs_mode, **kwargs})
+        first = _labelled_env(name, env_fn, given)
+        fns = [lambda: first] + [lambda: _labelled_env(name, env_fn, given)] * (num_envs - 1)
         return LabelledVectorEnv(fns, seed=seed)
     if name not in _WORLDS:
         raise UnknownNameError(
