@@ -174,3 +174,22 @@ def test_train_and_resume_rebuild_the_users_detector(
     assert userdetectors.calls and userdetectors.calls[0] == ("Seeded", 4)
     started = json.loads((out / "versions.json").read_text())  # the start, then the resume
     assert [r["frames"] for r in started] == [0, 64]
+
+
+def test_a_detector_the_bolt_cannot_call_is_refused_saying_how_to_write_it() -> None:
+    fluents = GridworldEnv().fluent_names
+
+    class NoTruth:
+        fluent_names = fluents
+        needs_truth = False
+
+        def predict(self, images: np.ndarray) -> np.ndarray:
+            return np.zeros((len(images), len(fluents)))
+
+    class OneString(NoTruth):
+        fluent_names = "on_edge"  # type: ignore[assignment]
+
+    with pytest.raises(IncompatibleError, match=r"predict\(self, images, \*, truth=None\)"):
+        match_fluents(NoTruth(), fluents)
+    with pytest.raises(IncompatibleError, match="must be a sequence of names"):
+        match_fluents(OneString(), fluents)

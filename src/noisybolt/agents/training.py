@@ -168,7 +168,10 @@ def train(
     torch.set_num_threads(1)
     run = RunDirectory(run_dir)
     if resume and restart:
-        raise ConfigError("--resume continues a run and --restart starts it over: give one")
+        raise ConfigError(
+            "--resume (resume=True) continues a run and --restart (restart=True) starts it "
+            "over: give one"
+        )
     if resume and retrain_classifier:
         raise ConfigError(
             "--retrain-classifier with --resume would change the bolt's eyes halfway through "
@@ -183,8 +186,8 @@ def train(
         raise NoCheckpointError(f"--resume: {run.path} holds no run to continue")
     if not (resume or restart) and run.exists():
         raise ConfigError(
-            f"{run.path} already holds a run; pass --resume to continue it, --restart to "
-            "start it over, or choose another directory"
+            f"{run.path} already holds a run; pass --resume to continue it (resume=True from "
+            "Python), --restart to start it over (restart=True), or choose another directory"
         )
     if resume:  # before the costly checks: a resume with other settings fails at once
         check_same_config(run, config)
@@ -230,7 +233,9 @@ def train(
             log(f"resuming {run.path} from {model.num_timesteps} frames")
         else:
             if run.exists() and not restart:  # written by another process meanwhile
-                raise ConfigError(f"{run.path} already holds a run; pass --resume to continue it")
+                raise ConfigError(
+                    f"{run.path} already holds a run; pass --resume (resume=True) to continue it"
+                )
             if restart:
                 _clear_run(run)
             assert fresh is not None

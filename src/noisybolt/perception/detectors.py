@@ -141,6 +141,25 @@ def reseed_detector(detector: Any, seed: int | None) -> None:
         detector.reseed(seed)
 
 
+def _check_predict_takes_truth(detector: Any) -> None:
+    """The bolts call ``predict(images, truth=...)``: refuse one that cannot take it."""
+    import inspect
+
+    try:
+        parameters = inspect.signature(detector.predict).parameters
+    except (TypeError, ValueError, AttributeError):
+        return  # nothing to check against: the first call will say
+    if "truth" in parameters or any(
+        p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()
+    ):
+        return
+    raise IncompatibleError(
+        f"{type(detector).__name__}.predict takes no truth keyword; the bolt calls "
+        "predict(images, truth=...) (None unless needs_truth): define it as "
+        "predict(self, images, *, truth=None)"
+    )
+
+
 def match_fluents(detector: Any, fluent_names: Sequence[str]) -> Any:
     """``detector`` itself if it predicts ``fluent_names`` in that order; else, if it
     predicts every one of them (in another order, or more besides), a
@@ -162,6 +181,12 @@ which the world does not have (its fluents are ['t', 'b'])
         >>> matched.predict(np.zeros((1, 1, 1, 3), np.uint8), truth=np.array([[True, False]]))
         array([[1., 0.]])
     """
+    if isinstance(detector.fluent_names, str):
+        raise IncompatibleError(
+            f"the detector's fluent_names is the string {detector.fluent_names!r}; it must "
+            "be a sequence of names, e.g. ('right_edge',)"
+        )
+    _check_predict_takes_truth(detector)
     own, world = tuple(detector.fluent_names), tuple(fluent_names)
     if own == world:
         return detector
