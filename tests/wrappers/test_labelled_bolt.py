@@ -291,3 +291,13 @@ def test_batched_bolt_reads_the_worlds_batched_info_through_sb3_vec_env() -> Non
             break
     else:
         pytest.fail("the episode never ended, or the bolt read a final_info without labels")
+
+
+def test_an_episode_the_bolt_ends_on_a_violation_is_not_a_success() -> None:
+    # FluentLabels reports is_success only when the env itself ends an episode; one the
+    # bolt ends (end_on_violation) did not reach the goal, and says so.
+    env = RestrainingBoltWrapper(lake(), ["G(top_row)"], "oracle", end_on_violation=True)
+    env.reset(seed=0)
+    _, _, terminated, truncated, info = env.step(1)  # down: off the top row
+    assert terminated and not truncated and info["dfa_violated"].tolist() == [True]
+    assert info["is_success"] is False

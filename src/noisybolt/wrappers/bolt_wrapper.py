@@ -17,7 +17,12 @@ from noisybolt.bolt import (
     Tracking,
     confidence_bands,
 )
-from noisybolt.envs.labels import collect_labelled_samples, fluent_names_of, labels_from_info
+from noisybolt.envs.labels import (
+    collect_labelled_samples,
+    declares_goal_of,
+    fluent_names_of,
+    labels_from_info,
+)
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import reseed_detector
 from noisybolt.perception.protocols import FluentDetector
@@ -218,9 +223,11 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         done = np.array([terminated or truncated])
         out = self.bolt.step(probs, done=done)
         self._truth.step(truth)
+        info = dict(info)
         if out.terminate[0] and not (terminated or truncated):
             terminated = True
-        info = dict(info)
+            if declares_goal_of(self.env):  # ended by the bolt, not at the goal
+                info.setdefault("is_success", False)
         info.update(
             bolt_info(
                 0,
