@@ -40,7 +40,12 @@ from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import BriefFluentWarning, ConfigError, UnseenFluentWarning
 from noisybolt.perception.classifier import ClassifierDetector
-from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, FluentDetector
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    FINAL_INFO_KEY,
+    TRUE_FLUENTS_KEY,
+    FluentDetector,
+)
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
 __all__ = [
@@ -412,12 +417,30 @@ def belief_from_play(
 
     settings = config.belief_settings
     assert settings is not None, "belief_from_play is for belief tracking"
-    frames, truths = [], []
-    for info in _random_play_infos(config, seed=config.seed + 1, n_envs=n_envs, steps=steps):
+    frames = []
+    # Per env, its frames in time order (each ended episode's last view included) and
+    # whether each is an episode's last.
+    sequences: list[list[np.ndarray]] = [[] for _ in range(n_envs)]
+    last: list[list[bool]] = [[] for _ in range(n_envs)]
+    for info, ended in _random_play_infos(config, seed=config.seed + 1, n_envs=n_envs, steps=steps):
+        final = _final_views(info, ended)
+        viewed: set[int] = set()
+        if final is not None:  # the states the ended episodes reached
+            rows, final_images, final_truth = final
+            viewed = set(rows.tolist())
+            seen = final_truth if detector.needs_truth else None
+            frames.append(detector.predict(final_images, truth=seen))
+            for row, row_truth in zip(rows, final_truth, strict=True):
+                sequences[row].append(row_truth)
+                last[row].append(True)
         truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
-        truths.append(truth)
         seen_truth = truth if detector.needs_truth else None
         frames.append(detector.predict(np.asarray(info[BOLT_IMAGE_KEY]), truth=seen_truth))
+        for row in range(n_envs):
+            if ended[row] and row not in viewed:  # no last view given: it ended here
+                last[row][-1] = True
+            sequences[row].append(truth[row])
+            last[row].append(False)
     # A trained classifier's label frequencies; a user's detector may state its own.
     prior = getattr(detector, "training_prior", None)
     estimated = belief_settings_from_play(
@@ -429,47 +452,108 @@ def belief_from_play(
     )
     fluents = tuple(detector.fluent_names)
     for fluent in spec_fluents:
-        runs = true_runs(np.stack(truths)[:, :, fluents.index(fluent)])
-        warn_of_brief_runs(estimated, fluents, fluent, runs)
+        column = fluents.index(fluent)
+        lengths, at_end = [], []
+        for sequence, ends in zip(sequences, last, strict=True):
+            run_lengths, run_ends = true_runs(
+                np.array([t[column] for t in sequence], dtype=bool), np.array(ends, dtype=bool)
+            )
+            lengths += run_lengths.tolist()
+            at_end += run_ends.tolist()
+        warn_of_brief_runs(
+            estimated, fluents, fluent, np.array(lengths, dtype=np.int64), np.array(at_end)
+        )
     return estimated
 
 
-def true_runs(truth: np.ndarray) -> np.ndarray:
-    """int64 ``[n_runs]``: the lengths of the runs of True in ``truth`` (bool
-    ``[steps, n_envs]``, each column one env's frames in time order) that begin and end
-    within the frames (a False on each side), so that none is cut short by the window.
+def _final_views(
+    info: dict[str, Any], ended: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The rows that ended, their bolt images and true fluents as the episodes ended,
+    from ``info["final_info"]``; None where no episode ended or the world gives none."""
+    final = info.get(FINAL_INFO_KEY)
+    if not ended.any() or not isinstance(final, dict):
+        return None
+    if BOLT_IMAGE_KEY not in final or TRUE_FLUENTS_KEY not in final:
+        return None
+    rows = ended.copy()
+    for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY):
+        mask = final.get(f"_{key}")
+        if mask is not None:
+            rows &= np.asarray(mask, dtype=bool)
+    index = np.flatnonzero(rows)
+    if index.size == 0:
+        return None
+    images = np.asarray(final[BOLT_IMAGE_KEY])[index]
+    return index, images, np.asarray(final[TRUE_FLUENTS_KEY], dtype=bool)[index]
+
+
+def true_runs(truth: np.ndarray, last: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The runs of True in one env's frames ``truth`` (bool ``[frames]``, in time order;
+    ``last`` marks each episode's last frame, after which the next episode starts).
+
+    A run is counted when it is whole within the frames: it begins at an episode's first
+    frame or after a False one, and ends before a False frame or at an episode's end (a
+    run still going when the frames stop is not counted).
+
+    Returns:
+        ``(lengths, at_end)``: int64 ``[n_runs]`` lengths, and bool ``[n_runs]`` whether
+        each run lasted to its episode's last frame.
 
     Example:
-        >>> true_runs(np.array([[1, 0], [0, 1], [1, 1], [1, 0], [0, 0]], dtype=bool))
-        array([2, 2])
+        >>> true_runs(np.array([1, 0, 1, 1, 0, 1, 1], dtype=bool),
+        ...           np.array([0, 0, 0, 1, 0, 0, 0], dtype=bool))
+        (array([1, 2]), array([False,  True]))
     """
-    padded = np.zeros((truth.shape[0] + 2, truth.shape[1]), dtype=np.int8)
-    padded[1:-1] = truth
-    edges = np.diff(padded, axis=0)  # +1 where a run starts, -1 one past its end
-    runs = []
-    for column in range(truth.shape[1]):
-        starts = np.flatnonzero(edges[:, column] == 1)
-        ends = np.flatnonzero(edges[:, column] == -1)
-        inside = (starts > 0) & (ends < truth.shape[0])
-        runs.append((ends - starts)[inside])
-    return np.concatenate(runs) if runs else np.zeros(0, dtype=np.int64)
+    truth = np.asarray(truth, dtype=bool)
+    last = np.zeros(len(truth), dtype=bool) if last is None else np.asarray(last, dtype=bool)
+    lengths: list[int] = []
+    at_end: list[bool] = []
+    run = 0
+    for t, on in enumerate(truth):
+        if on:
+            run += 1
+            if last[t]:
+                lengths.append(run)
+                at_end.append(True)
+                run = 0
+        else:
+            if run:
+                lengths.append(run)
+                at_end.append(False)
+            run = 0
+    return np.array(lengths, dtype=np.int64), np.array(at_end, dtype=bool)
 
 
 def warn_of_brief_runs(
-    settings: BeliefSettings, fluents: Sequence[str], fluent: str, runs: np.ndarray
+    settings: BeliefSettings,
+    fluents: Sequence[str],
+    fluent: str,
+    runs: np.ndarray,
+    at_end: np.ndarray | None = None,
 ) -> None:
     """Warns (:class:`BriefFluentWarning`) if some of ``runs`` (lengths of ``fluent``'s
-    true runs in play) are shorter than belief tracking under ``settings`` needs."""
+    true runs in play; ``at_end``: whether each lasted to its episode's end, where no
+    later frame can refute it) are shorter than belief tracking under ``settings`` needs."""
     if len(runs) == 0:
         return
+    at_end = np.zeros(len(runs), dtype=bool) if at_end is None else np.asarray(at_end, bool)
     needed, single = frames_to_believe(settings, fluents, fluent)
-    brief = runs[runs < needed] if needed is not None else runs
+    needed_at_end, _ = frames_to_believe(settings, fluents, fluent, after=0)
+
+    def short(need: int | None, where: np.ndarray) -> np.ndarray:
+        return where & (runs < need) if need is not None else where
+
+    brief_mask = short(needed, ~at_end) | short(needed_at_end, at_end)
+    brief = runs[brief_mask]
     if len(brief) == 0:
         return
     if needed is None:
         need = f"does not believe {fluent} within 8 frames in a row"
     else:
         need = f"believes {fluent} only after {needed} frames of it in a row"
+    ending = int((brief_mask & at_end).sum())
+    ends = f", {ending} of them as the episode ended" if ending else ""
     shortest = int(brief.min())
     fix_with_one, _ = frames_to_believe(replace(settings, min_dwell=1), fluents, fluent)
     if settings.min_dwell > 1 and fix_with_one is not None and fix_with_one <= shortest:
@@ -487,10 +571,11 @@ def warn_of_brief_runs(
         BriefFluentWarning(
             f"belief tracking: in random play, {fluent} was true for fewer frames in a row "
             f"than the bolt needs in {len(brief)} of its {len(runs)} visits (the shortest "
-            f"{shortest}); under these settings (base rate {_rate_of(settings, fluents, fluent)}"
-            f", min_dwell {settings.min_dwell}, confidence {settings.confidence:g}) the bolt "
-            f"{need}, even from a perfect detector (one frame: P = {single:g}), so a spec "
-            f"met only on such a visit is never credited; {advice}"
+            f"{shortest}{ends}); under these settings (base rate "
+            f"{_rate_of(settings, fluents, fluent)}, min_dwell {settings.min_dwell}, "
+            f"confidence {settings.confidence:g}) the bolt {need}, even from a perfect "
+            f"detector (one frame: P = {single:g}), so a spec met only on such a visit is "
+            f"never credited; {advice}"
         ),
         stacklevel=2,
     )
@@ -533,7 +618,7 @@ def warn_of_unseen_fluents(
                     f"in {steps:,} steps of random play: a spec that needs it "
                     f"{'false' if column.any() else 'true'} is met only if a trained agent "
                     f"makes it so, and can never be if the fluent's function is always "
-                    f"{value} (check it: `noisybolt check` shows the world's fluents)"
+                    f"{value} (check the fluent's function in the world's definition)"
                 ),
                 stacklevel=2,
             )
@@ -543,26 +628,33 @@ def _random_play_letters(
     config: TrainConfig, *, n_envs: int = RANDOM_PLAY[0], steps: int = RANDOM_PLAY[1]
 ) -> np.ndarray:
     """The distinct true-fluent assignments a world shows in ``n_envs * steps`` random
-    steps (seeded by the run's seed, so training and evaluation see the same)."""
-    seen = [
-        np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
-        for info in _random_play_infos(config, seed=config.seed, n_envs=n_envs, steps=steps)
-    ]
+    steps (seeded by the run's seed, so training and evaluation see the same), the states
+    ended episodes reached included (a goal true only as its episode ends)."""
+    seen = []
+    for info, ended in _random_play_infos(config, seed=config.seed, n_envs=n_envs, steps=steps):
+        seen.append(np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool))
+        final = info.get(FINAL_INFO_KEY)
+        if ended.any() and isinstance(final, dict) and TRUE_FLUENTS_KEY in final:
+            mask = final.get(f"_{TRUE_FLUENTS_KEY}")
+            rows = ended if mask is None else ended & np.asarray(mask, dtype=bool)
+            seen.append(np.asarray(final[TRUE_FLUENTS_KEY], dtype=bool)[rows])
     return np.unique(np.concatenate(seen), axis=0)
 
 
 def _random_play_infos(
     config: TrainConfig, *, seed: int, n_envs: int, steps: int
-) -> Iterator[dict[str, Any]]:
+) -> Iterator[tuple[dict[str, Any], np.ndarray]]:
     """The batched ``info`` of the world's reset and of ``steps`` seeded random steps,
-    each to be read before the next is asked for (a deferred camera value is valid only
-    until the world moves on); the world is closed afterwards."""
+    each with the rows whose episodes the step ended (bool ``[n_envs]``), each to be read
+    before the next is asked for (a deferred camera value is valid only until the world
+    moves on); the world is closed afterwards."""
     world: Any = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
     try:
-        yield world.reset(seed=seed)[1]
+        yield world.reset(seed=seed)[1], np.zeros(n_envs, dtype=bool)
         world.action_space.seed(seed)
         for _ in range(steps):
-            yield world.step(world.action_space.sample())[4]
+            _, _, terminated, truncated, info = world.step(world.action_space.sample())
+            yield info, np.logical_or(np.asarray(terminated), np.asarray(truncated))
     finally:
         world.close()
 

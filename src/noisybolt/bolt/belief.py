@@ -515,14 +515,20 @@ class BeliefEngine:
 
 
 def frames_to_believe(
-    settings: BeliefSettings, fluents: Sequence[str], fluent: str, *, longest: int = 8
+    settings: BeliefSettings,
+    fluents: Sequence[str],
+    fluent: str,
+    *,
+    longest: int = 8,
+    after: int = 3,
 ) -> tuple[int | None, float]:
     """How many frames in a row a *perfect* detector must show ``fluent`` true before the
     bolt, tracking ``F(fluent)`` under ``settings``, believes it happened.
 
     The frames: ``fluent`` clearly false twice, then clearly true ``n`` times, then
-    clearly false three times (the visit over); believed when the probability of
-    acceptance is still at least ``settings.confidence`` at the end. A fluent that a world
+    clearly false ``after`` times (the visit over; 0 for a visit that ends the episode,
+    which no later frame can refute); believed when the probability of acceptance is
+    still at least ``settings.confidence`` at the end. A fluent that a world
     shows for fewer frames than this is never credited by belief tracking, however good
     the detector: ``min_dwell`` makes a shorter truth impossible a priori, and a rare
     fluent's onset costs more than one frame's evidence (``max_log_ratio``) can buy.
@@ -532,6 +538,7 @@ def frames_to_believe(
         fluents: the bolt's vocabulary.
         fluent: the fluent asked about.
         longest: the most frames tried.
+        after: clearly false frames after the visit (0: it ends the episode).
 
     Returns:
         ``(n, p)``: the fewest frames ``n`` (None: not within ``longest``) and the
@@ -554,7 +561,7 @@ def frames_to_believe(
     engine = BeliefEngine([ever], fluents, settings)
     single = 0.0
     for n in range(1, longest + 1):
-        seen = np.zeros((2 + n + 3, len(fluents)))  # [frames, n_fluents], others false
+        seen = np.zeros((2 + n + after, len(fluents)))  # [frames, n_fluents], others false
         seen[2 : 2 + n, column] = 1.0
         joint = engine.reset_joint(seen[:1])
         for frame in seen[1:]:
