@@ -444,3 +444,13 @@ def test_a_trial_that_kept_its_failures_in_failure_json_still_reads(tmp_path: Pa
     outcome = json.loads((folder.path / "trial.json").read_text())
     assert [a["message"] for a in outcome["attempts"]] == ["RuntimeError: old", "RuntimeError: new"]
     assert outcome["status"] == "failed" and outcome["seconds"] == 2.0
+
+
+def test_a_users_detector_that_cannot_be_made_is_refused_before_anything_runs(
+    world_module: Any,
+) -> None:
+    # Made once per world and seed while the sweep is checked, not failing in every trial.
+    world_module("sweepdetectors", "def broken(fluent_names):\n    raise OSError('no sensor')\n")
+    base = {**TINY_BASE, "detector": {"kind": "sweepdetectors:broken"}}
+    with pytest.raises(ConfigError, match=r"trial 'edge-ppo/seed-0'.*OSError: no sensor"):
+        _sweep(base=base)

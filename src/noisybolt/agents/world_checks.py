@@ -82,8 +82,8 @@ def check_specs_against_world(
             ) from None
         except UnknownFluentError as error:
             raise UnknownFluentError(
-                f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the "
-                f"{config.world} does not have; this world's fluents are {list(fluent_names)}",
+                f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the world "
+                f"{config.world!r} does not have; its fluents are {list(fluent_names)}",
                 unknown=error.unknown,
                 known=tuple(fluent_names),
             ) from None

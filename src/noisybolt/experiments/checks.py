@@ -110,18 +110,29 @@ def check_worlds(configs: Mapping[str, TrainConfig]) -> None:
     Raises:
         ConfigError: naming the config (its key in ``configs``) and what is wrong.
     """
+    from noisybolt.agents.detectors import user_detector
+    from noisybolt.agents.sections import is_detector_factory
     from noisybolt.logic import compile_ltlf
 
     fluents: dict[str, tuple[str, ...]] = {}
+    cameras: dict[str, Any] = {}
+    detectors: set[tuple[str, str, int]] = set()
     for name, config in configs.items():
         key = json.dumps([config.world, config.world_settings], sort_keys=True, default=str)
         try:
             if key not in fluents:
                 world = _world(config)
                 fluents[key] = tuple(world.fluent_names)
+                cameras[key] = world.camera_spec
                 world.close()
             for spec in config.spec_objects():
                 compile_ltlf(spec.formula, fluents[key])  # cached: cheap after the first
+            kind, seed = config.detector.kind, config.detector.seed
+            if is_detector_factory(kind) and (kind, key, seed) not in detectors:
+                # A user's detector is made once per world: one that cannot be made (or
+                # lacks a fluent) is named now, not in every trial.
+                user_detector(kind, fluent_names=fluents[key], camera_spec=cameras[key], seed=seed)
+                detectors.add((kind, key, seed))
         except (NoisyboltError, TypeError) as error:
             raise ConfigError(f"{name}: {error}") from None
         path = config.detector.path
