@@ -4,7 +4,8 @@ Layout of a run directory::
 
     config.json     the resolved configuration (what actually ran, defaults included)
     command.txt     the exact command line, shell-quoted
-    versions.json   Python's, the platform's and the main packages' versions, per start
+    versions.json   per start or resume: its command, Python's, the platform's and the
+                    main packages' versions (command.txt keeps the run's first command)
     metrics.json    a list of records (rewritten atomically, never appended in place)
     .lock           held (``flock``) by the one process writing the run; names its holder
     ...             whatever the run produces (checkpoints/, model.zip, plots)
@@ -225,15 +226,17 @@ class RunDirectory:
         text = _command_text(sys.argv if argv is None else argv)
         atomic_write_text(self.file("command.txt"), text)
 
-    def record_versions(self, *, frames: int) -> None:
+    def record_versions(self, *, frames: int, argv: Sequence[str] | None = None) -> None:
         """Adds this process's software (:func:`software_versions`) to ``versions.json``:
-        a list, one record per start or resume, with the frames it started from."""
+        a list, one record per start or resume, with the frames it started from and its
+        command line (``argv``, default this process's; ``command.txt`` keeps the first)."""
         path = self.file("versions.json")
         try:
             records = read_json(path, default=[], kind=list)
         except CorruptFileError:
             records = []  # a record of provenance, not results: start it again
-        records.append({"frames": int(frames), **software_versions()})
+        command = _command_text(sys.argv if argv is None else argv).strip()
+        records.append({"frames": int(frames), "command": command, **software_versions()})
         atomic_write_json(path, records)
 
     def write_metrics(self, records: Sequence[Mapping[str, Any]]) -> None:

@@ -174,6 +174,9 @@ def test_train_and_resume_rebuild_the_users_detector(
     assert userdetectors.calls and userdetectors.calls[0] == ("Seeded", 4)
     started = json.loads((out / "versions.json").read_text())  # the start, then the resume
     assert [r["frames"] for r in started] == [0, 64]
+    assert "--resume" in started[1]["command"] and "--resume" not in started[0]["command"]
+    # command.txt keeps the command that set the run up (the resume's says only --resume)
+    assert f"--detector {name}:Seeded" in (out / "command.txt").read_text()
 
 
 def test_a_detector_the_bolt_cannot_call_is_refused_saying_how_to_write_it() -> None:

@@ -241,8 +241,9 @@ def train(
             assert fresh is not None
             model = fresh
         run.write_config(config.to_dict())
-        run.write_command(argv)
-        run.record_versions(frames=model.num_timesteps)
+        if not resume or not run.file("command.txt").exists():
+            run.write_command(argv)  # a resume keeps the command that set the run up
+        run.record_versions(frames=model.num_timesteps, argv=argv)
         return _learn(
             config,
             run,

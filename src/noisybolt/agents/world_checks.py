@@ -83,7 +83,7 @@ def check_specs_against_world(
         except UnknownFluentError as error:
             raise UnknownFluentError(
                 f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the world "
-                f"{config.world!r} does not have; its fluents are {list(fluent_names)}",
+                f"{config.world!r} does not have; this world's fluents are {list(fluent_names)}",
                 unknown=error.unknown,
                 known=tuple(fluent_names),
             ) from None

@@ -48,6 +48,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Runs the command line; returns the exit code (2 for bad input, 1 for failures)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    # The command as given, for the run directories that record it (main(argv) called
+    # from Python records its argv, not the host process's).
+    args.command_line = ["noisybolt", *argv] if argv is not None else list(sys.argv)
     if not hasattr(args, "func"):
         parser.print_help()
         return 2

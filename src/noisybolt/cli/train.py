@@ -405,6 +405,7 @@ def _train(args: argparse.Namespace) -> int:
             resume=args.resume,
             restart=args.restart,
             retrain_classifier=args.retrain_classifier,
+            argv=getattr(args, "command_line", None),
         )
     except KeyboardInterrupt:
         return 130
