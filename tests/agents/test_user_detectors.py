@@ -17,7 +17,12 @@ from noisybolt.agents.specs import resolve_spec
 from noisybolt.agents.training import DetectorConfig
 from noisybolt.cli import main
 from noisybolt.envs.gridworld import GridworldEnv
-from noisybolt.errors import DetectorFactoryError, IncompatibleError, UnknownNameError
+from noisybolt.errors import (
+    ConfigError,
+    DetectorFactoryError,
+    IncompatibleError,
+    UnknownNameError,
+)
 from noisybolt.perception.detectors import (
     FluentsByName,
     SyntheticDetector,
@@ -125,6 +130,11 @@ def not_a_detector():
 
 def broken(fluent_names):
     raise RuntimeError("no sensor attached")
+
+class Thresholded(Seeded):
+    def __init__(self, fluent_names, seed, threshold):
+        super().__init__(fluent_names, seed)
+        calls.append(("Thresholded", threshold))
 """
 
 
@@ -152,6 +162,22 @@ def test_a_factory_is_called_with_the_keywords_it_names(
         user_detector(f"{name}:broken", fluent_names=fluents, camera_spec=None, seed=0)
     with pytest.raises(DetectorFactoryError, match="has no function 'missing'"):
         user_detector(f"{name}:missing", fluent_names=fluents, camera_spec=None, seed=0)
+    # Other arguments come from detector.kwargs; none the factory lacks, none of its own.
+    made = user_detector(
+        f"{name}:Thresholded", fluent_names=fluents, camera_spec=None, seed=1,
+        kwargs={"threshold": 0.3},
+    )  # fmt: skip
+    assert userdetectors.calls[-1] == ("Thresholded", 0.3) and made.fluent_names == fluents
+    with pytest.raises(DetectorFactoryError, match="takes no keyword 'gain'"):
+        user_detector(f"{name}:Thresholded", fluent_names=fluents, camera_spec=None, seed=1,
+                      kwargs={"threshold": 0.3, "gain": 2})  # fmt: skip
+    with pytest.raises(DetectorFactoryError, match="would replace what the run hands"):
+        user_detector(f"{name}:everything", fluent_names=fluents, camera_spec=None, seed=1,
+                      kwargs={"seed": 3})  # fmt: skip
+    with pytest.raises(DetectorFactoryError, match=r"detector\.kwargs \(--set detector\.kwargs"):
+        user_detector(f"{name}:Thresholded", fluent_names=fluents, camera_spec=None, seed=1)
+    with pytest.raises(ConfigError, match="the oracle detector takes none"):
+        DetectorConfig(kind="oracle", kwargs={"threshold": 0.3})
     with pytest.raises(UnknownNameError, match=r"factory path 'package\.module:function'"):
         DetectorConfig(kind="user-detectors:by_names")
 

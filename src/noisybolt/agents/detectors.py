@@ -260,7 +260,11 @@ def make_detector(
         )
     if is_detector_factory(config.kind):
         return user_detector(
-            config.kind, fluent_names=fluent_names, camera_spec=camera_spec, seed=config.seed
+            config.kind,
+            fluent_names=fluent_names,
+            camera_spec=camera_spec,
+            seed=config.seed,
+            kwargs=config.kwargs,
         )
     if config.kind == "oracle":
         return OracleDetector(fluent_names)
@@ -321,7 +325,12 @@ def make_detector(
 
 
 def user_detector(
-    path: str, *, fluent_names: Sequence[str], camera_spec: Any, seed: int
+    path: str,
+    *,
+    fluent_names: Sequence[str],
+    camera_spec: Any,
+    seed: int,
+    kwargs: Mapping[str, Any] | None = None,
 ) -> FluentDetector:
     """The detector a user's factory path (``--detector mydetectors:noisy``) makes.
 
@@ -329,7 +338,8 @@ def user_detector(
     and called with those of the keywords ``fluent_names`` (the world's, in its column
     order), ``camera_spec`` (the bolt camera's :class:`~noisybolt.perception.protocols.
     CameraSpec`) and ``seed`` (``detector.seed``, the run's seed unless set) that it names
-    (all of them if it takes ``**kwargs``). It returns a
+    (all of them if it takes ``**kwargs``), and with ``kwargs`` (``detector.kwargs``), all
+    of which it must take. It returns a
     :class:`~noisybolt.perception.protocols.FluentDetector`: ``fluent_names``,
     ``needs_truth`` (True to be handed the world's true fluents, e.g. a noisy sensor
     simulated from them) and ``predict(images, *, truth=None)`` giving probabilities
@@ -357,6 +367,21 @@ def user_detector(
         p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()
     ):
         offered = {key: value for key, value in offered.items() if key in parameters}
+        unknown = sorted(set(kwargs or {}) - set(parameters))
+        if unknown:
+            raise DetectorFactoryError(
+                f"detector {path!r} takes no keyword {', '.join(map(repr, unknown))} "
+                f"(detector.kwargs); it takes {list(parameters)}",
+                path=path,
+            )
+    clash = sorted(set(kwargs or {}) & {"fluent_names", "camera_spec", "seed"})
+    if clash:
+        raise DetectorFactoryError(
+            f"detector.kwargs {clash} would replace what the run hands the detector; "
+            "set detector.seed for the seed, and leave the world's fluents and camera to it",
+            path=path,
+        )
+    offered.update(kwargs or {})
     try:
         detector = factory(**offered)
     except NoisyboltError:
@@ -365,7 +390,8 @@ def user_detector(
         raise DetectorFactoryError(
             f"detector {path!r}: calling it with {sorted(offered) or 'no arguments'} failed "
             f"({type(exc).__name__}: {exc}); it is called with those of fluent_names, "
-            "camera_spec and seed that it names",
+            "camera_spec and seed that it names, and detector.kwargs (--set "
+            "detector.kwargs.NAME=VALUE) for any other argument",
             path=path,
         ) from exc
     if not isinstance(detector, FluentDetector):

@@ -202,6 +202,9 @@ class DetectorConfig:
             collect_samples`), so that a fluent true only as an episode ends (a goal
             reached) is shown to it; False: only the states after each step, as runs
             saved before this setting existed collected them.
+        kwargs: more keywords for a user's detector factory (``--set
+            detector.kwargs.NAME=VALUE``), beside ``fluent_names``, ``camera_spec`` and
+            ``seed``.
     """
 
     kind: str = "classifier"
@@ -212,6 +215,7 @@ class DetectorConfig:
     seed: int = 0
     restarts: int = 3
     final_views: bool = True
+    kwargs: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.kind not in DETECTORS and not is_detector_factory(self.kind):
@@ -223,6 +227,12 @@ class DetectorConfig:
                 known=DETECTORS,
             )
         object.__setattr__(self, "low_confidence", tuple(self.low_confidence))
+        object.__setattr__(self, "kwargs", freeze(dict(self.kwargs)))
+        if self.kwargs and not is_detector_factory(self.kind):
+            raise ConfigError(
+                f"detector.kwargs {sorted(self.kwargs)} are passed to a detector factory "
+                f"(--detector package.module:function); the {self.kind} detector takes none"
+            )
         if self.restarts < 1:
             raise ConfigError(
                 f"detector.restarts must be at least 1 (one classifier), got {self.restarts}"

@@ -131,7 +131,13 @@ def check_worlds(configs: Mapping[str, TrainConfig]) -> None:
             if is_detector_factory(kind) and (kind, key, seed) not in detectors:
                 # A user's detector is made once per world: one that cannot be made (or
                 # lacks a fluent) is named now, not in every trial.
-                user_detector(kind, fluent_names=fluents[key], camera_spec=cameras[key], seed=seed)
+                user_detector(
+                    kind,
+                    fluent_names=fluents[key],
+                    camera_spec=cameras[key],
+                    seed=seed,
+                    kwargs=config.detector.kwargs,
+                )
                 detectors.add((kind, key, seed))
         except (NoisyboltError, TypeError) as error:
             raise ConfigError(f"{name}: {error}") from None
