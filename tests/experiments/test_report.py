@@ -146,6 +146,8 @@ def test_report_command(
     assert "markdown:" in capsys.readouterr().out
     assert main(["report", str(tmp_path)]) == 2
     assert "holds neither a run" in capsys.readouterr().err
+    assert main(["report", str(tmp_path / "typo")]) == 2
+    assert "typo does not exist: give the directory" in capsys.readouterr().err
     # a `noisybolt classifiers` directory has a config.json (per stage) and a metrics.json
     # (per epoch) too: named as what it is, not read as a run with corrupt files
     classifiers = tmp_path / "c"

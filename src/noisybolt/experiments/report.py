@@ -374,6 +374,11 @@ def write_report(path: str | os.PathLike[str], *, html_page: bool = True) -> Rep
         ConfigError: ``path`` holds none of these.
     """
     folder = Path(path)
+    if not folder.is_dir():
+        raise ConfigError(
+            f"{folder} {'is not a directory' if folder.exists() else 'does not exist'}: give "
+            "the directory that `noisybolt train`, `sweep` or `reproduce` wrote"
+        )
     if (folder / SWEEP_FILE).exists():
         return sweep_report(folder, html_page=html_page)
     if (folder / "config.json").exists():
