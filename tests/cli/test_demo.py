@@ -111,7 +111,9 @@ def test_bad_input_is_refused_before_anything_is_trained(
     out = tmp_path / "bad"
     args = ["demo", "--detector", "oracle", "--out", str(out)]
     assert main([*args, "--spec", "F(no_such_fluent)"]) == 2
-    assert "no_such_fluent" in capsys.readouterr().err
+    printed = capsys.readouterr()
+    assert "no_such_fluent" in printed.err and "that the gridworld does not have" in printed.err
+    assert printed.out == ""  # refused before the demo's introduction
     assert not (out / "unbolted").exists()
     with pytest.raises(ConfigError, match="episodes"):
         compare_bolted_unbolted(spec=DEMO_SPEC, algo=DEMO_ALGO, frames=8, episodes=0, out=out)

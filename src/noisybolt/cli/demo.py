@@ -36,9 +36,9 @@ from noisybolt.agents.comparison import (
 )
 from noisybolt.agents.specs import PAPER_SPECS, resolve_spec
 from noisybolt.bolt import Band, confidence_bands
-from noisybolt.cli.train import parse_frames
+from noisybolt.cli.train import parse_frames, whole_number
 from noisybolt.envs.gridworld import GridAction, GridworldEnv
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, UnknownFluentError
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.detectors import BetaNoise, SyntheticDetector
 from noisybolt.wrappers import RestrainingBoltWrapper
@@ -121,7 +121,7 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--episodes",
-        type=int,
+        type=whole_number(1),
         default=None,
         help=f"evaluation episodes of each agent (default {DEMO_EPISODES})",
     )
@@ -167,6 +167,15 @@ def run_training_demo(
     camera and prints the comparison; returns 0."""
     out = out or Path("runs") / time.strftime("demo-%Y%m%d-%H%M%S")
     resolved = resolve_spec(spec)
+    try:  # a spec over fluents the gridworld lacks is refused before the intro
+        compile_ltlf(resolved.formula, GridworldEnv(obs_mode="grid").fluent_names)
+    except UnknownFluentError as error:
+        raise UnknownFluentError(
+            f"spec {resolved.name!r} uses fluent(s) {list(error.unknown)} that the "
+            f"gridworld does not have; its fluents are {list(error.known)}",
+            unknown=error.unknown,
+            known=error.known,
+        ) from None
     eyes = {
         "classifier": "a CNN classifier on its own noisy camera (smudged over the "
         "bottom-left corner)",
