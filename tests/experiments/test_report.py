@@ -122,6 +122,21 @@ def test_run_report_holds_config_command_evaluation_curves_and_pictures(sweep_di
     assert not re.search(r'src="(?!data:)', page)
 
 
+def test_run_report_shows_the_evaluations_under_other_settings(
+    sweep_dir: Path, tmp_path: Path
+) -> None:
+    import shutil
+
+    run = tmp_path / "seed-0"
+    shutil.copytree(sweep_dir / "trials" / "ppo" / "seed-0", run)
+    own = json.loads((run / "summary.json").read_text())["final"]
+    noisy = {**own, "overrides": {"world.kwargs.noise": "regional"}, "episodes": 3}
+    (run / "evaluation-0a1b2c3d.json").write_text(json.dumps(noisy))
+    markdown = run_report(run).markdown.read_text()
+    assert '### Evaluated with {"world.kwargs.noise": "regional"}' in markdown
+    assert "`evaluation-0a1b2c3d.json`: 3 episodes" in markdown
+
+
 def test_sweep_report_links_every_trial_and_lists_failures(sweep_dir: Path) -> None:
     files = write_report(sweep_dir)
     markdown = files.markdown.read_text()

@@ -250,6 +250,19 @@ def run_report(
         blocks.append(evaluation_table(summary["final"]))
     else:
         blocks.append(Text("The run has not finished (no `summary.json`)."))
+    # `evaluate` with other settings (--noise ...) keeps each beside, named by a digest.
+    for other in sorted(run.glob("evaluation-*.json")):
+        changed = read_json(other, default=None, kind=dict)
+        if not isinstance(changed, dict):
+            continue
+        blocks.append(Heading(f"Evaluated with {json.dumps(changed.get('overrides', {}))}", 3))
+        blocks.append(
+            Text(
+                f"`{other.name}`: {changed.get('episodes')} episodes, "
+                f"{'greedy' if changed.get('deterministic') else 'sampled'} actions."
+            )
+        )
+        blocks.append(evaluation_table(changed))
     if isinstance(summary, dict):
         reached = summary.get("frames_to_comply")
         threshold = config["evaluation"].get("success_threshold", 0.95)
