@@ -171,7 +171,8 @@ class SweepResult:
             Heading(f"Sweep {self.name}"),
             *([Text(f"Command: `{command.read_text().strip()}`")] if command.exists() else []),
             Text(
-                "Mean ± std over each group's finished seeds of the final evaluation; "
+                "Mean ± std (the population standard deviation, ddof 0) over each group's "
+                "finished seeds of the final evaluation; "
                 "N_frames: first evaluation with ≥ 95% of episodes reaching the goal while "
                 "complying with every spec (ground truth), mean over the seeds that reached "
                 "it; in a world without a goal (goal rate —), complying with every spec is "
