@@ -122,3 +122,19 @@ def test_counts_of_episodes_are_at_least_one_and_other_counts_not_negative(
         main(argv)
     assert exit_info.value.code == 2
     assert message in capsys.readouterr().err
+
+
+def test_an_interrupt_before_the_run_is_set_up_says_nothing_was_saved(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    # A classifier training on the fly is interrupted: no run directory, and one line.
+    from noisybolt.agents import training
+    from noisybolt.cli import main
+
+    def interrupted(*args: Any, **kwargs: Any) -> Any:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(training, "train", interrupted)
+    argv = ["train", "--spec", "edge", "--detector", "oracle", "--out", str(tmp_path / "r")]
+    assert main(argv) == 130
+    assert "interrupted before training began; nothing was saved" in capsys.readouterr().err

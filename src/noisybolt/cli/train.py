@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -398,6 +399,7 @@ def _train(args: argparse.Namespace) -> int:
             "warning: no episode of this world reaches the goal while complying with every "
             "spec (noisybolt check says more): the agent must trade the goal for the bolt"
         )
+    started = out.exists() and (out / "config.json").exists()
     try:  # SIGTERM too (the CLI's main): train() saves a checkpoint, says how to resume
         result = train(
             config,
@@ -408,6 +410,12 @@ def _train(args: argparse.Namespace) -> int:
             argv=getattr(args, "command_line", None),
         )
     except KeyboardInterrupt:
+        if not started and not (out / "config.json").exists():
+            # Before the run was set up (a classifier training on the fly): nothing kept.
+            print(
+                "noisybolt train: interrupted before training began; nothing was saved",
+                file=sys.stderr,
+            )
         return 130
     print(
         format_eval_table(
