@@ -209,6 +209,11 @@ def test_check_command(capsys: pytest.CaptureFixture) -> None:
     assert "R^c_max 76 in 16 steps" in out and "complies and reaches the goal" in out
     assert main(["check", "--spec", "F(top_right_corner & bottom_left_corner)"]) == 1
     assert main(["check", "--spec", "F(top_right_corner) & G(!top_right_corner)"]) == 2
+    # Another detector is built and matched to the world (a classifier is not trained here).
+    assert main(["check", "--spec", "edge", "--detector", "synthetic"]) == 0
+    assert "detector synthetic: built, matched to the world's fluents" in capsys.readouterr().out
+    assert main(["check", "--spec", "edge", "--detector", "classifier"]) == 2
+    assert "check builds no classifier" in capsys.readouterr().err
 
 
 def test_check_on_worlds_with_and_without_return_bounds(

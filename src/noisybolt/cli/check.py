@@ -24,7 +24,11 @@ def register(subparsers: Any) -> None:
         help="check specs against a world: satisfiable, vacuous, a compliant route to the goal",
         description=__doc__.split("\n\n")[1] if __doc__ else None,
     )
-    check.add_argument("--world", default=None, help="world name (default: the gridworld)")
+    check.add_argument(
+        "--world",
+        default=None,
+        help="world name or factory path package.module:factory (default: the gridworld)",
+    )
     check.add_argument(
         "--spec", action="append", default=[], metavar="NAME|FORMULA", help="repeat for several"
     )
@@ -32,12 +36,30 @@ def register(subparsers: Any) -> None:
     check.add_argument("--algo", default="ppo", help="whose discount the scheme is planned for")
     check.add_argument("--noise", default=None, help="the bolt camera's noise (world default)")
     check.add_argument(
+        "--detector",
+        default="oracle",
+        help="the detector to build and check against the world: oracle (default), "
+        "synthetic, or your own as package.module:function (a classifier is trained by "
+        "`noisybolt train`, not here)",
+    )
+    check.add_argument(
         "--reward-scale",
         type=float,
         default=None,
         help="the compliance scheme's scale to check (default: the world's own)",
     )
     check.set_defaults(func=_check)
+
+
+def _checked_detector(kind: str) -> str:
+    from noisybolt.errors import ConfigError
+
+    if kind == "classifier":
+        raise ConfigError(
+            "check builds no classifier (training one takes minutes): check with the oracle "
+            "(the default), and `noisybolt train --detector classifier` trains and checks it"
+        )
+    return kind
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -65,7 +87,7 @@ def _check(args: argparse.Namespace) -> int:
         "world": args.world,
         "specs": specs,
         "algo": args.algo,
-        "detector": DetectorConfig(kind="oracle"),
+        "detector": DetectorConfig(kind=_checked_detector(args.detector)),
         "world_kwargs": {} if args.noise is None else {"noise": args.noise},
     }
     # A world that declares no return bounds gets a scale from random play: say so.
@@ -81,6 +103,11 @@ def _check(args: argparse.Namespace) -> int:
             )
     lines: list[str] = []
     setup = prepare_bolt(config, seed=0, log=lines.append)  # refuses unsatisfiable specs
+    if args.detector != "oracle":
+        print(
+            f"detector {args.detector}: built, matched to the world's fluents "
+            f"{list(setup.detector.fluent_names)}"
+        )
     for spec, dfa in zip(config.spec_objects(), setup.dfas, strict=True):
         distance = int(distance_to_acceptance(dfa)[dfa.initial_state])
         print(
