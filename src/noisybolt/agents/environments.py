@@ -608,20 +608,25 @@ def warn_of_unseen_fluents(
         >>> print(caught[0].message)  # doctest: +ELLIPSIS
         the specs' fluent won was never true in 2,048 steps of random play: ...
     """
+    never: dict[str, list[str]] = {"true": [], "false": []}
     for fluent in spec_fluents:
         column = letters[:, list(fluents).index(fluent)]
         if column.all() == column.any():
-            value = "true" if column.any() else "false"
-            warnings.warn(
-                UnseenFluentWarning(
-                    f"the specs' fluent {fluent} was never {'false' if column.any() else 'true'} "
-                    f"in {steps:,} steps of random play: a spec that needs it "
-                    f"{'false' if column.any() else 'true'} is met only if a trained agent "
-                    f"makes it so, and can never be if the fluent's function is always "
-                    f"{value} (check the fluent's function in the world's definition)"
-                ),
-                stacklevel=2,
-            )
+            never["false" if column.any() else "true"].append(fluent)
+    for value, names in never.items():
+        if not names:
+            continue
+        other = "false" if value == "true" else "true"
+        warnings.warn(
+            UnseenFluentWarning(
+                f"the specs' fluent{'s' if len(names) > 1 else ''} {', '.join(names)} "
+                f"{'were' if len(names) > 1 else 'was'} never {value} in {steps:,} steps of "
+                f"random play: a spec that needs {'them' if len(names) > 1 else 'it'} "
+                f"{value} is met only if a trained agent makes it so, and can never be if "
+                f"a fluent's function is always {other} (check it in the world's definition)"
+            ),
+            stacklevel=2,
+        )
 
 
 def _random_play_letters(
