@@ -151,7 +151,10 @@ def evaluation_table(
             "env return R_π",
             f"{final['env_return_mean']:.2f} ± {final.get('env_return_std', 0.0):.2f}",
         ),
-        ("bolt return (shaping, apart)", f"{final.get('bolt_return_mean', 0.0):.2f}"),
+        (
+            "bolt return (its rewards, shaping included)",
+            f"{final.get('bolt_return_mean', 0.0):.2f}",
+        ),
         ("episode length N_steps", f"{final['length_mean']:.1f}"),
         *((f"compliance [{k}]", percent(v)) for k, v in final.get("compliance", {}).items()),
     ]
