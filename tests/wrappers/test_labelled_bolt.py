@@ -301,3 +301,39 @@ def test_an_episode_the_bolt_ends_on_a_violation_is_not_a_success() -> None:
     _, _, terminated, truncated, info = env.step(1)  # down: off the top row
     assert terminated and not truncated and info["dfa_violated"].tolist() == [True]
     assert info["is_success"] is False
+
+
+def test_a_world_without_a_camera_renders_nothing_and_refuses_a_classifier(
+    world_module: Any, tmp_path: Any
+) -> None:
+    # camera=False: a bolt that reads the truth needs no image, and a toy-text env's
+    # render is most of its step. The env here cannot even render (render_mode None).
+    from noisybolt.agents.detectors import make_detector
+    from noisybolt.agents.training import DetectorConfig
+    from noisybolt.envs import make_world
+    from noisybolt.errors import ConfigError
+
+    plain = gym.make("FrozenLake-v1", is_slippery=False)
+    blind = FluentLabels(plain, fluents=FLUENTS, camera=False, success="at_goal")
+    bolted = RestrainingBoltWrapper(blind, SPECS, "oracle")
+    _, info = bolted.reset(seed=0)
+    assert info["bolt_image"].shape == (1, 1, 3) and not info["bolt_image"].any()
+    _, _, _, _, info = bolted.step(1)
+    assert info["true_fluents"].tolist() == [False, False, False]  # (1, 0): off the top row
+    world_module(
+        "blindlake",
+        "import gymnasium as gym\nimport noisybolt\n"
+        "def make():\n"
+        "    env = gym.make('FrozenLake-v1', is_slippery=False)\n"
+        "    return noisybolt.FluentLabels(env, fluents={'top': lambda e: e.s < 4}, "
+        "camera=False)\n",
+    )
+    world = make_world("blindlake:make", num_envs=1, seed=0)
+    with pytest.raises(ConfigError, match="shows the bolt no image"):
+        make_detector(
+            DetectorConfig(kind="classifier"),
+            world="blindlake:make",
+            world_kwargs={},
+            fluent_names=world.fluent_names,
+            camera_spec=world.camera_spec,
+        )

@@ -274,6 +274,12 @@ def make_detector(
             seed=config.seed,
             fluents={name: BetaNoise.low_confidence() for name in config.low_confidence},
         )
+    if int(camera_spec.height) * int(camera_spec.width) <= 1:
+        raise ConfigError(
+            f"the world {world!r} shows the bolt no image (FluentLabels(..., camera=False), "
+            "or a 1x1 camera): a classifier has nothing to read; use --detector oracle, "
+            "synthetic or your own that reads the truth, or give the world a camera"
+        )
     architecture = classifier_architecture(camera_spec)
     path = (
         Path(config.path)

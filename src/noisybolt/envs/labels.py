@@ -23,7 +23,7 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any, SupportsFloat
+from typing import Any, Literal, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -46,6 +46,7 @@ __all__ = [
     "FluentFn",
     "FluentLabels",
     "batched_labels_from_info",
+    "blind_camera",
     "collect_labelled_samples",
     "declares_goal_of",
     "fluent_names_of",
@@ -57,6 +58,11 @@ __all__ = [
 FluentFn = Callable[[Any], bool]
 #: A bolt camera: the env (the wrapped one, as the user gave it) to uint8 ``[H, W, 3]``.
 Camera = Callable[[gym.Env], np.ndarray]
+
+
+def blind_camera(env: gym.Env) -> np.ndarray:
+    """The camera of ``FluentLabels(..., camera=False)``: a 1x1 black image, nothing drawn."""
+    return np.zeros((1, 1, 3), dtype=np.uint8)
 
 
 def render_camera(env: gym.Env) -> np.ndarray:
@@ -78,6 +84,9 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         fluents: ``{name: fn}``, in the bolt's column order; each ``fn`` is called with
             ``env.unwrapped`` (where the state lives) and returns a bool.
         camera: the bolt's camera, called with ``env``; default: ``env.render()``.
+            False: none, for a bolt whose detector reads the truth (oracle, synthetic,
+            a noisy sensor of your own): nothing is rendered (a toy-text env's render is
+            most of its step), the bolt's images are 1x1 black, and a classifier is refused.
         noise: the camera's noise (see :func:`noisybolt.perception.noise.make_noise`);
             seeded by ``reset(seed=...)``, so a seeded run sees the same noise again.
         success: optional goal test, the name of one of ``fluents`` or a function like
@@ -107,7 +116,7 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         env: gym.Env,
         *,
         fluents: Mapping[str, FluentFn],
-        camera: Camera | None = None,
+        camera: Camera | Literal[False] | None = None,
         noise: NoiseSpec = None,
         success: str | FluentFn | None = None,
         name: str | None = None,
@@ -140,7 +149,9 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
                     f"fluent {fluent!r} must be a function of the env returning a bool, got {fn!r}",
                     fluent=fluent,
                 )
-        if camera is None:
+        if camera is False:
+            camera = blind_camera  # a bolt that reads the truth only: nothing rendered
+        elif camera is None:
             if env.render_mode != "rgb_array":
                 raise CameraError(
                     f"FluentLabels: no camera given, so the bolt looks through the env's "
