@@ -27,14 +27,18 @@ def _config(kind: str = "synthetic", **kwargs: object) -> TrainConfig:
 
 
 def _truth_frequencies(config: TrainConfig) -> np.ndarray:
-    """Each fluent's frequency in the same seeded random play, from ground truth."""
+    """Each fluent's frequency in the same seeded random play, from ground truth: every
+    state reached, the last states of the episodes it ended included."""
     n_envs, steps = BASE_RATE_PLAY
     world = make_world("gridworld", num_envs=n_envs, seed=config.seed + 1)
     world.reset(seed=config.seed + 1)
     world.action_space.seed(config.seed + 1)
     seen = [np.asarray(world.true_fluents())]
     for _ in range(steps):
-        world.step(world.action_space.sample())
+        _, _, terminated, truncated, info = world.step(world.action_space.sample())
+        ended = np.logical_or(terminated, truncated)
+        if ended.any():
+            seen.append(np.asarray(info["final_info"]["true_fluents"])[ended])
         seen.append(np.asarray(world.true_fluents()))
     return np.concatenate(seen).mean(axis=0)
 

@@ -153,6 +153,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "detector.restarts": 1,
     # before detector.final_views existed collection never kept an episode's last state
     "detector.final_views": False,
+    # before detector.kwargs existed no detector took further arguments
+    "detector.kwargs": {},
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
