@@ -163,7 +163,7 @@ def test_the_warning_threshold_counts_either_value() -> None:
     check_fluents_shown(always, ["c"], source="the images")  # a and b: no spec uses them
 
 
-@pytest.mark.parametrize("reward", ["compliance", "paper"])
+@pytest.mark.parametrize("reward", ["compliance"])
 def test_a_detector_reading_the_truth_warns_of_a_spec_fluent_random_play_never_shows(
     lake: Any, reward: str
 ) -> None:

@@ -347,9 +347,10 @@ def prepare_bolt(
     letters = None
     if config.progress_gamma is not None:
         letters = _random_play_letters(config)
-    if not isinstance(detector, ClassifierDetector):  # a classifier's images are checked
-        seen = letters if letters is not None else _random_play_letters(config)
-        warn_of_unseen_fluents(seen, fluents, spec_fluents, steps=RANDOM_PLAY_STEPS)
+    if letters is not None and not isinstance(detector, ClassifierDetector):
+        # What the compliance scheme's random play showed (a classifier's images are
+        # checked by make_detector); the paper scheme plays none, and is not checked here.
+        warn_of_unseen_fluents(letters, fluents, spec_fluents, steps=RANDOM_PLAY_STEPS)
     belief = None
     if config.belief_settings is not None:
         if isinstance(detector, ClassifierDetector) and detector.training_prior is None:
