@@ -50,10 +50,13 @@ def test_compliance_is_the_default_with_a_scale_from_the_worlds_return_bounds() 
     assert bounds is not None and (bounds.low, bounds.high) == (-1.5 * 144, 98.5)
     assert config.reward == "compliance" and config.reward_scale == compliance_scale(bounds)
     (spec,) = config.spec_objects()
-    assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "episode_end"
-    paper = _config(["avoid_top_right"], reward="paper")
+    assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "settled"
+    at_end = _config(["avoid_top_right"], pay_when_settled=False)
+    assert at_end.spec_objects()[0].reward_timing == "episode_end"
+    paper = _config(["avoid_top_right"], reward="paper", pay_when_settled=True)
     assert paper.spec_objects()[0].terminal_reward == 1.0
     assert paper.spec_objects()[0].reward_timing == "every_step"
+    assert not paper.pay_when_settled  # recorded as what the paper scheme does
     # The config holds the resolved scale: reading it back gives the same run.
     assert TrainConfig.from_dict(config.to_dict()) == config
 

@@ -74,8 +74,83 @@ def test_reward_timing_hand_totals() -> None:
     assert run_last_is("every_step", trace) == [1.0, 0.0 + 1.0, 1.0, 1.0, 0.0, 1.0]
     assert run_last_is("on_entry", trace) == [1.0, 0.0 + 1.0, 1.0, 0.0, 0.0, 1.0]
     assert run_last_is("episode_end", trace) == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    # "last e" has no accepting sink: nothing is settled before the end
+    assert run_last_is("settled", trace) == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
     # episode ending while not accepting pays nothing
     assert run_last_is("episode_end", [HIGH, HIGH, ABSENT]) == [0.0, 0.0, 0.0]
+    assert run_last_is("settled", [HIGH, HIGH, ABSENT]) == [0.0, 0.0, 0.0]
+
+
+def settled_and_end_totals(trace: list[tuple[float, float]]) -> dict[str, list[float]]:
+    """Totals of reset + steps of F(e & t) (its acceptance is a sink), done at the end."""
+    totals = {}
+    for timing in ("settled", "episode_end"):
+        bolt = f_e_and_t_bolt(reward_timing=timing)  # no low-band frames: no cost
+        out = [float(bolt.reset(p(trace[0])).total[0])]
+        for i, probs in enumerate(trace[1:], start=2):
+            out.append(float(bolt.step(p(probs), done=i == len(trace)).total[0]))
+        totals[timing] = out
+    return totals
+
+
+def test_settled_pays_on_entering_an_accepting_sink_and_not_again_at_the_end() -> None:
+    seen, none = (HIGH, HIGH), (ABSENT, ABSENT)
+    totals = settled_and_end_totals([none, none, seen, none, none])
+    assert totals["settled"] == [0.0, 0.0, T, 0.0, 0.0]
+    assert totals["episode_end"] == [0.0, 0.0, 0.0, 0.0, T]
+    # settled on the reset frame: carried into the first step, like any reset reward
+    totals = settled_and_end_totals([seen, none, none])
+    assert totals["settled"] == [T, T, 0.0]
+    assert totals["episode_end"] == [0.0, 0.0, T]
+    # never settled: neither pays
+    assert settled_and_end_totals([none, none, none]) == {
+        "settled": [0.0, 0.0, 0.0],
+        "episode_end": [0.0, 0.0, 0.0],
+    }
+
+
+def test_settled_pays_the_end_of_an_acceptance_that_could_still_be_lost() -> None:
+    # F(e) & G(!t)'s accepting state is left by t: never a sink, so paid at the end.
+    dfa = DFA.from_function(
+        ["e", "t"],
+        n_states=3,
+        initial_state=0,
+        accepting=[False, True, False],
+        delta=lambda q, m: 2 if (q == 2 or m & 2) else (1 if (q == 1 or m & 1) else 0),
+    )
+    spec = Spec("F(e) & G(!t)", terminal_reward=T, low_confidence_cost=0.0, reward_timing="settled")
+    bolt = RestrainingBolt([spec], ["e", "t"], dfas=[dfa])
+    bolt.reset(p((ABSENT, ABSENT)))
+    assert bolt.step(p((HIGH, ABSENT))).total.tolist() == [0.0]
+    assert bolt.step(p((ABSENT, ABSENT)), done=True).total.tolist() == [T]
+
+
+@given(st.data())
+def test_settled_and_episode_end_pay_the_same_sum_and_settled_pays_no_later(
+    data: st.DataObject,
+) -> None:
+    fluents = ["f0", "f1"]
+    dfa = data.draw(random_dfas(fluents=fluents, max_states=4))
+    n_steps = data.draw(st.integers(1, 8))
+    probs = [data.draw(prob_matrices(1, 2)) for _ in range(n_steps + 1)]
+    truncated = data.draw(st.booleans())
+    paid = {}
+    for timing in ("settled", "episode_end"):
+        spec = Spec("s", terminal_reward=3.0, low_confidence_cost=0.0, reward_timing=timing)  # type: ignore[arg-type]
+        bolt = RestrainingBolt([spec], fluents, dfas=[dfa], pay_at_truncation=False)
+        outs = [bolt.reset(probs[0]).terminal[0, 0]]
+        for i in range(1, n_steps + 1):
+            end = i == n_steps
+            outs.append(bolt.step(probs[i], done=end, truncated=end and truncated).terminal[0, 0])
+        paid[timing] = np.array(outs)
+    settled, at_end = paid["settled"], paid["episode_end"]
+    assert np.count_nonzero(settled) <= 1
+    if not truncated:  # a truncated episode's end pays nothing unless settled before it
+        assert settled.sum() == at_end.sum()
+    else:
+        assert settled.sum() >= at_end.sum()
+    if settled.any() and at_end.any():
+        assert np.flatnonzero(settled)[0] <= np.flatnonzero(at_end)[0]
 
 
 @pytest.mark.parametrize("timing", REWARD_TIMINGS)
@@ -83,7 +158,12 @@ def test_the_low_confidence_cost_is_charged_on_every_transition_under_every_timi
     timing: str,
 ) -> None:
     totals = run_last_is(timing, [LOW, LOW, LOW], cost=0.25)
-    paid = {"every_step": [1, 1, 1], "on_entry": [1, 0, 0], "episode_end": [0, 0, 1]}[timing]
+    paid = {
+        "every_step": [1, 1, 1],
+        "on_entry": [1, 0, 0],
+        "episode_end": [0, 0, 1],
+        "settled": [0, 0, 1],
+    }[timing]
     expected = [paid[0] - 0.25, paid[1] - 0.25 + paid[0] - 0.25, paid[2] - 0.25]
     assert totals == pytest.approx(expected)
 

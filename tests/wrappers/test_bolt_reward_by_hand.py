@@ -68,13 +68,13 @@ SPEC_SETS: dict[str, tuple[tuple[str, float, float], ...]] = {
         (f"F({T} & X(!F({T})))", 1.5, 1.0),
     ),
 }
-TIMINGS = ("every_step", "on_entry", "episode_end")
+TIMINGS = ("every_step", "on_entry", "episode_end", "settled")
 
 
 def _specs(name: str, timing: str) -> list[Spec]:
     specs = []
     for k, (formula, reward, cost) in enumerate(SPEC_SETS[name]):
-        when = TIMINGS[k % 3] if timing == "mixed" else timing
+        when = TIMINGS[k % len(TIMINGS)] if timing == "mixed" else timing
         specs.append(
             Spec(
                 formula,
@@ -175,6 +175,23 @@ def _can_accept(formula: str, q: int) -> bool:
     return False
 
 
+@cache
+def _settled(formula: str, q: int) -> bool:
+    """Whether every state reachable from ``q`` (``q`` too) accepts: no continuation of the
+    trace can lose acceptance."""
+    dfa = _dfa(formula)
+    seen, todo = {q}, [q]
+    while todo:
+        state = todo.pop()
+        if not dfa.accepting[state]:
+            return False
+        for nxt in _successors(formula, state):
+            if nxt not in seen:
+                seen.add(nxt)
+                todo.append(nxt)
+    return True
+
+
 class PaperBolt:
     """Algorithm 1 for one environment, in plain Python, with the episode timing."""
 
@@ -189,11 +206,13 @@ class PaperBolt:
         self.terminate = False
         self._trace: list[dict[str, bool]] = []
         self._accepting: list[bool] = []
+        self._paid_settled: list[bool] = []
 
     def reset(self, probs: np.ndarray) -> None:
         self._trace = []
         self.states = [_dfa(s.formula).initial_state for s in self.specs]
         self._accepting = [False] * len(self.specs)
+        self._paid_settled = [False] * len(self.specs)
         self.carried = self._transition(probs, first=True, done=False)
 
     def step(self, probs: np.ndarray, *, done: bool, end_on_violation: bool = False) -> float:
@@ -231,7 +250,13 @@ class PaperBolt:
                 spec.reward_timing == "every_step"
                 or (spec.reward_timing == "on_entry" and entered)
                 or (spec.reward_timing == "episode_end" and ended)
+                or (
+                    spec.reward_timing == "settled"
+                    and not self._paid_settled[k]
+                    and (ended or _settled(spec.formula, target))
+                )
             )
+            self._paid_settled[k] |= bool(paid and spec.reward_timing == "settled")
             total += spec.terminal_reward * paid
             self._accepting[k] = accepting
             self.states[k] = target
@@ -384,7 +409,12 @@ def test_end_on_violation_ends_where_the_reference_sees_a_violation() -> None:
 
 @pytest.mark.parametrize(
     ("spec_set", "timing"),
-    [("paper", "mixed"), ("two_fluent_edges", "on_entry"), ("until", "episode_end")],
+    [
+        ("paper", "mixed"),
+        ("two_fluent_edges", "on_entry"),
+        ("until", "episode_end"),
+        ("until", "settled"),
+    ],
 )
 @pytest.mark.parametrize("cost_mode", ["count", "proportional"])
 def test_batched_bolt_is_the_unbolted_vector_env_plus_algorithm_1_by_hand(

@@ -137,6 +137,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "bolt.reward": "paper",
     "bolt.reward_scale": None,
     "bolt.shaping": False,
+    # before bolt.pay_when_settled existed the compliance scheme paid at the episode's end
+    "bolt.pay_when_settled": False,
     "evaluation.stop_after": 0,
     # before keep_best existed a run's final model was its last
     "evaluation.keep_best": False,
@@ -224,6 +226,7 @@ class TrainConfig:
     reward = _Alias[str]("bolt.reward")
     reward_scale = _Alias[float | None]("bolt.reward_scale")
     shaping = _Alias[bool]("bolt.shaping")
+    pay_when_settled = _Alias[bool]("bolt.pay_when_settled")
     tracking = _Alias[str]("bolt.tracking")
     confidence = _Alias[float]("bolt.confidence")
     min_dwell = _Alias[int]("bolt.min_dwell")
@@ -263,8 +266,8 @@ class TrainConfig:
         if bolt.reward == "compliance" and bolt.reward_scale is None:
             bolt = replace(bolt, reward_scale=_scale_from_world(self))
         scheme = bolt.scheme  # validates reward, reward_scale and shaping
-        if scheme.shaping != bolt.shaping:
-            bolt = replace(bolt, shaping=scheme.shaping)
+        if (scheme.shaping, scheme.pay_when_settled) != (bolt.shaping, bolt.pay_when_settled):
+            bolt = replace(bolt, shaping=scheme.shaping, pay_when_settled=scheme.pay_when_settled)
         object.__setattr__(self, "bolt", bolt)
         names = [spec.name for spec in self.spec_objects()]  # validates every spec
         repeated = sorted({name for name in names if names.count(name) > 1})
@@ -751,9 +754,14 @@ def describe_scheme(config: TrainConfig) -> str:
     if config.reward == "paper":
         return "reward scheme: paper (each spec's terminal reward on every accepting step)"
     shaping = "with" if config.shaping else "without"
+    when = (
+        "as soon as it is settled (else at the episode's end)"
+        if config.pay_when_settled
+        else "at the episode's end"
+    )
     return (
-        f"reward scheme: compliance, {shaping} progress shaping; complying is worth, at the "
-        f"episode's end, {spec_worths(config)} (scale {config.reward_scale:g}; "
+        f"reward scheme: compliance, {shaping} progress shaping; complying is worth, {when}, "
+        f"{spec_worths(config)} (scale {config.reward_scale:g}; "
         "--reward-scale, or a spec's own reward_scale, to change it)"
     )
 

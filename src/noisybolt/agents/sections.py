@@ -125,6 +125,10 @@ class BoltConfig:
             (:func:`~noisybolt.bolt.compliance_scale`); the config holds the value used.
         shaping: ``compliance`` only: potential-based progress shaping over each DFA
             (:mod:`noisybolt.bolt.shaping`).
+        pay_when_settled: ``compliance`` only: pay an acceptance as soon as no
+            continuation can lose it (an accepting sink of its DFA) rather than at the
+            episode's end; the same sum, without paying a discounting learner for
+            ending accepted episodes sooner (:mod:`noisybolt.bolt.schemes`).
         tracking: ``"threshold"`` (Algorithm 1, the default, what ``reproduce`` uses) or
             ``"belief"`` (a distribution over each spec's DFA states,
             :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
@@ -144,6 +148,7 @@ class BoltConfig:
     reward: str = "compliance"
     reward_scale: float | None = None
     shaping: bool = True
+    pay_when_settled: bool = True
     tracking: str = "threshold"
     confidence: float = 0.9
     min_dwell: int = 2
@@ -173,7 +178,12 @@ class BoltConfig:
         """The reward scheme (validates ``reward``, ``reward_scale`` and ``shaping``)."""
         if self.reward == "paper":
             return RewardScheme("paper", scale=self.reward_scale)
-        return RewardScheme(self.reward, scale=self.reward_scale, shaping=self.shaping)
+        return RewardScheme(
+            self.reward,
+            scale=self.reward_scale,
+            shaping=self.shaping,
+            pay_when_settled=self.pay_when_settled,
+        )
 
 
 @dataclass(frozen=True, kw_only=True)

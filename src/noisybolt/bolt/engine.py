@@ -10,7 +10,7 @@ expanded DFA of the paper's Fig. 2a, see :mod:`noisybolt.bolt.augmented`):
    ``low_confidence_cost`` (``cost_mode="count"``), or that cost scaled by
    :func:`~noisybolt.bolt.bands.proportional_weights` (``cost_mode="proportional"``);
 4. the spec's ``terminal_reward`` is paid if ``q'`` is accepting, subject to the spec's
-   ``reward_timing``.
+   ``reward_timing`` (``settled``: on entering an accepting sink, else at the end).
 
 Sign convention: :attr:`BoltStep.low_confidence` holds the cost *as a reward term*, so it
 is ``<= 0``; ``reward = terminal + low_confidence``.
@@ -211,6 +211,7 @@ class BoltEngine:
         self._state_offsets = np.cumsum((0, *self._n_states[:-1]), dtype=np.int64)
         self._accepting_flat = np.concatenate([dfa.accepting for dfa in dfas])
         self._rejecting_flat = np.concatenate([dfa.rejecting_sinks for dfa in dfas])
+        self._sunk_flat = np.concatenate([dfa.accepting_sinks for dfa in dfas])
         self._n_states_array = np.array(self._n_states, dtype=np.int64)
 
         self._terminal = np.array([spec.terminal_reward for spec in specs], dtype=np.float64)
@@ -219,6 +220,7 @@ class BoltEngine:
         self._every_step = timings == "every_step"
         self._on_entry = timings == "on_entry"
         self._episode_end = timings == "episode_end"
+        self._settled = timings == "settled"
         self._build_flat_tables()
 
     def _build_flat_tables(self) -> None:
@@ -387,12 +389,15 @@ class BoltEngine:
         )
         ended = done | terminate
         was_accepting = self._accepting_flat[states + self._state_offsets]
-        paid = accepting & (
-            self._every_step
-            | (self._on_entry & (~was_accepting | first[:, None]))
-            | (self._episode_end & ended[:, None])
+        sunk = self._sunk_flat[next_states + self._state_offsets]
+        was_sunk = self._sunk_flat[states + self._state_offsets] & ~first[:, None]
+        terminal = self.terminal_rewards(
+            accepting,
+            entered=~was_accepting | first[:, None],
+            ended=ended,
+            settling=sunk & ~was_sunk,
+            sunk=sunk,
         )
-        terminal = np.where(paid, self._terminal, 0.0)
         reward = terminal + low_term
         return BoltStep(
             next_states=next_states,
@@ -414,7 +419,13 @@ class BoltEngine:
         return self._cost.copy()
 
     def terminal_rewards(
-        self, accepting: np.ndarray, *, entered: np.ndarray, ended: np.ndarray
+        self,
+        accepting: np.ndarray,
+        *,
+        entered: np.ndarray,
+        ended: np.ndarray,
+        settling: np.ndarray,
+        sunk: np.ndarray,
     ) -> np.ndarray:
         """float64 ``[n_envs, n_specs]``: the terminal rewards paid under each spec's timing.
 
@@ -422,9 +433,17 @@ class BoltEngine:
             accepting: bool ``[n_envs, n_specs]``, the spec counts as accepting now.
             entered: bool ``[n_envs, n_specs]``, this is an entry (``on_entry`` pays).
             ended: bool ``[n_envs]``, the episode ends here (``episode_end`` pays).
+            settling: bool ``[n_envs, n_specs]``, acceptance is settled for the first time
+                in the episode here (``settled`` pays).
+            sunk: bool ``[n_envs, n_specs]``, acceptance has been settled, here or before
+                (``settled`` was paid then, not again at the end).
         """
+        ends = ended[:, None]
         paid = accepting & (
-            self._every_step | (self._on_entry & entered) | (self._episode_end & ended[:, None])
+            self._every_step
+            | (self._on_entry & entered)
+            | (self._episode_end & ends)
+            | (self._settled & (settling | (ends & ~sunk)))
         )
         return np.where(paid, self._terminal, 0.0)
 

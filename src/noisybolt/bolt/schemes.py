@@ -15,7 +15,12 @@ what a spec pays and when, and whether progress is shaped.
   merely staying in an accepting state; ``scale`` exceeds the width of the world's
   episode returns (:func:`compliance_scale`), so with the return undiscounted an episode
   that complies is worth more than any that does not, whatever either earns from the
-  world. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`) pays
+  world. With ``pay_when_settled`` (the default) an acceptance that can no longer be
+  lost (the DFA entered an accepting sink, as ``F(x)`` does when ``x`` is seen) is paid
+  then rather than at the end (``settled`` timing): the same sum over every episode, but
+  a learner that discounts is no longer paid for ending an accepted episode sooner,
+  which in a game of survival (Breakout's last life) made losing it quickly the best
+  thing to do. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`) pays
   progress towards acceptance as it happens, so a detour is rewarded before the spec is
   satisfied, without changing which policy is optimal.
 
@@ -25,7 +30,9 @@ Example:
     345.95
     >>> spec = scheme.apply(Spec("F(a)", terminal_reward=1.0, low_confidence_cost=0.5))
     >>> spec.terminal_reward == scheme.scale, spec.reward_timing, spec.low_confidence_cost
-    (True, 'episode_end', 0.5)
+    (True, 'settled', 0.5)
+    >>> RewardScheme("compliance", scale=1.0, pay_when_settled=False).apply(spec).reward_timing
+    'episode_end'
     >>> RewardScheme("paper").apply(spec) is spec
     True
 """
@@ -104,6 +111,8 @@ class RewardScheme:
         scale: ``compliance`` only: what each spec's acceptance is worth (per-spec values
             may replace it, see :meth:`apply`); must be finite and > 0.
         shaping: ``compliance`` only: add potential-based progress shaping.
+        pay_when_settled: ``compliance`` only: pay an acceptance as soon as it is settled
+            (``settled`` timing) rather than at the episode's end (``episode_end``).
 
     Raises:
         UnknownNameError: an unknown scheme.
@@ -114,6 +123,7 @@ class RewardScheme:
     name: str = "compliance"
     scale: float | None = None
     shaping: bool = True
+    pay_when_settled: bool = True
 
     def __post_init__(self) -> None:
         if self.name not in REWARD_SCHEMES:
@@ -129,6 +139,7 @@ class RewardScheme:
                     "of a reward scale, or use --reward compliance"
                 )
             object.__setattr__(self, "shaping", False)
+            object.__setattr__(self, "pay_when_settled", False)
             return
         _check_scale(self.scale, "the compliance scheme's scale")
         object.__setattr__(self, "scale", float(self.scale))  # type: ignore[arg-type]
@@ -137,14 +148,16 @@ class RewardScheme:
         """``spec`` as this scheme pays it; ``scale`` replaces the scheme's for this spec.
 
         ``paper`` returns ``spec`` unchanged; ``compliance`` sets its terminal reward to
-        the scale and its timing to ``episode_end`` (its low-confidence cost is kept).
+        the scale and its timing to ``settled`` (``episode_end`` without
+        ``pay_when_settled``); its low-confidence cost is kept.
         """
         if self.name == "paper":
             if scale is not None:
                 raise ConfigError(f"spec {spec.name!r}: a reward scale needs --reward compliance")
             return spec
         value = self.scale if scale is None else _check_scale(scale, f"spec {spec.name!r}'s scale")
-        return replace(spec, terminal_reward=float(value), reward_timing="episode_end")  # type: ignore[arg-type]
+        timing = "settled" if self.pay_when_settled else "episode_end"
+        return replace(spec, terminal_reward=float(value), reward_timing=timing)  # type: ignore[arg-type]
 
 
 def _check_scale(value: object, what: str) -> float:

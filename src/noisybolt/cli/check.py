@@ -143,7 +143,9 @@ def _check(args: argparse.Namespace) -> int:
     assert scale is not None
     gamma = float(config.hyperparams.get("gamma", 0.99))
     formulas = [spec.formula for spec in config.spec_objects()]
-    optimum = scheme_optimum(formulas, scale=scale, gamma=gamma, **settings)
+    optimum = scheme_optimum(
+        formulas, scale=scale, gamma=gamma, pay_when_settled=config.pay_when_settled, **settings
+    )
     print(
         f"compliance scheme: scale {scale:g} (bound {config.reward_scale:g}); its optimal "
         f"policy (gamma {gamma:g}) {'complies' if optimum.complies else 'does NOT comply'}"

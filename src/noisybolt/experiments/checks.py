@@ -82,7 +82,12 @@ def exact_scale(config: TrainConfig) -> float | None:
     gamma = float(config.hyperparams.get("gamma", 0.99))
     try:
         return exact_compliance_scale(
-            formulas, gamma=gamma, floor=floor, cap=float(config.reward_scale), **settings
+            formulas,
+            gamma=gamma,
+            floor=floor,
+            cap=float(config.reward_scale),
+            pay_when_settled=config.pay_when_settled,
+            **settings,
         )
     except UnknownFluentError:
         return None  # training refuses the spec, naming the world's fluents
