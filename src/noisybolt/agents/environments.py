@@ -424,11 +424,10 @@ def belief_from_play(
     sequences: list[list[np.ndarray]] = [[] for _ in range(n_envs)]
     last: list[list[bool]] = [[] for _ in range(n_envs)]
     for info, ended in _random_play_infos(config, seed=config.seed + 1, n_envs=n_envs, steps=steps):
-        final = _final_views(info, ended)
-        viewed: set[int] = set()
-        if final is not None:  # the states the ended episodes reached
-            rows, final_images, final_truth = final
-            viewed = set(rows.tolist())
+        rows, views = _final_views(info, ended, (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY))
+        viewed = set(rows.tolist())
+        if views:  # the states the ended episodes reached
+            final_images, final_truth = views[BOLT_IMAGE_KEY], views[TRUE_FLUENTS_KEY]
             seen = final_truth if detector.needs_truth else None
             frames.append(detector.predict(final_images, truth=seen))
             for row, row_truth in zip(rows, final_truth, strict=True):
@@ -468,25 +467,26 @@ def belief_from_play(
 
 
 def _final_views(
-    info: dict[str, Any], ended: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """The rows that ended, their bolt images and true fluents as the episodes ended,
-    from ``info["final_info"]``; None where no episode ended or the world gives none."""
+    info: dict[str, Any], ended: np.ndarray, keys: tuple[str, ...]
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The rows that ended whose last views ``info["final_info"]`` gives under every one
+    of ``keys``, and those views (true fluents as bool); no rows and ``{}`` where no
+    episode ended or the world gives none (the step's own view is then its last)."""
     final = info.get(FINAL_INFO_KEY)
-    if not ended.any() or not isinstance(final, dict):
-        return None
-    if BOLT_IMAGE_KEY not in final or TRUE_FLUENTS_KEY not in final:
-        return None
+    if not ended.any() or not isinstance(final, dict) or any(k not in final for k in keys):
+        return np.zeros(0, dtype=np.intp), {}
     rows = ended.copy()
-    for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY):
+    for key in keys:
         mask = final.get(f"_{key}")
         if mask is not None:
             rows &= np.asarray(mask, dtype=bool)
     index = np.flatnonzero(rows)
     if index.size == 0:
-        return None
-    images = np.asarray(final[BOLT_IMAGE_KEY])[index]
-    return index, images, np.asarray(final[TRUE_FLUENTS_KEY], dtype=bool)[index]
+        return index, {}
+    views = {key: np.asarray(final[key])[index] for key in keys}
+    if TRUE_FLUENTS_KEY in views:
+        views[TRUE_FLUENTS_KEY] = views[TRUE_FLUENTS_KEY].astype(bool)
+    return index, views
 
 
 def true_runs(truth: np.ndarray, last: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -639,11 +639,9 @@ def _random_play_letters(
     seen = []
     for info, ended in _random_play_infos(config, seed=config.seed, n_envs=n_envs, steps=steps):
         seen.append(np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool))
-        final = info.get(FINAL_INFO_KEY)
-        if ended.any() and isinstance(final, dict) and TRUE_FLUENTS_KEY in final:
-            mask = final.get(f"_{TRUE_FLUENTS_KEY}")
-            rows = ended if mask is None else ended & np.asarray(mask, dtype=bool)
-            seen.append(np.asarray(final[TRUE_FLUENTS_KEY], dtype=bool)[rows])
+        _, views = _final_views(info, ended, (TRUE_FLUENTS_KEY,))
+        if views:
+            seen.append(views[TRUE_FLUENTS_KEY])
     return np.unique(np.concatenate(seen), axis=0)
 
 
