@@ -36,6 +36,7 @@ __all__ = [
     "UnknownFluentError",
     "UnknownNameError",
     "UnlabelledEnvError",
+    "UnnormalizedRewardWarning",
     "UnsafeFileError",
     "UnsatisfiableSpecError",
     "UnseenFluentError",
@@ -278,6 +279,12 @@ class BriefFluentWarning(UserWarning):
     fewer frames in a row than the bolt needs to believe it, even from a perfect detector
     (:func:`noisybolt.bolt.belief.frames_to_believe`): a spec met only on such a visit is
     never credited. ``min_dwell=1`` or threshold tracking may be needed."""
+
+
+class UnnormalizedRewardWarning(UserWarning):
+    """An on-policy learner (PPO, A2C) is paid the ``compliance`` scheme's large rewards
+    without ``normalize_reward``: value targets in the hundreds or thousands swamp the
+    policy's share of the gradient, and the policy barely moves."""
 
 
 class SmallIntegerImagesWarning(UserWarning):

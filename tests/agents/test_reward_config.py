@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from noisybolt.agents.config import warn_of_unnormalized_rewards
 from noisybolt.agents.specs import load_specs_file
 from noisybolt.agents.training import (
     DetectorConfig,
@@ -24,6 +26,7 @@ from noisybolt.errors import (
     ConfigError,
     UnknownFluentError,
     UnknownNameError,
+    UnnormalizedRewardWarning,
     UnsatisfiableSpecError,
 )
 
@@ -302,3 +305,39 @@ def test_check_says_what_a_spec_with_its_own_scale_is_paid(
     assert f"note: training pays edge {scale[1]}, tr 50 " in out
     assert main(["check", "--spec", "edge"]) == 0  # one scale for every spec: no note
     assert "note: training pays" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("settings", "warned"),
+    [
+        ({"algo": "ppo", "hp": {"normalize_reward": False}}, True),
+        ({"algo": "a2c", "hp": {"normalize_reward": False}}, True),
+        ({"algo": "ppo", "hp": {"normalize_reward": True}}, False),
+        ({"algo": "ppo", "hp": {"normalize_reward": False}, "reward_scale": 10.0}, False),
+        ({"algo": "ppo", "hp": {"normalize_reward": False}, "reward": "paper"}, False),
+        ({"algo": "ppo", "hp": {"normalize_reward": False}, "bolted": False}, False),
+        ({"algo": "dqn", "hp": {"normalize_reward": False}}, False),
+    ],
+)
+def test_an_on_policy_learner_paid_large_unnormalised_rewards_is_warned(
+    settings: dict, warned: bool
+) -> None:
+    settings = dict(settings)
+    overrides = settings.pop("hp")
+    config = _config(["avoid_top_right"], overrides=overrides, **settings)
+    assert config.hyperparams["normalize_reward"] is overrides["normalize_reward"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warn_of_unnormalized_rewards(config)
+    hits = [w for w in caught if issubclass(w.category, UnnormalizedRewardWarning)]
+    assert len(hits) == warned
+    if warned:
+        assert "--hp normalize_reward=true" in str(hits[0].message)
+
+
+def test_a_users_world_normalises_ppo_and_a2c_rewards_by_default_but_not_dqns() -> None:
+    from noisybolt.agents.hyperparams import load_hyperparams
+
+    for algo, expected in (("ppo", True), ("a2c", True), ("dqn", False)):
+        params = load_hyperparams("examples.frozenlake:make_lake", algo, {})
+        assert params["normalize_reward"] is expected

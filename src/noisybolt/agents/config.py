@@ -95,6 +95,7 @@ from noisybolt.errors import (
     EstimatedBoundsWarning,
     SmallIntegerImagesWarning,
     SpecSyntaxError,
+    UnnormalizedRewardWarning,
 )
 
 __all__ = [
@@ -118,6 +119,7 @@ __all__ = [
     "schema_paths",
     "spec_worths",
     "value_from_text",
+    "warn_of_unnormalized_rewards",
 ]
 
 #: The version of the nested schema that ``config.json`` holds under ``"schema"`` (a
@@ -763,6 +765,38 @@ def describe_scheme(config: TrainConfig) -> str:
         f"reward scheme: compliance, {shaping} progress shaping; complying is worth, {when}, "
         f"{spec_worths(config)} (scale {config.reward_scale:g}; "
         "--reward-scale, or a spec's own reward_scale, to change it)"
+    )
+
+
+#: A compliance worth above which an on-policy learner without ``normalize_reward`` is
+#: warned (:func:`warn_of_unnormalized_rewards`); the learners' own rewards are ~1.
+UNNORMALIZED_WORTH_LIMIT = 10.0
+
+
+def warn_of_unnormalized_rewards(config: TrainConfig) -> None:
+    """Warns (:class:`~noisybolt.errors.UnnormalizedRewardWarning`) where PPO or A2C is
+    paid the compliance scheme's rewards, more than :data:`UNNORMALIZED_WORTH_LIMIT` a
+    spec, with ``normalize_reward`` off.
+
+    Measured (CartPole, ``F(far_left)``, scale 550, PPO, 100k frames, seeds 0 and 1):
+    compliance 25 % and 44 % without it, 88 % and 88 % with it (A2C, seed 0: 0 % and
+    94 %); on Breakout (scale 950)
+    PPO's policy stood still (approximate KL ~0, value loss ~10^4) without it.
+    """
+    if not config.bolted or config.reward != "compliance" or config.algo not in ("ppo", "a2c"):
+        return
+    if config.hyperparams.get("normalize_reward"):
+        return
+    worth = max(spec.terminal_reward for spec in config.spec_objects())
+    if worth <= UNNORMALIZED_WORTH_LIMIT:
+        return
+    warnings.warn(
+        f"the compliance scheme pays up to {worth:g} a spec, and {config.algo.upper()}'s "
+        "rewards are not normalised (normalize_reward false): value targets that large "
+        "swamp the policy's share of each gradient step, and the policy barely learns. "
+        "Pass --hp normalize_reward=true (or a smaller --reward-scale)",
+        UnnormalizedRewardWarning,
+        stacklevel=2,
     )
 
 

@@ -70,6 +70,7 @@ from noisybolt.agents.config import (
     DetectorConfig,
     TrainConfig,
     describe_scheme,
+    warn_of_unnormalized_rewards,
 )
 from noisybolt.agents.detectors import (
     classifier_architecture,
@@ -216,6 +217,7 @@ def train(
     tensorboard = str(run.file("tensorboard"))
     fresh = _make_model(config, env, tensorboard_log=tensorboard) if not resume else None
     log(describe_scheme(config))  # once every check has passed
+    warn_of_unnormalized_rewards(config)
 
     with run.lock(argv):
         run.remove_partial_files()  # of a writer killed mid-write: no one writes now

@@ -220,10 +220,7 @@ def run_report(
         raise ConfigError(f"{run} holds no run (no readable config.json)")
     config = nested_config(config)
     world = config.get("world", {})
-    specs = ", ".join(
-        f"`{s.get('name') or s.get('formula')}` = `{s.get('formula')}`"
-        for s in config["bolt"].get("specs", [])
-    )
+    specs = ", ".join(_spec_label(s) for s in config["bolt"].get("specs", []))
     blocks: list[Block] = [
         Heading(f"Run {run.name}"),
         Text(
@@ -413,3 +410,17 @@ def write_report(path: str | os.PathLike[str], *, html_page: bool = True) -> Rep
             section.regenerate(folder)
     blocks, _ = _sections(folder)
     return _write(blocks, folder, f"noisybolt results {folder.name}", write_html=html_page)
+
+
+def _spec_label(spec: dict[str, Any]) -> str:
+    """```name` = `formula``, or the formula alone where the spec has no name of its own.
+
+    Example:
+        >>> _spec_label({"name": "F(x)", "formula": "F(x)"}), _spec_label({"formula": "G(y)"})
+        ('`F(x)`', '`G(y)`')
+        >>> _spec_label({"name": "reach", "formula": "F(x)"})
+        '`reach` = `F(x)`'
+    """
+    formula = spec.get("formula")
+    name = spec.get("name") or formula
+    return f"`{formula}`" if name == formula else f"`{name}` = `{formula}`"
