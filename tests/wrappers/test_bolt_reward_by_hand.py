@@ -160,36 +160,26 @@ def _edge_support(formula: str, q: int, target: int) -> frozenset[str]:
 
 
 @cache
+def _reachable(formula: str, q: int) -> frozenset[int]:
+    """The states some trace leads to from ``q`` (``q`` included)."""
+    seen, todo = {q}, [q]
+    while todo:
+        for nxt in _successors(formula, todo.pop()):
+            if nxt not in seen:
+                seen.add(nxt)
+                todo.append(nxt)
+    return frozenset(seen)
+
+
 def _can_accept(formula: str, q: int) -> bool:
     """Whether some accepting state is reachable from ``q`` (else ``q`` is a violation)."""
-    dfa = _dfa(formula)
-    seen, todo = {q}, [q]
-    while todo:
-        state = todo.pop()
-        if dfa.accepting[state]:
-            return True
-        for nxt in _successors(formula, state):
-            if nxt not in seen:
-                seen.add(nxt)
-                todo.append(nxt)
-    return False
+    return any(_dfa(formula).accepting[s] for s in _reachable(formula, q))
 
 
-@cache
 def _settled(formula: str, q: int) -> bool:
-    """Whether every state reachable from ``q`` (``q`` too) accepts: no continuation of the
-    trace can lose acceptance."""
-    dfa = _dfa(formula)
-    seen, todo = {q}, [q]
-    while todo:
-        state = todo.pop()
-        if not dfa.accepting[state]:
-            return False
-        for nxt in _successors(formula, state):
-            if nxt not in seen:
-                seen.add(nxt)
-                todo.append(nxt)
-    return True
+    """Whether every state reachable from ``q`` accepts: no continuation of the trace can
+    lose acceptance."""
+    return all(_dfa(formula).accepting[s] for s in _reachable(formula, q))
 
 
 class PaperBolt:
