@@ -282,9 +282,9 @@ class BriefFluentWarning(UserWarning):
 
 
 class UnnormalizedRewardWarning(UserWarning):
-    """An on-policy learner (PPO, A2C) is paid the ``compliance`` scheme's large rewards
-    without ``normalize_reward``: value targets in the hundreds or thousands swamp the
-    policy's share of the gradient, and the policy barely moves."""
+    """PPO or A2C is paid the ``compliance`` scheme's large rewards without
+    ``normalize_reward``: value targets in the hundreds or thousands can swamp the policy's
+    share of each gradient step, and the policy barely moves."""
 
 
 class SmallIntegerImagesWarning(UserWarning):

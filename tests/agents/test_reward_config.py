@@ -319,9 +319,7 @@ def test_check_says_what_a_spec_with_its_own_scale_is_paid(
         ({"algo": "dqn", "hp": {"normalize_reward": False}}, False),
     ],
 )
-def test_an_on_policy_learner_paid_large_unnormalised_rewards_is_warned(
-    settings: dict, warned: bool
-) -> None:
+def test_a_learner_paid_large_unnormalised_rewards_is_warned(settings: dict, warned: bool) -> None:
     settings = dict(settings)
     overrides = settings.pop("hp")
     config = _config(["avoid_top_right"], overrides=overrides, **settings)
@@ -335,9 +333,9 @@ def test_an_on_policy_learner_paid_large_unnormalised_rewards_is_warned(
         assert "--hp normalize_reward=true" in str(hits[0].message)
 
 
-def test_a_users_world_normalises_ppo_and_a2c_rewards_by_default_but_not_dqns() -> None:
+def test_a_users_world_normalises_every_learners_rewards_by_default() -> None:
     from noisybolt.agents.hyperparams import load_hyperparams
 
-    for algo, expected in (("ppo", True), ("a2c", True), ("dqn", False)):
+    for algo in ("ppo", "a2c", "dqn"):
         params = load_hyperparams("examples.frozenlake:make_lake", algo, {})
-        assert params["normalize_reward"] is expected
+        assert params["normalize_reward"] is True
