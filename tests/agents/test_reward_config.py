@@ -53,13 +53,13 @@ def test_compliance_is_the_default_with_a_scale_from_the_worlds_return_bounds() 
     assert bounds is not None and (bounds.low, bounds.high) == (-1.5 * 144, 98.5)
     assert config.reward == "compliance" and config.reward_scale == compliance_scale(bounds)
     (spec,) = config.spec_objects()
-    assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "settled"
-    at_end = _config(["avoid_top_right"], pay_when_settled=False)
+    assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "on_change"
+    at_end = _config(["avoid_top_right"], pay_on_change=False)
     assert at_end.spec_objects()[0].reward_timing == "episode_end"
-    paper = _config(["avoid_top_right"], reward="paper", pay_when_settled=True)
+    paper = _config(["avoid_top_right"], reward="paper", pay_on_change=True)
     assert paper.spec_objects()[0].terminal_reward == 1.0
     assert paper.spec_objects()[0].reward_timing == "every_step"
-    assert not paper.pay_when_settled  # recorded as what the paper scheme does
+    assert not paper.pay_on_change  # recorded as what the paper scheme does
     # The config holds the resolved scale: reading it back gives the same run.
     assert TrainConfig.from_dict(config.to_dict()) == config
 
@@ -96,7 +96,12 @@ def test_paper_only_spec_settings_are_refused_under_compliance() -> None:
 
 def test_the_bolted_env_pays_the_scheme_and_plain_algorithm_1_under_paper() -> None:
     # !F(top_right_corner) with the oracle: 3 steps east reach the corner, a violation.
-    for reward, expected in (("compliance", [0.0, 0.0, -50.0]), ("paper", [1.0 + 1.0, 1.0, 0.0])):
+    # Compliance: accepting from the reset frame (+50, carried into the first step), then
+    # the violation takes the 50 back and charges 50.
+    for reward, expected in (
+        ("compliance", [50.0, 0.0, -100.0]),
+        ("paper", [1.0 + 1.0, 1.0, 0.0]),
+    ):
         config = _config(
             ["avoid_top_right"],
             reward=reward,

@@ -274,9 +274,9 @@ def test_on_entry_is_paid_once_per_confident_entry() -> None:
     assert sum(paid) == 1.0
 
 
-def test_every_step_is_paid_on_each_confident_step_episode_end_and_settled_once() -> None:
+def test_every_step_is_paid_on_each_confident_step_episode_end_and_on_change_once() -> None:
     probs = [0.999] * 4 + [0.01] * 3
-    for timing, expected in (("every_step", None), ("episode_end", 1.0), ("settled", 1.0)):
+    for timing in ("every_step", "episode_end", "on_change"):
         bolt = RestrainingBolt(
             [spec("F(x)", timing, cost=0.0)], ["x"], dfas=[eventually()], tracking="belief"
         )
@@ -284,32 +284,37 @@ def test_every_step_is_paid_on_each_confident_step_episode_end_and_settled_once(
         outs = [bolt.step(np.array([[p]]), done=i == len(probs) - 1) for i, p in enumerate(probs)]
         paid = np.array([o.terminal[0, 0] for o in outs])
         accepting = np.array([o.accepting[0, 0] for o in outs])
-        if expected is None:
+        if timing == "every_step":
             np.testing.assert_array_equal(paid, accepting.astype(float))
         elif timing == "episode_end":
             assert paid.tolist() == [0.0] * (len(probs) - 1) + [1.0]
-        else:  # F(x) accepts in a sink: paid once, when the bolt is first confident of it
+        else:  # once, when the bolt is first confident of F(x)
             first = int(np.argmax(accepting))
             assert accepting.any() and first < len(probs) - 1
             assert paid.tolist() == [1.0 if i == first else 0.0 for i in range(len(probs))]
 
 
-def test_settled_is_paid_once_though_the_belief_in_the_sink_wavers() -> None:
-    # Two confident frames of x make F(x) settled (paid); a long run of clear frames may
-    # then pull the belief back (min_dwell allows a glitch), and back again: no second pay.
-    bolt = RestrainingBolt(
-        [spec("F(x)", "settled", cost=0.0)],
-        ["x"],
-        dfas=[eventually()],
-        tracking="belief",
-        belief=BeliefSettings(base_rates=0.01),
-    )
-    bolt.reset(np.array([[0.01]]))
+def test_on_change_takes_back_what_the_belief_doubts_and_pays_it_again() -> None:
+    # Two fairly confident frames of x make the bolt believe F(x) (paid); clear frames
+    # then pull the belief back (min_dwell allows a glitch: taken back), and confident
+    # ones push it up again (paid again): the sum is what episode_end pays.
+    paid = {}
     probs = [0.98, 0.98] + [0.001] * 12 + [0.999] * 4
-    outs = [bolt.step(np.array([[p]]), done=i == len(probs) - 1) for i, p in enumerate(probs)]
-    believed = "".join(str(int(o.accepting[0, 0])) for o in outs)
-    assert believed == "01" + "0" * 12 + "1111"  # confident, doubted, confident again
-    assert [o.terminal[0, 0] for o in outs] == [0.0, 1.0] + [0.0] * 16
+    for timing in ("on_change", "episode_end"):
+        bolt = RestrainingBolt(
+            [spec("F(x)", timing, cost=0.0)],
+            ["x"],
+            dfas=[eventually()],
+            tracking="belief",
+            belief=BeliefSettings(base_rates=0.01),
+        )
+        bolt.reset(np.array([[0.01]]))
+        outs = [bolt.step(np.array([[p]]), done=i == len(probs) - 1) for i, p in enumerate(probs)]
+        believed = "".join(str(int(o.accepting[0, 0])) for o in outs)
+        assert believed == "01" + "0" * 12 + "1111"  # confident, doubted, confident again
+        paid[timing] = [o.terminal[0, 0] for o in outs]
+    assert paid["on_change"] == [0.0, 1.0, -1.0] + [0.0] * 11 + [1.0, 0.0, 0.0, 0.0]
+    assert sum(paid["on_change"]) == sum(paid["episode_end"]) == 1.0
 
 
 def test_decisive_frames_give_threshold_tracking_states_and_rewards() -> None:

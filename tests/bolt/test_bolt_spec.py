@@ -20,7 +20,7 @@ def test_defaults_and_name() -> None:
 
 
 def test_every_timing_is_accepted() -> None:
-    assert set(REWARD_TIMINGS) == {"every_step", "on_entry", "episode_end", "settled"}
+    assert set(REWARD_TIMINGS) == {"every_step", "on_entry", "episode_end", "on_change"}
     for timing in REWARD_TIMINGS:
         assert Spec("G(e)", terminal_reward=1, low_confidence_cost=1, reward_timing=timing)
 

@@ -74,17 +74,17 @@ def test_reward_timing_hand_totals() -> None:
     assert run_last_is("every_step", trace) == [1.0, 0.0 + 1.0, 1.0, 1.0, 0.0, 1.0]
     assert run_last_is("on_entry", trace) == [1.0, 0.0 + 1.0, 1.0, 0.0, 0.0, 1.0]
     assert run_last_is("episode_end", trace) == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
-    # "last e" has no accepting sink: nothing is settled before the end
-    assert run_last_is("settled", trace) == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    # on_change pays each entry and takes it back on each exit: the same sum as episode_end
+    assert run_last_is("on_change", trace) == [1.0, -1.0 + 1.0, 1.0, 0.0, -1.0, 1.0]
     # episode ending while not accepting pays nothing
     assert run_last_is("episode_end", [HIGH, HIGH, ABSENT]) == [0.0, 0.0, 0.0]
-    assert run_last_is("settled", [HIGH, HIGH, ABSENT]) == [0.0, 0.0, 0.0]
+    assert run_last_is("on_change", [HIGH, HIGH, ABSENT]) == [1.0, 0.0 + 1.0, -1.0]
 
 
-def settled_and_end_totals(trace: list[tuple[float, float]]) -> dict[str, list[float]]:
+def on_change_and_end_totals(trace: list[tuple[float, float]]) -> dict[str, list[float]]:
     """Totals of reset + steps of F(e & t) (its acceptance is a sink), done at the end."""
     totals = {}
-    for timing in ("settled", "episode_end"):
+    for timing in ("on_change", "episode_end"):
         bolt = f_e_and_t_bolt(reward_timing=timing)  # no low-band frames: no cost
         out = [float(bolt.reset(p(trace[0])).total[0])]
         for i, probs in enumerate(trace[1:], start=2):
@@ -93,24 +93,24 @@ def settled_and_end_totals(trace: list[tuple[float, float]]) -> dict[str, list[f
     return totals
 
 
-def test_settled_pays_on_entering_an_accepting_sink_and_not_again_at_the_end() -> None:
+def test_on_change_pays_an_acceptance_when_it_comes_and_nothing_at_the_end() -> None:
     seen, none = (HIGH, HIGH), (ABSENT, ABSENT)
-    totals = settled_and_end_totals([none, none, seen, none, none])
-    assert totals["settled"] == [0.0, 0.0, T, 0.0, 0.0]
+    totals = on_change_and_end_totals([none, none, seen, none, none])
+    assert totals["on_change"] == [0.0, 0.0, T, 0.0, 0.0]
     assert totals["episode_end"] == [0.0, 0.0, 0.0, 0.0, T]
-    # settled on the reset frame: carried into the first step, like any reset reward
-    totals = settled_and_end_totals([seen, none, none])
-    assert totals["settled"] == [T, T, 0.0]
+    # accepting on the reset frame: carried into the first step, like any reset reward
+    totals = on_change_and_end_totals([seen, none, none])
+    assert totals["on_change"] == [T, T, 0.0]
     assert totals["episode_end"] == [0.0, 0.0, T]
-    # never settled: neither pays
-    assert settled_and_end_totals([none, none, none]) == {
-        "settled": [0.0, 0.0, 0.0],
+    # never accepting: neither pays
+    assert on_change_and_end_totals([none, none, none]) == {
+        "on_change": [0.0, 0.0, 0.0],
         "episode_end": [0.0, 0.0, 0.0],
     }
 
 
-def test_settled_pays_the_end_of_an_acceptance_that_could_still_be_lost() -> None:
-    # F(e) & G(!t)'s accepting state is left by t: never a sink, so paid at the end.
+def test_on_change_takes_back_an_acceptance_that_is_lost() -> None:
+    # F(e) & G(!t): accepting once e is seen, until t is (for good).
     dfa = DFA.from_function(
         ["e", "t"],
         n_states=3,
@@ -118,15 +118,16 @@ def test_settled_pays_the_end_of_an_acceptance_that_could_still_be_lost() -> Non
         accepting=[False, True, False],
         delta=lambda q, m: 2 if (q == 2 or m & 2) else (1 if (q == 1 or m & 1) else 0),
     )
-    spec = Spec("F(e) & G(!t)", terminal_reward=T, low_confidence_cost=0.0, reward_timing="settled")
+    spec = Spec("F(e) & G(!t)", terminal_reward=T, low_confidence_cost=0, reward_timing="on_change")
     bolt = RestrainingBolt([spec], ["e", "t"], dfas=[dfa])
     bolt.reset(p((ABSENT, ABSENT)))
-    assert bolt.step(p((HIGH, ABSENT))).total.tolist() == [0.0]
-    assert bolt.step(p((ABSENT, ABSENT)), done=True).total.tolist() == [T]
+    assert bolt.step(p((HIGH, ABSENT))).total.tolist() == [T]
+    assert bolt.step(p((ABSENT, ABSENT))).total.tolist() == [0.0]
+    assert bolt.step(p((ABSENT, HIGH)), done=True).total.tolist() == [-T]
 
 
 @given(st.data())
-def test_settled_and_episode_end_pay_the_same_sum_and_settled_pays_no_later(
+def test_on_change_and_episode_end_pay_the_same_sum_and_nothing_is_left_at_the_end(
     data: st.DataObject,
 ) -> None:
     fluents = ["f0", "f1"]
@@ -134,23 +135,21 @@ def test_settled_and_episode_end_pay_the_same_sum_and_settled_pays_no_later(
     n_steps = data.draw(st.integers(1, 8))
     probs = [data.draw(prob_matrices(1, 2)) for _ in range(n_steps + 1)]
     truncated = data.draw(st.booleans())
-    paid = {}
-    for timing in ("settled", "episode_end"):
+    paid, accepting = {}, {}
+    for timing in ("on_change", "episode_end"):
         spec = Spec("s", terminal_reward=3.0, low_confidence_cost=0.0, reward_timing=timing)  # type: ignore[arg-type]
         bolt = RestrainingBolt([spec], fluents, dfas=[dfa], pay_at_truncation=False)
-        outs = [bolt.reset(probs[0]).terminal[0, 0]]
+        outs = [bolt.reset(probs[0])]
         for i in range(1, n_steps + 1):
             end = i == n_steps
-            outs.append(bolt.step(probs[i], done=end, truncated=end and truncated).terminal[0, 0])
-        paid[timing] = np.array(outs)
-    settled, at_end = paid["settled"], paid["episode_end"]
-    assert np.count_nonzero(settled) <= 1
-    if not truncated:  # a truncated episode's end pays nothing unless settled before it
-        assert settled.sum() == at_end.sum()
-    else:
-        assert settled.sum() >= at_end.sum()
-    if settled.any() and at_end.any():
-        assert np.flatnonzero(settled)[0] <= np.flatnonzero(at_end)[0]
+            outs.append(bolt.step(probs[i], done=end, truncated=end and truncated))
+        paid[timing] = np.array([o.terminal[0, 0] for o in outs])
+        accepting[timing] = [bool(o.accepting[0, 0]) for o in outs]
+    changes, at_end = paid["on_change"], paid["episode_end"]
+    # what is held after each step is what the DFA accepts then: paid as it is gained
+    assert np.cumsum(changes).tolist() == [3.0 * a for a in accepting["on_change"]]
+    if not truncated:  # (a cut episode's end is not paid at all under episode_end)
+        assert changes.sum() == at_end.sum()
 
 
 @pytest.mark.parametrize("timing", REWARD_TIMINGS)
@@ -162,7 +161,7 @@ def test_the_low_confidence_cost_is_charged_on_every_transition_under_every_timi
         "every_step": [1, 1, 1],
         "on_entry": [1, 0, 0],
         "episode_end": [0, 0, 1],
-        "settled": [0, 0, 1],
+        "on_change": [1, 0, 0],
     }[timing]
     expected = [paid[0] - 0.25, paid[1] - 0.25 + paid[0] - 0.25, paid[2] - 0.25]
     assert totals == pytest.approx(expected)

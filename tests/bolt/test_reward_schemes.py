@@ -23,8 +23,15 @@ FLUENTS = ["a", "b"]
 ON, OFF = 0.99, 0.01
 
 
-def _bolt(formula: str, *, scale: float = 30.0, shaping: bool = True, gamma: float = 1.0):
-    scheme = RewardScheme("compliance", scale=scale, shaping=shaping)
+def _bolt(
+    formula: str,
+    *,
+    scale: float = 30.0,
+    shaping: bool = True,
+    gamma: float = 1.0,
+    pay_on_change: bool = True,
+) -> RestrainingBolt:
+    scheme = RewardScheme("compliance", scale=scale, shaping=shaping, pay_on_change=pay_on_change)
     spec = scheme.apply(Spec(formula, terminal_reward=1.0, low_confidence_cost=0.5))
     dfa = compile_ltlf(formula, FLUENTS)
     terms = ProgressShaping([dfa], scales=[scale], gamma=gamma, shaping=shaping)
@@ -40,29 +47,36 @@ def _episode(bolt: RestrainingBolt, letters: list[tuple[float, float]]) -> list[
     return rewards
 
 
-def test_a_detour_is_paid_as_it_progresses_and_acceptance_at_the_end() -> None:
+def test_a_detour_is_paid_as_it_progresses_and_acceptance_as_it_comes() -> None:
     # F(a) & F(b): 2 letters from acceptance (over letters with a and b apart), but the
     # DFA's own graph has the letter a & b: distance 1, d_max 1, so each step is 15.
     bolt = _bolt("F(a) & F(b)")
     rewards = _episode(bolt, [(OFF, OFF), (ON, OFF), (OFF, OFF), (OFF, ON), (OFF, OFF)])
     # reset: nothing; a seen: no progress by the DFA's distance (1 -> 1); b seen: +15
-    # (1 -> 0); the episode ends accepting: +30.
+    # (1 -> 0) and +30 for accepting; the episode ends with nothing left to pay.
+    assert rewards == [0.0, 0.0, 15.0 + 30.0, 0.0]
+    # paid at the end instead (pay_on_change=False): the same sum, the 30 at the end
+    bolt = _bolt("F(a) & F(b)", pay_on_change=False)
+    rewards = _episode(bolt, [(OFF, OFF), (ON, OFF), (OFF, OFF), (OFF, ON), (OFF, OFF)])
     assert rewards == [0.0, 0.0, 15.0, 30.0]
 
 
 def test_an_unfinished_episode_keeps_its_shortfall_and_a_violation_pays_at_once() -> None:
     unfinished = _bolt("F(a & X(F(b)))")  # d: 2 at the start, d_max 2: 10 a step
     assert _episode(unfinished, [(OFF, OFF), (ON, OFF), (OFF, OFF)]) == [10.0, 0.0]
-    # G(!a): accepting (0) until a, then a rejecting sink: -30 then, nothing after it.
+    # G(!a): accepting from the reset frame (+30, carried into the first step) until a,
+    # then a rejecting sink: the 30 taken back and -30 for the violation, nothing after.
     safety = _bolt("G(!a)")
     assert _episode(safety, [(OFF, OFF), (OFF, OFF), (ON, OFF), (OFF, OFF), (OFF, OFF)]) == [
-        0.0,
-        -30.0,
+        30.0,
+        -60.0,
         0.0,
         0.0,
     ]
-    # Complying with G(!a) pays the scale once, at the end (no payment per accepting step).
-    assert _episode(_bolt("G(!a)"), [(OFF, OFF)] * 4) == [0.0, 0.0, 30.0]
+    # Complying with G(!a) pays the scale once (no payment per accepting step).
+    assert _episode(_bolt("G(!a)"), [(OFF, OFF)] * 4) == [30.0, 0.0, 0.0]
+    at_end = _bolt("G(!a)", pay_on_change=False)
+    assert _episode(at_end, [(OFF, OFF)] * 4) == [0.0, 0.0, 30.0]
 
 
 def test_without_shaping_the_outcome_is_paid_at_the_end() -> None:
@@ -101,7 +115,7 @@ def test_compliance_scale_and_scheme_settings() -> None:
     spec = Spec("F(a)", terminal_reward=2.0, low_confidence_cost=0.5)
     assert paper.apply(spec) is spec
     applied = RewardScheme("compliance", scale=7.0).apply(spec, scale=9.0)
-    assert (applied.terminal_reward, applied.reward_timing) == (9.0, "episode_end")
+    assert (applied.terminal_reward, applied.reward_timing) == (9.0, "on_change")
 
 
 @pytest.mark.parametrize(
@@ -140,10 +154,13 @@ def test_bad_bounds_and_shaping_are_refused() -> None:
         )
 
 
-def test_a_time_limit_cut_pays_no_outcome_when_the_learner_bootstraps_there() -> None:
+@pytest.mark.parametrize("pay_on_change", [False, True])
+def test_a_time_limit_cut_pays_no_outcome_when_the_learner_bootstraps_there(
+    pay_on_change: bool,
+) -> None:
     scale = 30.0
     dfa = compile_ltlf("F(a & X(F(b)))", FLUENTS)
-    spec = RewardScheme("compliance", scale=scale).apply(
+    spec = RewardScheme("compliance", scale=scale, pay_on_change=pay_on_change).apply(
         Spec("F(a & X(F(b)))", terminal_reward=1.0, low_confidence_cost=0.5)
     )
 
@@ -156,10 +173,14 @@ def test_a_time_limit_cut_pays_no_outcome_when_the_learner_bootstraps_there() ->
         out = bolt.step(np.array([[OFF, b]]), done=True, truncated=truncated)
         return float(out.total[0] - out.carried[0])
 
-    # Accepted on the last step (b): progress 10 and, if the episode is paid as ended, 30.
+    # Accepted on the last step (b): progress 10 and 30 for accepting, which at the
+    # episode's end is paid only if the episode is paid as ended; paid on change, the
+    # acceptance has happened and is paid (the learner's bootstrapped value holds only
+    # what may change after it).
     assert last_reward(True, True, ON) == 40.0
     assert last_reward(False, False, ON) == 40.0  # terminated: paid
-    assert last_reward(False, True, ON) == 10.0  # cut by the time limit: progress only
+    # cut by the time limit: progress only, unless acceptance is paid as it comes
+    assert last_reward(False, True, ON) == (40.0 if pay_on_change else 10.0)
     # Short of acceptance: with gamma 1 the end charge (-10) and the shaping's end (+10)
     # net to what an unended step pays, so a cut changes nothing there.
     assert last_reward(True, True, OFF) == last_reward(False, True, OFF) == 0.0

@@ -68,7 +68,7 @@ SPEC_SETS: dict[str, tuple[tuple[str, float, float], ...]] = {
         (f"F({T} & X(!F({T})))", 1.5, 1.0),
     ),
 }
-TIMINGS = ("every_step", "on_entry", "episode_end", "settled")
+TIMINGS = ("every_step", "on_entry", "episode_end", "on_change")
 
 
 def _specs(name: str, timing: str) -> list[Spec]:
@@ -176,12 +176,6 @@ def _can_accept(formula: str, q: int) -> bool:
     return any(_dfa(formula).accepting[s] for s in _reachable(formula, q))
 
 
-def _settled(formula: str, q: int) -> bool:
-    """Whether every state reachable from ``q`` accepts: no continuation of the trace can
-    lose acceptance."""
-    return all(_dfa(formula).accepting[s] for s in _reachable(formula, q))
-
-
 class PaperBolt:
     """Algorithm 1 for one environment, in plain Python, with the episode timing."""
 
@@ -196,13 +190,11 @@ class PaperBolt:
         self.terminate = False
         self._trace: list[dict[str, bool]] = []
         self._accepting: list[bool] = []
-        self._paid_settled: list[bool] = []
 
     def reset(self, probs: np.ndarray) -> None:
         self._trace = []
         self.states = [_dfa(s.formula).initial_state for s in self.specs]
         self._accepting = [False] * len(self.specs)
-        self._paid_settled = [False] * len(self.specs)
         self.carried = self._transition(probs, first=True, done=False)
 
     def step(self, probs: np.ndarray, *, done: bool, end_on_violation: bool = False) -> float:
@@ -240,13 +232,12 @@ class PaperBolt:
                 spec.reward_timing == "every_step"
                 or (spec.reward_timing == "on_entry" and entered)
                 or (spec.reward_timing == "episode_end" and ended)
-                or (
-                    spec.reward_timing == "settled"
-                    and not self._paid_settled[k]
-                    and (ended or _settled(spec.formula, target))
-                )
+                or (spec.reward_timing == "on_change" and entered)
             )
-            self._paid_settled[k] |= bool(paid and spec.reward_timing == "settled")
+            # on_change takes the reward back on leaving acceptance (not at reset: nothing
+            # was held before the episode's first transition)
+            lost = spec.reward_timing == "on_change" and self._accepting[k] and not accepting
+            total -= spec.terminal_reward * (lost and not first)
             total += spec.terminal_reward * paid
             self._accepting[k] = accepting
             self.states[k] = target
@@ -403,7 +394,7 @@ def test_end_on_violation_ends_where_the_reference_sees_a_violation() -> None:
         ("paper", "mixed"),
         ("two_fluent_edges", "on_entry"),
         ("until", "episode_end"),
-        ("until", "settled"),
+        ("until", "on_change"),
     ],
 )
 @pytest.mark.parametrize("cost_mode", ["count", "proportional"])

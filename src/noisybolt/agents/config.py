@@ -139,8 +139,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "bolt.reward": "paper",
     "bolt.reward_scale": None,
     "bolt.shaping": False,
-    # before bolt.pay_when_settled existed the compliance scheme paid at the episode's end
-    "bolt.pay_when_settled": False,
+    # before bolt.pay_on_change existed the compliance scheme paid at the episode's end
+    "bolt.pay_on_change": False,
     "evaluation.stop_after": 0,
     # before keep_best existed a run's final model was its last
     "evaluation.keep_best": False,
@@ -228,7 +228,7 @@ class TrainConfig:
     reward = _Alias[str]("bolt.reward")
     reward_scale = _Alias[float | None]("bolt.reward_scale")
     shaping = _Alias[bool]("bolt.shaping")
-    pay_when_settled = _Alias[bool]("bolt.pay_when_settled")
+    pay_on_change = _Alias[bool]("bolt.pay_on_change")
     tracking = _Alias[str]("bolt.tracking")
     confidence = _Alias[float]("bolt.confidence")
     min_dwell = _Alias[int]("bolt.min_dwell")
@@ -268,8 +268,8 @@ class TrainConfig:
         if bolt.reward == "compliance" and bolt.reward_scale is None:
             bolt = replace(bolt, reward_scale=_scale_from_world(self))
         scheme = bolt.scheme  # validates reward, reward_scale and shaping
-        if (scheme.shaping, scheme.pay_when_settled) != (bolt.shaping, bolt.pay_when_settled):
-            bolt = replace(bolt, shaping=scheme.shaping, pay_when_settled=scheme.pay_when_settled)
+        if (scheme.shaping, scheme.pay_on_change) != (bolt.shaping, bolt.pay_on_change):
+            bolt = replace(bolt, shaping=scheme.shaping, pay_on_change=scheme.pay_on_change)
         object.__setattr__(self, "bolt", bolt)
         names = [spec.name for spec in self.spec_objects()]  # validates every spec
         repeated = sorted({name for name in names if names.count(name) > 1})
@@ -757,8 +757,8 @@ def describe_scheme(config: TrainConfig) -> str:
         return "reward scheme: paper (each spec's terminal reward on every accepting step)"
     shaping = "with" if config.shaping else "without"
     when = (
-        "as soon as it is settled (else at the episode's end)"
-        if config.pay_when_settled
+        "as soon as it accepts (taken back if it stops)"
+        if config.pay_on_change
         else "at the episode's end"
     )
     return (

@@ -125,10 +125,10 @@ class BoltConfig:
             (:func:`~noisybolt.bolt.compliance_scale`); the config holds the value used.
         shaping: ``compliance`` only: potential-based progress shaping over each DFA
             (:mod:`noisybolt.bolt.shaping`).
-        pay_when_settled: ``compliance`` only: pay an acceptance as soon as no
-            continuation can lose it (an accepting sink of its DFA) rather than at the
-            episode's end; the same sum, without paying a discounting learner for
-            ending accepted episodes sooner (:mod:`noisybolt.bolt.schemes`).
+        pay_on_change: ``compliance`` only: pay each spec's acceptance as its DFA comes to
+            accept and take it back if it stops, rather than at the episode's end; the
+            same sum, without paying a discounting learner for ending accepted episodes
+            sooner (:mod:`noisybolt.bolt.schemes`).
         tracking: ``"threshold"`` (Algorithm 1, the default, what ``reproduce`` uses) or
             ``"belief"`` (a distribution over each spec's DFA states,
             :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).
@@ -148,7 +148,7 @@ class BoltConfig:
     reward: str = "compliance"
     reward_scale: float | None = None
     shaping: bool = True
-    pay_when_settled: bool = True
+    pay_on_change: bool = True
     tracking: str = "threshold"
     confidence: float = 0.9
     min_dwell: int = 2
@@ -182,7 +182,7 @@ class BoltConfig:
             self.reward,
             scale=self.reward_scale,
             shaping=self.shaping,
-            pay_when_settled=self.pay_when_settled,
+            pay_on_change=self.pay_on_change,
         )
 
 

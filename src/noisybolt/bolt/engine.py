@@ -10,7 +10,7 @@ expanded DFA of the paper's Fig. 2a, see :mod:`noisybolt.bolt.augmented`):
    ``low_confidence_cost`` (``cost_mode="count"``), or that cost scaled by
    :func:`~noisybolt.bolt.bands.proportional_weights` (``cost_mode="proportional"``);
 4. the spec's ``terminal_reward`` is paid if ``q'`` is accepting, subject to the spec's
-   ``reward_timing`` (``settled``: on entering an accepting sink, else at the end).
+   ``reward_timing`` (``on_change``: on entering acceptance, taken back on leaving it).
 
 Sign convention: :attr:`BoltStep.low_confidence` holds the cost *as a reward term*, so it
 is ``<= 0``; ``reward = terminal + low_confidence``.
@@ -211,7 +211,6 @@ class BoltEngine:
         self._state_offsets = np.cumsum((0, *self._n_states[:-1]), dtype=np.int64)
         self._accepting_flat = np.concatenate([dfa.accepting for dfa in dfas])
         self._rejecting_flat = np.concatenate([dfa.rejecting_sinks for dfa in dfas])
-        self._sunk_flat = np.concatenate([dfa.accepting_sinks for dfa in dfas])
         self._n_states_array = np.array(self._n_states, dtype=np.int64)
 
         self._terminal = np.array([spec.terminal_reward for spec in specs], dtype=np.float64)
@@ -220,7 +219,7 @@ class BoltEngine:
         self._every_step = timings == "every_step"
         self._on_entry = timings == "on_entry"
         self._episode_end = timings == "episode_end"
-        self._settled = timings == "settled"
+        self._on_change = timings == "on_change"
         self._build_flat_tables()
 
     def _build_flat_tables(self) -> None:
@@ -388,15 +387,9 @@ class BoltEngine:
             np.any(violated, axis=1) if end_on_violation else np.zeros(n_envs, dtype=bool)
         )
         ended = done | terminate
-        was_accepting = self._accepting_flat[states + self._state_offsets]
-        sunk = self._sunk_flat[next_states + self._state_offsets]
-        was_sunk = self._sunk_flat[states + self._state_offsets] & ~first[:, None]
+        held = self._accepting_flat[states + self._state_offsets] & ~first[:, None]
         terminal = self.terminal_rewards(
-            accepting,
-            entered=~was_accepting | first[:, None],
-            ended=ended,
-            settling=sunk & ~was_sunk,
-            sunk=sunk,
+            accepting, entered=~held, ended=ended, gained=~held, lost=held & ~accepting
         )
         reward = terminal + low_term
         return BoltStep(
@@ -424,8 +417,8 @@ class BoltEngine:
         *,
         entered: np.ndarray,
         ended: np.ndarray,
-        settling: np.ndarray,
-        sunk: np.ndarray,
+        gained: np.ndarray,
+        lost: np.ndarray,
     ) -> np.ndarray:
         """float64 ``[n_envs, n_specs]``: the terminal rewards paid under each spec's timing.
 
@@ -433,19 +426,19 @@ class BoltEngine:
             accepting: bool ``[n_envs, n_specs]``, the spec counts as accepting now.
             entered: bool ``[n_envs, n_specs]``, this is an entry (``on_entry`` pays).
             ended: bool ``[n_envs]``, the episode ends here (``episode_end`` pays).
-            settling: bool ``[n_envs, n_specs]``, acceptance is settled for the first time
-                in the episode here (``settled`` pays).
-            sunk: bool ``[n_envs, n_specs]``, acceptance has been settled, here or before
-                (``settled`` was paid then, not again at the end).
+            gained: bool ``[n_envs, n_specs]``, the spec did not count as accepting before
+                this transition (``on_change`` pays where it does now).
+            lost: bool ``[n_envs, n_specs]``, the spec counted as accepting before this
+                transition and does not now (``on_change`` takes its reward back).
         """
-        ends = ended[:, None]
         paid = accepting & (
             self._every_step
             | (self._on_entry & entered)
-            | (self._episode_end & ends)
-            | (self._settled & (settling | (ends & ~sunk)))
+            | (self._episode_end & ended[:, None])
+            | (self._on_change & gained)
         )
-        return np.where(paid, self._terminal, 0.0)
+        taken = self._on_change & lost
+        return np.where(paid, self._terminal, 0.0) - np.where(taken, self._terminal, 0.0)
 
     def state_flags(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(accepting, violated)`` bool ``[n_envs, n_specs]`` of checked int64 states."""

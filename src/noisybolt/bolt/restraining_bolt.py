@@ -43,8 +43,8 @@ episode timing; its :class:`BoltStep` reports the decisions taken on the belief:
 of an accepting state (a rejecting sink) is at least the confidence level, ``terminal``
 paid on those decisions under each spec's timing (``on_entry``: once when the belief
 becomes confident, again only after it has been as confident of the opposite, so one
-event is not paid twice; ``settled``: once the probability of an accepting sink reaches
-the level, once per episode, or at the end if accepting and not paid so),
+event is not paid twice; ``on_change``: whenever the decision turns to accepting, taken
+back whenever it turns away),
 ``low_confidence`` Algorithm 1's charge averaged over the belief of the state the step
 leaves (``n_low``: the count under the most likely one), and ``progress`` the progress
 terms in expectation over the belief (still potential-based: the potential of a belief
@@ -460,12 +460,8 @@ class RestrainingBolt:
         self._acc_prob = np.zeros((self._n_envs, n_specs))
         self._viol_prob = np.zeros((self._n_envs, n_specs))
         self._armed = np.ones((self._n_envs, n_specs), dtype=bool)
-        # settled timing: which specs' acceptance was settled (and paid) this episode, and
-        # each DFA's accepting sinks, padded to q_max
-        self._settled = np.zeros((self._n_envs, n_specs), dtype=bool)
-        self._sink_masks = np.zeros((n_specs, q_max))
-        for s, dfa in enumerate(self.dfas):
-            self._sink_masks[s, : dfa.n_states] = dfa.accepting_sinks
+        # on_change timing: whether each spec counted as accepting after the last step
+        self._held = np.zeros((self._n_envs, n_specs), dtype=bool)
         self._expected_terms: np.ndarray | None = None
         if self._shaping is not None:
             self._expected_terms = self._shaping_tables(initial, q_max)
@@ -500,12 +496,12 @@ class RestrainingBolt:
             joint = engine.reset_joint(probs)
             before = np.broadcast_to(self._initial_beliefs, (n_rows, *self._initial_beliefs.shape))
             armed = np.ones((n_rows, self.n_specs), dtype=bool)
-            settled_before = np.zeros((n_rows, self.n_specs), dtype=bool)
+            held = np.zeros((n_rows, self.n_specs), dtype=bool)
         else:
             joint = engine.step_joint(self._joint[:, rows], probs)
             before = self._marg_states[rows]
             armed = self._armed[rows]
-            settled_before = self._settled[rows]
+            held = self._held[rows]
         marg = engine.marginals(joint)
         accepting = marg.accepting >= level
         violated = marg.violated >= level
@@ -516,15 +512,8 @@ class RestrainingBolt:
         )
         ended = done | terminate
         entered = accepting & armed
-        # Settled once the bolt is as sure that the DFA is in an accepting sink; paid then,
-        # once per episode (the belief may waver after, the payment stands).
-        settling = ((marg.states * self._sink_masks).sum(axis=2) >= level) & ~settled_before
         terminal = self._engine.terminal_rewards(
-            accepting,
-            entered=entered,
-            ended=ended,
-            settling=settling,
-            sunk=settling | settled_before,
+            accepting, entered=entered, ended=ended, gained=~held, lost=held & ~accepting
         )
         truth = probs >= self.thresholds.truth
         low = truth & (probs <= self.thresholds.high)
@@ -548,7 +537,7 @@ class RestrainingBolt:
         self._viol_prob[rows] = marg.violated
         # Re-armed only once the bolt is as sure that the spec is *not* accepting.
         self._armed[rows] = np.where(entered, False, armed | (marg.accepting <= 1.0 - level))
-        self._settled[rows] = settled_before | settling
+        self._held[rows] = accepting
         self._states[rows] = next_states
         return BoltStep(
             next_states=next_states,

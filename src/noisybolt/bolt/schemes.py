@@ -15,12 +15,16 @@ what a spec pays and when, and whether progress is shaped.
   merely staying in an accepting state; ``scale`` exceeds the width of the world's
   episode returns (:func:`compliance_scale`), so with the return undiscounted an episode
   that complies is worth more than any that does not, whatever either earns from the
-  world. With ``pay_when_settled`` (the default) an acceptance that can no longer be
-  lost (the DFA entered an accepting sink, as ``F(x)`` does when ``x`` is seen) is paid
-  then rather than at the end (``settled`` timing): the same sum over every episode, but
-  a learner that discounts is no longer paid for ending an accepted episode sooner,
-  which in a game of survival (Breakout's last life) made losing it quickly the best
-  thing to do. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`) pays
+  world. With ``pay_on_change`` (the default) acceptance is paid as the DFA enters an
+  accepting state and taken back if it leaves one (``on_change`` timing), rather than
+  paid at the end (``episode_end``): the same sum over every episode, but nothing is
+  left to collect when the episode ends. Paid at the end, a learner that discounts
+  (``gamma`` 0.99) values the payment more the sooner the episode ends, so in a world
+  where surviving is the task, ending the episode while the spec accepts became the
+  best thing to do: on CartPole the bolted agents dropped the pole at once (returns of 9
+  against 500), on Breakout losing the last ball quickly paid. With acceptance paid as
+  it changes, staying in a state is worth the same to the bolt however long the episode
+  lasts. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`) pays
   progress towards acceptance as it happens, so a detour is rewarded before the spec is
   satisfied, without changing which policy is optimal.
 
@@ -30,8 +34,8 @@ Example:
     345.95
     >>> spec = scheme.apply(Spec("F(a)", terminal_reward=1.0, low_confidence_cost=0.5))
     >>> spec.terminal_reward == scheme.scale, spec.reward_timing, spec.low_confidence_cost
-    (True, 'settled', 0.5)
-    >>> RewardScheme("compliance", scale=1.0, pay_when_settled=False).apply(spec).reward_timing
+    (True, 'on_change', 0.5)
+    >>> RewardScheme("compliance", scale=1.0, pay_on_change=False).apply(spec).reward_timing
     'episode_end'
     >>> RewardScheme("paper").apply(spec) is spec
     True
@@ -111,8 +115,9 @@ class RewardScheme:
         scale: ``compliance`` only: what each spec's acceptance is worth (per-spec values
             may replace it, see :meth:`apply`); must be finite and > 0.
         shaping: ``compliance`` only: add potential-based progress shaping.
-        pay_when_settled: ``compliance`` only: pay an acceptance as soon as it is settled
-            (``settled`` timing) rather than at the episode's end (``episode_end``).
+        pay_on_change: ``compliance`` only: pay acceptance as the DFA enters it and take
+            it back as it leaves (``on_change`` timing) rather than at the episode's end
+            (``episode_end``).
 
     Raises:
         UnknownNameError: an unknown scheme.
@@ -123,7 +128,7 @@ class RewardScheme:
     name: str = "compliance"
     scale: float | None = None
     shaping: bool = True
-    pay_when_settled: bool = True
+    pay_on_change: bool = True
 
     def __post_init__(self) -> None:
         if self.name not in REWARD_SCHEMES:
@@ -139,7 +144,7 @@ class RewardScheme:
                     "of a reward scale, or use --reward compliance"
                 )
             object.__setattr__(self, "shaping", False)
-            object.__setattr__(self, "pay_when_settled", False)
+            object.__setattr__(self, "pay_on_change", False)
             return
         _check_scale(self.scale, "the compliance scheme's scale")
         object.__setattr__(self, "scale", float(self.scale))  # type: ignore[arg-type]
@@ -148,15 +153,15 @@ class RewardScheme:
         """``spec`` as this scheme pays it; ``scale`` replaces the scheme's for this spec.
 
         ``paper`` returns ``spec`` unchanged; ``compliance`` sets its terminal reward to
-        the scale and its timing to ``settled`` (``episode_end`` without
-        ``pay_when_settled``); its low-confidence cost is kept.
+        the scale and its timing to ``on_change`` (``episode_end`` without
+        ``pay_on_change``); its low-confidence cost is kept.
         """
         if self.name == "paper":
             if scale is not None:
                 raise ConfigError(f"spec {spec.name!r}: a reward scale needs --reward compliance")
             return spec
         value = self.scale if scale is None else _check_scale(scale, f"spec {spec.name!r}'s scale")
-        timing = "settled" if self.pay_when_settled else "episode_end"
+        timing = "on_change" if self.pay_on_change else "episode_end"
         return replace(spec, terminal_reward=float(value), reward_timing=timing)  # type: ignore[arg-type]
 
 

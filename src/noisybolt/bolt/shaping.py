@@ -2,8 +2,9 @@
 
 Algorithm 1 pays nothing before a spec is satisfied, so a detour that a spec asks for
 (visit a corner, then the goal) gets no signal until it is complete. The ``compliance``
-reward scheme (:mod:`noisybolt.bolt.schemes`) pays each spec ``scale`` at the end of an
-accepted episode (the engine's ``episode_end`` timing) and, with this module:
+reward scheme (:mod:`noisybolt.bolt.schemes`) pays each spec ``scale`` for an accepted
+episode (as the DFA comes to accept, the engine's ``on_change`` timing, or at the end,
+``episode_end``) and, with this module:
 
 * a *graded outcome*: an episode that ends short of acceptance is charged by how far it
   is, ``Phi(q_T)``, with the potential of a DFA state from its distance to acceptance::

@@ -19,7 +19,7 @@ DEFAULT_REWARD = 1.0
 DEFAULT_COST = 0.5
 
 #: When a spec's terminal reward is paid (see :class:`Spec`).
-RewardTiming = Literal["every_step", "on_entry", "episode_end", "settled"]
+RewardTiming = Literal["every_step", "on_entry", "episode_end", "on_change"]
 #: The accepted values of :data:`RewardTiming`.
 REWARD_TIMINGS: tuple[str, ...] = get_args(RewardTiming)
 
@@ -42,13 +42,12 @@ class Spec:
             transition of an episode counts as an entry when it lands on an accepting
             state); ``"episode_end"`` only on the transition that ends the episode
             (termination or truncation), if its successor is accepting (plain LTLf
-            semantics); ``"settled"`` pays what ``episode_end`` would, once, but as soon
-            as the outcome is settled: on entering an accepting sink (a state no letter
-            leaves, so every continuation accepts), else at the episode's end. Over any
-            episode ``settled`` and ``episode_end`` pay the same sum; a learner that
-            discounts is not paid for ending an accepted episode sooner under
-            ``settled``. The low-confidence cost is charged on every transition in all
-            four.
+            semantics); ``"on_change"`` pays it on each transition into an accepting
+            state (the first transition of an episode included) and takes it back on
+            each transition out of one, nothing at the end: over any episode the same
+            sum as ``episode_end``, but nothing is left to collect when the episode ends,
+            so a learner that discounts is not paid for ending an accepted episode
+            sooner. The low-confidence cost is charged on every transition in all four.
         name: a short label for logs and info dicts; defaults to the formula.
 
     Raises:
@@ -65,7 +64,7 @@ class Spec:
         Traceback (most recent call last):
         ...
         noisybolt.errors.ConfigError: Spec 'G(e)': reward_timing 'later' is not one of \
-['every_step', 'on_entry', 'episode_end', 'settled']
+['every_step', 'on_entry', 'episode_end', 'on_change']
     """
 
     formula: str

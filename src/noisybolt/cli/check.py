@@ -144,7 +144,7 @@ def _check(args: argparse.Namespace) -> int:
     gamma = float(config.hyperparams.get("gamma", 0.99))
     formulas = [spec.formula for spec in config.spec_objects()]
     optimum = scheme_optimum(
-        formulas, scale=scale, gamma=gamma, pay_when_settled=config.pay_when_settled, **settings
+        formulas, scale=scale, gamma=gamma, pay_on_change=config.pay_on_change, **settings
     )
     print(
         f"compliance scheme: scale {scale:g} (bound {config.reward_scale:g}); its optimal "

@@ -121,8 +121,9 @@ def register(subparsers: Any) -> None:
     flag(
         "--reward",
         help="reward scheme: compliance (default: complying is worth more than any gap "
-        "between two episodes' returns, paid once settled or at the episode's end, with "
-        "progress shaping; --set bolt.pay_when_settled=false pays only at the end) "
+        "between two episodes' returns, paid as the spec comes to accept and taken back if "
+        "it stops, with progress shaping; --set bolt.pay_on_change=false pays at the "
+        "episode's end) "
         "or paper (each spec's terminal_reward every accepting step: Algorithm 1 as "
         "reproduced)",
     )

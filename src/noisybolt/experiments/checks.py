@@ -86,7 +86,7 @@ def exact_scale(config: TrainConfig) -> float | None:
             gamma=gamma,
             floor=floor,
             cap=float(config.reward_scale),
-            pay_when_settled=config.pay_when_settled,
+            pay_on_change=config.pay_on_change,
             **settings,
         )
     except UnknownFluentError:

@@ -531,7 +531,7 @@ def scheme_q_values(
     scale: float,
     gamma: float,
     shaping: bool,
-    pay_when_settled: bool = True,
+    pay_on_change: bool = True,
     size: int = 6,
     max_steps: int | None = None,
     step_reward: float = -1.5,
@@ -544,8 +544,9 @@ def scheme_q_values(
     reward and the progress terms of :class:`~noisybolt.bolt.ProgressShaping` (the
     violation charge; at the end, the graded outcome; with ``shaping``, the
     potential-based term), and an episode that ends (at the goal, or truncated at the
-    step limit) pays ``scale`` per spec whose DFA accepts; with ``pay_when_settled``, a
-    spec whose DFA enters an accepting sink is paid then instead (``settled`` timing).
+    step limit) pays ``scale`` per spec whose DFA accepts; with ``pay_on_change``, each
+    spec's ``scale`` is paid as its DFA enters acceptance and taken back as it leaves
+    instead (``on_change`` timing).
     Backward induction over the steps left.
     """
     dfas = [_as_dfa(spec) for spec in specs]
@@ -557,14 +558,11 @@ def scheme_q_values(
     accepted = np.zeros(n_joint)
     potential = np.zeros(n_joint)
     dead_cost = np.zeros(n_joint)
-    sunk = np.zeros(n_joint)  # acceptance's worth already paid on entering a sink
     rest = np.arange(n_joint)
     for dfa in dfas:  # the joint index's digits, first DFA lowest (as _product builds it)
         q = rest % dfa.n_states
         rest = rest // dfa.n_states
         accepted += scale * dfa.accepting[q]
-        if pay_when_settled:
-            sunk += scale * dfa.accepting_sinks[q]
         _, columns = resolve_fluents(dfa.fluents)
         letters = masks_from_bool_matrix(model.fluents[:, columns])  # the world's own
         potential += progress_potential(dfa, scale, letters)[q]
@@ -579,8 +577,11 @@ def scheme_q_values(
             joint = product.successor[reached]  # [n_agent, n_joint]
             ends = model.terminated[:, a, None] | (t == horizon - 1)
             reward = model.reward[:, a, None] + dead_cost[None, :] - dead_cost[joint]
-            reward = reward + sunk[joint] - sunk[None, :]
-            reward = reward + np.where(ends, accepted[joint] - sunk[joint] + potential[joint], 0.0)
+            if pay_on_change:  # acceptance paid as it is gained, taken back as it is lost
+                reward = reward + accepted[joint] - accepted[None, :]
+                reward = reward + np.where(ends, potential[joint], 0.0)
+            else:
+                reward = reward + np.where(ends, accepted[joint] + potential[joint], 0.0)
             if shaping:
                 reward = reward + np.where(ends, 0.0, gamma * potential[joint]) - potential
             q_values[t, :, :, a] = reward + np.where(
@@ -596,7 +597,7 @@ def scheme_optimum(
     scale: float,
     gamma: float,
     shaping: bool = True,
-    pay_when_settled: bool = True,
+    pay_on_change: bool = True,
     size: int = 6,
     max_steps: int | None = None,
     step_reward: float = -1.5,
@@ -615,7 +616,7 @@ def scheme_optimum(
         scale=scale,
         gamma=gamma,
         shaping=shaping,
-        pay_when_settled=pay_when_settled,
+        pay_on_change=pay_on_change,
         size=size,
         max_steps=max_steps,
         step_reward=step_reward,
@@ -649,7 +650,7 @@ def exact_compliance_scale(
     gamma: float,
     floor: float,
     cap: float,
-    pay_when_settled: bool = True,
+    pay_on_change: bool = True,
     size: int = 6,
     max_steps: int | None = None,
     step_reward: float = -1.5,
@@ -685,7 +686,7 @@ def exact_compliance_scale(
             specs,
             scale=scale,
             gamma=gamma,
-            pay_when_settled=pay_when_settled,
+            pay_on_change=pay_on_change,
             **world,  # type: ignore[arg-type]
         )
         return optimum.complies
