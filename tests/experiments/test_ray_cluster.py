@@ -42,6 +42,7 @@ def _script(*args: str) -> list[str]:
     return ["sh", str(ROOT / "scripts" / "ray-cluster.sh"), *args]
 
 
+@pytest.mark.slow  # a Ray head started and stopped: over a minute (make test-slow)
 def test_the_cluster_script_runs_a_sweep_on_its_own_head_and_stops_only_it(
     tmp_path: Path,
 ) -> None:
