@@ -4,7 +4,7 @@ A world nobody here wrote, labelled in a few lines: the bolt's vocabulary is whe
 cart is (``far_left``, ``far_right``: beyond 0.5 of the track's centre, of 2.4 either
 side) and which way the pole leans (``leaning_left``, ``leaning_right``: beyond 0.05
 rad). The bolt has no camera (``camera=False``): its detectors read the fluents' truth,
-the oracle exactly and ``synthetic`` with noise. ``benchmarks/world_suite.py`` draws
+the oracle exactly and ``synthetic`` with noise. ``benchmarks/cartpole_specs.py`` draws
 specs over these fluents at random and trains them with the built-in defaults.
 
 Run, from this folder (the compliance scale comes from the declared return bounds: an
