@@ -460,8 +460,6 @@ class RestrainingBolt:
         self._acc_prob = np.zeros((self._n_envs, n_specs))
         self._viol_prob = np.zeros((self._n_envs, n_specs))
         self._armed = np.ones((self._n_envs, n_specs), dtype=bool)
-        # on_change timing: whether each spec counted as accepting after the last step
-        self._held = np.zeros((self._n_envs, n_specs), dtype=bool)
         self._expected_terms: np.ndarray | None = None
         if self._shaping is not None:
             self._expected_terms = self._shaping_tables(initial, q_max)
@@ -501,7 +499,7 @@ class RestrainingBolt:
             joint = engine.step_joint(self._joint[:, rows], probs)
             before = self._marg_states[rows]
             armed = self._armed[rows]
-            held = self._held[rows]
+            held = self._acc_prob[rows] >= level  # the last step's decision (on_change)
         marg = engine.marginals(joint)
         accepting = marg.accepting >= level
         violated = marg.violated >= level
@@ -537,7 +535,6 @@ class RestrainingBolt:
         self._viol_prob[rows] = marg.violated
         # Re-armed only once the bolt is as sure that the spec is *not* accepting.
         self._armed[rows] = np.where(entered, False, armed | (marg.accepting <= 1.0 - level))
-        self._held[rows] = accepting
         self._states[rows] = next_states
         return BoltStep(
             next_states=next_states,
