@@ -96,10 +96,10 @@ def test_paper_only_spec_settings_are_refused_under_compliance() -> None:
 
 def test_the_bolted_env_pays_the_scheme_and_plain_algorithm_1_under_paper() -> None:
     # !F(top_right_corner) with the oracle: 3 steps east reach the corner, a violation.
-    # Compliance: accepting from the reset frame (+50, carried into the first step), then
-    # the violation takes the 50 back and charges 50.
+    # Compliance: accepting from the reset frame (the baseline: nothing paid), then the
+    # violation takes the 50 back and charges 50.
     for reward, expected in (
-        ("compliance", [50.0, 0.0, -100.0]),
+        ("compliance", [0.0, 0.0, -100.0]),
         ("paper", [1.0 + 1.0, 1.0, 0.0]),
     ):
         config = _config(

@@ -294,6 +294,20 @@ def test_every_step_is_paid_on_each_confident_step_episode_end_and_on_change_onc
             assert paid.tolist() == [1.0 if i == first else 0.0 for i in range(len(probs))]
 
 
+def test_on_change_pays_no_acceptance_the_belief_starts_with() -> None:
+    # G(e) on a clear first frame: the bolt is confident of acceptance from the start.
+    # on_entry pays that landing; on_change takes it as the episode's baseline.
+    first = {}
+    for timing in ("on_entry", "on_change"):
+        bolt = RestrainingBolt(
+            [spec("G(e)", timing, cost=0.0)], ["e"], dfas=[always("e")], tracking="belief"
+        )
+        out = bolt.reset(np.array([[0.999]]))
+        assert out.accepting.tolist() == [[True]]
+        first[timing] = out.total.tolist()
+    assert first == {"on_entry": [1.0], "on_change": [0.0]}
+
+
 def test_on_change_takes_back_what_the_belief_doubts_and_pays_it_again() -> None:
     # Two fairly confident frames of x make the bolt believe F(x) (paid); clear frames
     # then pull the belief back (min_dwell allows a glitch: taken back), and confident

@@ -74,11 +74,14 @@ def test_reward_timing_hand_totals() -> None:
     assert run_last_is("every_step", trace) == [1.0, 0.0 + 1.0, 1.0, 1.0, 0.0, 1.0]
     assert run_last_is("on_entry", trace) == [1.0, 0.0 + 1.0, 1.0, 0.0, 0.0, 1.0]
     assert run_last_is("episode_end", trace) == [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
-    # on_change pays each entry and takes it back on each exit: the same sum as episode_end
-    assert run_last_is("on_change", trace) == [1.0, -1.0 + 1.0, 1.0, 0.0, -1.0, 1.0]
+    # on_change pays each entry after the first frame and takes it back on each exit; the
+    # first frame's acceptance is the baseline (nothing carried): the sum is episode_end's
+    # less what the start already accepted, 1 - 1
+    assert run_last_is("on_change", trace) == [0.0, -1.0 + 0.0, 1.0, 0.0, -1.0, 1.0]
     # episode ending while not accepting pays nothing
     assert run_last_is("episode_end", [HIGH, HIGH, ABSENT]) == [0.0, 0.0, 0.0]
-    assert run_last_is("on_change", [HIGH, HIGH, ABSENT]) == [1.0, 0.0 + 1.0, -1.0]
+    assert run_last_is("on_change", [HIGH, HIGH, ABSENT]) == [0.0, 0.0, -1.0]
+    assert run_last_is("on_change", [ABSENT, HIGH, ABSENT]) == [0.0, 1.0, -1.0]
 
 
 def on_change_and_end_totals(trace: list[tuple[float, float]]) -> dict[str, list[float]]:
@@ -98,9 +101,10 @@ def test_on_change_pays_an_acceptance_when_it_comes_and_nothing_at_the_end() -> 
     totals = on_change_and_end_totals([none, none, seen, none, none])
     assert totals["on_change"] == [0.0, 0.0, T, 0.0, 0.0]
     assert totals["episode_end"] == [0.0, 0.0, 0.0, 0.0, T]
-    # accepting on the reset frame: carried into the first step, like any reset reward
+    # accepting on the reset frame: the episode starts there, no action earned it, and
+    # on_change pays nothing for it (episode_end still pays the accepted episode)
     totals = on_change_and_end_totals([seen, none, none])
-    assert totals["on_change"] == [T, T, 0.0]
+    assert totals["on_change"] == [0.0, 0.0, 0.0]
     assert totals["episode_end"] == [0.0, 0.0, T]
     # never accepting: neither pays
     assert on_change_and_end_totals([none, none, none]) == {
@@ -146,10 +150,12 @@ def test_on_change_and_episode_end_pay_the_same_sum_and_nothing_is_left_at_the_e
         paid[timing] = np.array([o.terminal[0, 0] for o in outs])
         accepting[timing] = [bool(o.accepting[0, 0]) for o in outs]
     changes, at_end = paid["on_change"], paid["episode_end"]
-    # what is held after each step is what the DFA accepts then: paid as it is gained
-    assert np.cumsum(changes).tolist() == [3.0 * a for a in accepting["on_change"]]
+    # what is held after each step is what the DFA accepts then, less what it accepted on
+    # the first frame (the baseline, never paid): paid as it is gained
+    start = accepting["on_change"][0]
+    assert np.cumsum(changes).tolist() == [3.0 * (a - start) for a in accepting["on_change"]]
     if not truncated:  # (a cut episode's end is not paid at all under episode_end)
-        assert changes.sum() == at_end.sum()
+        assert changes.sum() == at_end.sum() - 3.0 * start
 
 
 @pytest.mark.parametrize("timing", REWARD_TIMINGS)
@@ -161,7 +167,7 @@ def test_the_low_confidence_cost_is_charged_on_every_transition_under_every_timi
         "every_step": [1, 1, 1],
         "on_entry": [1, 0, 0],
         "episode_end": [0, 0, 1],
-        "on_change": [1, 0, 0],
+        "on_change": [0, 0, 0],  # accepting from the first frame: the baseline
     }[timing]
     expected = [paid[0] - 0.25, paid[1] - 0.25 + paid[0] - 0.25, paid[2] - 0.25]
     assert totals == pytest.approx(expected)

@@ -64,19 +64,37 @@ def test_a_detour_is_paid_as_it_progresses_and_acceptance_as_it_comes() -> None:
 def test_an_unfinished_episode_keeps_its_shortfall_and_a_violation_pays_at_once() -> None:
     unfinished = _bolt("F(a & X(F(b)))")  # d: 2 at the start, d_max 2: 10 a step
     assert _episode(unfinished, [(OFF, OFF), (ON, OFF), (OFF, OFF)]) == [10.0, 0.0]
-    # G(!a): accepting from the reset frame (+30, carried into the first step) until a,
+    # G(!a): accepting from the reset frame (where the episode starts: not paid) until a,
     # then a rejecting sink: the 30 taken back and -30 for the violation, nothing after.
     safety = _bolt("G(!a)")
     assert _episode(safety, [(OFF, OFF), (OFF, OFF), (ON, OFF), (OFF, OFF), (OFF, OFF)]) == [
-        30.0,
+        0.0,
         -60.0,
         0.0,
         0.0,
     ]
-    # Complying with G(!a) pays the scale once (no payment per accepting step).
-    assert _episode(_bolt("G(!a)"), [(OFF, OFF)] * 4) == [30.0, 0.0, 0.0]
+    # Complying with G(!a) from the start pays nothing on change (no payment per accepting
+    # step either); at the end, the scale. The two differ by what the start accepts, which
+    # no action changes.
+    assert _episode(_bolt("G(!a)"), [(OFF, OFF)] * 4) == [0.0, 0.0, 0.0]
     at_end = _bolt("G(!a)", pay_on_change=False)
     assert _episode(at_end, [(OFF, OFF)] * 4) == [0.0, 0.0, 30.0]
+
+
+def test_on_change_pays_nothing_for_where_the_episode_starts() -> None:
+    # F(a & X(F(b))): a on the reset frame already moves the DFA one letter closer (+10 of
+    # shaping) and b then completes it. The first transition is read before any action:
+    # under on_change neither its progress nor an acceptance on it is paid (the carried
+    # reward is only Algorithm 1's cost, 0 here); paid at the end, its progress is.
+    start_with_a = [(ON, OFF), (OFF, OFF), (OFF, ON), (OFF, OFF)]
+    on_change = _bolt("F(a & X(F(b)))")
+    assert on_change.reset(np.array([start_with_a[0]])).total.tolist() == [0.0]
+    assert _episode(on_change, start_with_a) == [0.0, 10.0 + 30.0, 0.0]
+    at_end = _bolt("F(a & X(F(b)))", pay_on_change=False)
+    assert at_end.reset(np.array([start_with_a[0]])).total.tolist() == [10.0]
+    assert _episode(at_end, start_with_a) == [10.0, 10.0, 30.0]
+    # what an action changes is paid the same however the episode starts
+    assert _episode(on_change, [(OFF, OFF), (ON, OFF), (OFF, ON), (OFF, OFF)]) == [10.0, 40.0, 0.0]
 
 
 def test_without_shaping_the_outcome_is_paid_at_the_end() -> None:

@@ -232,10 +232,10 @@ class PaperBolt:
                 spec.reward_timing == "every_step"
                 or (spec.reward_timing == "on_entry" and entered)
                 or (spec.reward_timing == "episode_end" and ended)
-                or (spec.reward_timing == "on_change" and entered)
+                or (spec.reward_timing == "on_change" and entered and not first)
             )
-            # on_change takes the reward back on leaving acceptance (not at reset: nothing
-            # was held before the episode's first transition)
+            # on_change pays changes after the episode's first transition (where the episode
+            # starts is its baseline, not paid) and takes the reward back on leaving acceptance
             lost = spec.reward_timing == "on_change" and self._accepting[k] and not accepting
             total -= spec.terminal_reward * (lost and not first)
             total += spec.terminal_reward * paid

@@ -757,7 +757,7 @@ def describe_scheme(config: TrainConfig) -> str:
         return "reward scheme: paper (each spec's terminal reward on every accepting step)"
     shaping = "with" if config.shaping else "without"
     when = (
-        "as soon as it accepts (taken back if it stops)"
+        "as soon as it accepts (taken back if it stops; nothing where an episode starts)"
         if config.pay_on_change
         else "at the episode's end"
     )

@@ -126,9 +126,10 @@ class BoltConfig:
         shaping: ``compliance`` only: potential-based progress shaping over each DFA
             (:mod:`noisybolt.bolt.shaping`).
         pay_on_change: ``compliance`` only: pay each spec's acceptance as its DFA comes to
-            accept and take it back if it stops, rather than at the episode's end; the
-            same sum, without paying a discounting learner for ending accepted episodes
-            sooner (:mod:`noisybolt.bolt.schemes`).
+            accept and take it back if it stops, rather than at the episode's end (and
+            nothing for an acceptance the first observation already gives); without
+            paying a discounting learner for ending accepted episodes sooner
+            (:mod:`noisybolt.bolt.schemes`).
         tracking: ``"threshold"`` (Algorithm 1, the default, what ``reproduce`` uses) or
             ``"belief"`` (a distribution over each spec's DFA states,
             :mod:`noisybolt.bolt.belief`; the agent sees the beliefs).

@@ -389,7 +389,12 @@ class BoltEngine:
         ended = done | terminate
         held = self._accepting_flat[states + self._state_offsets] & ~first[:, None]
         terminal = self.terminal_rewards(
-            accepting, entered=~held, ended=ended, gained=~held, lost=held & ~accepting
+            accepting,
+            entered=~held,
+            ended=ended,
+            gained=~held,
+            lost=held & ~accepting,
+            first=first,
         )
         reward = terminal + low_term
         return BoltStep(
@@ -419,8 +424,18 @@ class BoltEngine:
         ended: np.ndarray,
         gained: np.ndarray,
         lost: np.ndarray,
+        first: np.ndarray | bool = False,
     ) -> np.ndarray:
         """float64 ``[n_envs, n_specs]``: the terminal rewards paid under each spec's timing.
+
+        ``on_change`` pays nothing on an episode's first transition (read at reset, before
+        any action): where the episode starts is its baseline, and only what the agent's
+        steps change is paid. A payment there would depend on nothing the agent did, and
+        come at a time its observation does not show (the first step of every episode):
+        on CartPole a spec that accepts from the start and is never broken paid the scale
+        on every episode's first step, and the learner's values could not tell that step
+        from the others (PPO's return 99-120 against 500 unbolted at 100k frames; 500 once
+        not paid).
 
         Args:
             accepting: bool ``[n_envs, n_specs]``, the spec counts as accepting now.
@@ -430,15 +445,25 @@ class BoltEngine:
                 this transition (``on_change`` pays where it does now).
             lost: bool ``[n_envs, n_specs]``, the spec counted as accepting before this
                 transition and does not now (``on_change`` takes its reward back).
+            first: bool ``[n_envs]`` (or one bool), the episode's first transition
+                (``on_change`` pays nothing on it).
         """
+        later = ~np.asarray(first, dtype=bool)
+        if later.ndim:
+            later = later[:, None]
         paid = accepting & (
             self._every_step
             | (self._on_entry & entered)
             | (self._episode_end & ended[:, None])
-            | (self._on_change & gained)
+            | (self._on_change & gained & later)
         )
         taken = self._on_change & lost
         return np.where(paid, self._terminal, 0.0) - np.where(taken, self._terminal, 0.0)
+
+    @property
+    def pays_on_change(self) -> np.ndarray:
+        """bool ``[n_specs]``: the specs whose timing is ``on_change``."""
+        return self._on_change.copy()
 
     def state_flags(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(accepting, violated)`` bool ``[n_envs, n_specs]`` of checked int64 states."""

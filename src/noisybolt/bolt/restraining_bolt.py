@@ -4,7 +4,8 @@ Timing (DESIGN.md, "Semantics fixed here"): the trace starts at the first observ
 
 * :meth:`RestrainingBolt.reset` reads the *first* observation of an episode: every DFA
   starts in its initial state (the empty trace) and takes its first transition on those
-  probabilities. That transition's reward (terminal reward and low-confidence cost) is
+  probabilities. That transition's reward (terminal reward and low-confidence cost; for
+  ``on_change`` specs only the cost: where an episode starts is its baseline) is
   not returned to the agent now (Gymnasium's ``reset`` has no reward); it is held as
   ``pending`` and added to the reward of the episode's first :meth:`~RestrainingBolt.step`.
 * :meth:`RestrainingBolt.step` reads the observation that *follows* an action: each DFA
@@ -315,7 +316,7 @@ class RestrainingBolt:
             first=np.ones(n_rows, dtype=bool),
             end_on_violation=False,
         )
-        out = self._shaped(out, initial, no_end)
+        out = self._shaped(out, initial, no_end, first=True)
         self._states[rows] = out.next_states
         self._pending[rows] = out.total
         self._needs_reset[rows] = False
@@ -402,11 +403,17 @@ class RestrainingBolt:
         return self._expand(out, rows)
 
     # ------------------------------------------------------------------ helpers
-    def _shaped(self, out: BoltStep, states: np.ndarray, ended: np.ndarray) -> BoltStep:
-        """``out`` with the progress shaping of ``states -> out.next_states`` added."""
+    def _shaped(
+        self, out: BoltStep, states: np.ndarray, ended: np.ndarray, *, first: bool = False
+    ) -> BoltStep:
+        """``out`` with the progress shaping of ``states -> out.next_states`` added (on an
+        episode's ``first`` transition, none for ``on_change`` specs: see
+        :meth:`~noisybolt.bolt.engine.BoltEngine.terminal_rewards`)."""
         if self._shaping is None:
             return out
         progress = self._shaping(states, out.next_states, done=ended)
+        if first:
+            progress = np.where(self._engine.pays_on_change, 0.0, progress)
         reward = out.reward + progress
         return out._replace(progress=progress, reward=reward, total=reward.sum(axis=1))
 
@@ -511,7 +518,12 @@ class RestrainingBolt:
         ended = done | terminate
         entered = accepting & armed
         terminal = self._engine.terminal_rewards(
-            accepting, entered=entered, ended=ended, gained=~held, lost=held & ~accepting
+            accepting,
+            entered=entered,
+            ended=ended,
+            gained=~held,
+            lost=held & ~accepting,
+            first=first,
         )
         truth = probs >= self.thresholds.truth
         low = truth & (probs <= self.thresholds.high)
@@ -527,6 +539,8 @@ class RestrainingBolt:
                 + (before * tables[:, 1]).sum(axis=2)
                 - tables[:, 2, :, 0]
             )
+            if first:
+                progress = np.where(self._engine.pays_on_change, 0.0, progress)
         reward = terminal + low_term + progress
         next_states = marg.states.argmax(axis=2)
         self._joint[:, rows] = joint

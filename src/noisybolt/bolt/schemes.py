@@ -16,17 +16,18 @@ what a spec pays and when, and whether progress is shaped.
   episode returns (:func:`compliance_scale`), so with the return undiscounted an episode
   that complies is worth more than any that does not, whatever either earns from the
   world. With ``pay_on_change`` (the default) acceptance is paid as the DFA enters an
-  accepting state and taken back if it leaves one (``on_change`` timing), rather than
-  paid at the end (``episode_end``): the same sum over every episode, but nothing is
-  left to collect when the episode ends. Paid at the end, a learner that discounts
-  (``gamma`` 0.99) values the payment more the sooner the episode ends, so in a world
-  where surviving is the task, ending the episode while the spec accepts became the
-  best thing to do: on CartPole the bolted agents dropped the pole at once (returns of 9
-  against 500), on Breakout losing the last ball quickly paid. With acceptance paid as
-  it changes, staying in a state is worth the same to the bolt however long the episode
-  lasts. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`) pays
-  progress towards acceptance as it happens, so a detour is rewarded before the spec is
-  satisfied, without changing which policy is optimal.
+  accepting state and taken back if it leaves one (``on_change`` timing), rather than paid
+  at the end (``episode_end``): the same sum over every episode less what its first
+  observation already accepts (nothing is paid for where an episode starts, which no
+  action chose), and nothing is left to collect when the episode ends. Paid at the end, a
+  learner that discounts (``gamma`` 0.99) values the payment more the sooner the episode
+  ends, so in a world where surviving is the task, ending the episode while the spec
+  accepts became the best thing to do: on CartPole the bolted agents dropped the pole at
+  once (returns of 9 against 500), on Breakout losing the last ball quickly paid. With
+  acceptance paid as it changes, staying in a state is worth the same to the bolt however
+  long the episode lasts. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`)
+  pays progress towards acceptance as it happens, so a detour is rewarded before the spec
+  is satisfied, without changing which policy is optimal.
 
 Example:
     >>> scheme = RewardScheme("compliance", scale=compliance_scale(ReturnBounds(-216.0, 98.5)))

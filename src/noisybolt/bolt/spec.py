@@ -43,11 +43,13 @@ class Spec:
             state); ``"episode_end"`` only on the transition that ends the episode
             (termination or truncation), if its successor is accepting (plain LTLf
             semantics); ``"on_change"`` pays it on each transition into an accepting
-            state (the first transition of an episode included) and takes it back on
-            each transition out of one, nothing at the end: over any episode the same
-            sum as ``episode_end``, but nothing is left to collect when the episode ends,
-            so a learner that discounts is not paid for ending an accepted episode
-            sooner. The low-confidence cost is charged on every transition in all four.
+            state and takes it back on each transition out of one, nothing at the end
+            and nothing on the episode's first transition (read before any action: an
+            episode that starts accepting starts at 0): over any episode the sum is
+            ``episode_end``'s less what the first transition accepts, which no action
+            changes, and nothing is left to collect when the episode ends, so a learner
+            that discounts is not paid for ending an accepted episode sooner. The
+            low-confidence cost is charged on every transition in all four.
         name: a short label for logs and info dicts; defaults to the formula.
 
     Raises:
