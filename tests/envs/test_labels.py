@@ -24,6 +24,7 @@ from noisybolt.errors import (
     CameraError,
     ConfigError,
     FluentFunctionError,
+    StaleInfoError,
     UnlabelledEnvError,
 )
 from noisybolt.perception.protocols import BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY, BoltObservable
@@ -87,8 +88,8 @@ def test_success_fluent_reports_is_success_at_the_end_only() -> None:
 def test_camera_noise_is_reproducible_from_the_reset_seed() -> None:
     def images(seed: int) -> list[np.ndarray]:
         env = _labelled(noise="gaussian:sigma=20")
-        out = [env.reset(seed=seed)[1]["bolt_image"]]
-        out += [env.step(a)[4]["bolt_image"] for a in TO_GOAL[:3]]
+        out = [np.asarray(env.reset(seed=seed)[1]["bolt_image"])]
+        out += [np.asarray(env.step(a)[4]["bolt_image"]) for a in TO_GOAL[:3]]  # read at once
         return out
 
     a, b, c = images(1), images(1), images(2)
@@ -98,6 +99,27 @@ def test_camera_noise_is_reproducible_from_the_reset_seed() -> None:
     assert not np.array_equal(a[0], clean.reset(seed=1)[1]["bolt_image"])
     assert clean.camera_spec.shape == (256, 256, 3)
     assert clean.camera_spec.world == "FrozenLake-v1"
+
+
+def test_the_camera_renders_only_the_images_read_and_the_last_one_before_a_reset() -> None:
+    shots: list[int] = []
+
+    def lamp(env: gym.Env) -> np.ndarray:
+        shots.append(int(env.unwrapped.s))
+        return np.full((4, 6, 3), 10 * env.unwrapped.s, dtype=np.uint8)
+
+    env = FluentLabels(_lake(render_mode=None), fluents=FLUENTS, camera=lamp)
+    env.defer_camera = True  # as a vectorised world of them sets it
+    env.reset(seed=0)
+    assert shots == [0]  # the first image, at once: it fixes the camera's size
+    infos = [env.step(a)[4] for a in TO_GOAL[:3]]  # right, right, down: cells 1, 2, 6
+    assert shots == [0]  # nobody looked
+    with pytest.raises(StaleInfoError):  # a view the world has moved on from
+        np.asarray(infos[0]["bolt_image"])
+    assert np.asarray(infos[2]["bolt_image"]).max() == 60 and shots == [0, 6]
+    env.step(TO_GOAL[3])  # down: cell 10, not read...
+    env.reset()  # ...but an episode's last view is rendered before its state is gone
+    assert shots == [0, 6, 10]
 
 
 def test_a_custom_camera_replaces_the_render() -> None:
@@ -155,6 +177,12 @@ def test_camera_changing_its_image_size_is_refused() -> None:
     env.reset(seed=0)
     with pytest.raises(CameraError, match="one size"):
         env.step(2)
+    env = _labelled(camera=growing)
+    env.defer_camera = True
+    env.reset(seed=0)
+    info = env.step(2)[4]
+    with pytest.raises(CameraError, match="one size"):  # deferred: when the image is read
+        np.asarray(info["bolt_image"])
 
 
 def test_bad_construction_is_refused_before_any_step() -> None:

@@ -337,3 +337,71 @@ def test_a_world_without_a_camera_renders_nothing_and_refuses_a_classifier(
             fluent_names=world.fluent_names,
             camera_spec=world.camera_spec,
         )
+
+
+class _Lamp:
+    """A camera of the lake's cell (10 x the cell index), counting its renders."""
+
+    def __init__(self) -> None:
+        self.renders = 0
+
+    def __call__(self, env: gym.Env) -> np.ndarray:
+        self.renders += 1
+        return np.full((2, 2, 3), 10 * int(env.unwrapped.s), dtype=np.uint8)
+
+
+class _CellReader:
+    """A detector that reads the images' pixels (``reads_images`` unset): the cell."""
+
+    fluent_names = ("at_goal", "in_hole", "top_row")
+    needs_truth = False
+
+    def __init__(self) -> None:
+        self.cells: list[list[int]] = []
+
+    def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
+        cells = np.asarray(images)[:, 0, 0, 0].astype(int) // 10
+        self.cells.append(cells.tolist())
+        probs = np.stack([cells == 15, np.isin(cells, HOLES), cells < 4], axis=1)
+        return probs.astype(np.float32)
+
+
+@pytest.mark.parametrize("detector", ["oracle", "synthetic"])
+def test_a_detector_of_the_truth_leaves_the_camera_off_but_for_episode_ends(
+    detector: str,
+) -> None:
+    lamp = _Lamp()
+    venv = make_bolted_vec_env(lambda: lake(slippery=True, camera=lamp), 3, SPECS, detector, seed=0)
+    venv.reset()
+    first = lamp.renders  # each env's first image fixes its camera's size
+    assert first == 3
+    rng = np.random.default_rng(0)
+    ends = 0
+    for _ in range(60):
+        venv.step_async(rng.integers(0, 4, 3))
+        ends += int(venv.step_wait()[2].sum())
+    assert ends > 0
+    assert lamp.renders - first == ends  # only each ended episode's last view
+
+
+def test_a_detector_that_reads_the_images_sees_every_state_as_it_was() -> None:
+    lamp, reader = _Lamp(), _CellReader()
+    venv = make_bolted_vec_env(lambda: lake(slippery=True, camera=lamp), 3, SPECS, reader, seed=0)
+    world = venv.world
+    venv.reset()
+    assert reader.cells[-1] == [int(env.unwrapped.s) for env in world.envs]
+    rng = np.random.default_rng(0)
+    for _ in range(60):
+        venv.step_async(rng.integers(0, 4, 3))
+        _, _, dones, infos = venv.step_wait()
+        seen = reader.cells[-1]
+        # rows [0, 3): the state each step reached (an ended episode's last one), then
+        # the new episodes' first cells: the states the envs are in now
+        now = [int(env.unwrapped.s) for env in world.envs]
+        ended = np.flatnonzero(dones).tolist()
+        assert seen[3:] == [now[i] for i in ended]
+        for i in range(3):
+            if i not in ended:
+                assert seen[i] == now[i]
+            else:
+                assert seen[i] == int(infos[i]["terminal_observation"]["image"])  # its last cell

@@ -35,8 +35,11 @@ from noisybolt.errors import StaleInfoError
 __all__ = ["DeferredArray"]
 
 
-class DeferredArray:
+class DeferredArray(np.lib.mixins.NDArrayOperatorsMixin):
     """An array computed by ``compute()`` on its first read (see the module docs).
+
+    NumPy's functions and the arithmetic and comparison operators read it as its array
+    (``images == 0``, ``images.max()`` through ``np.asarray``).
 
     Args:
         compute: returns the array; called at most once.
@@ -55,6 +58,11 @@ class DeferredArray:
         # Made every step by the shipped worlds: skip conversions that are not needed.
         self.shape = shape if type(shape) is tuple else tuple(shape)
         self.dtype = dtype if isinstance(dtype, np.dtype) else np.dtype(dtype)
+
+    @property
+    def expired(self) -> bool:
+        """Whether the world moved on before anyone read it (it can no longer be computed)."""
+        return self._expired
 
     @property
     def computed(self) -> bool:
@@ -89,6 +97,10 @@ class DeferredArray:
         if dtype is not None and np.dtype(dtype) != value.dtype:
             return value.astype(dtype)
         return value.copy() if copy else value
+
+    def __array_ufunc__(self, ufunc: Any, method: str, *inputs: Any, **kwargs: Any) -> Any:
+        inputs = tuple(x.value if isinstance(x, DeferredArray) else x for x in inputs)
+        return getattr(ufunc, method)(*inputs, **kwargs)
 
     def __len__(self) -> int:
         return self.shape[0]

@@ -32,6 +32,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 from noisybolt.bolt.schemes import ReturnBounds
+from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.labels import batched_labels_from_info, declares_goal_of, fluent_names_of
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.perception.protocols import (
@@ -69,6 +70,9 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         if len(names) != 1:
             raise ConfigError(f"the envs of one world must share their fluents, got {names}")
         self._fluent_names = names.pop()
+        for env in self._venv.envs:  # the images read before the next step: see _labels
+            if _has_attr(env, "defer_camera"):
+                env.set_wrapper_attr("defer_camera", True)
         #: Whether its episodes have a goal (:func:`~noisybolt.envs.labels.declares_goal_of`).
         self.declares_goal = any(declares_goal_of(env) for env in self._venv.envs)
         self.num_envs = self._venv.num_envs
@@ -95,20 +99,36 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         else:
             self._first_seed = None
         obs, info = self._venv.reset(seed=seed, options=options)
-        self._images, self._truth = batched_labels_from_info(info, self.num_envs, where="reset")
+        self._images, self._truth = self._labels(info, where="reset")
         return obs, info
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Steps every env; an ended one is reset in the same step, its last labels in
         ``info["final_info"]`` (checked there)."""
         obs, rewards, terminated, truncated, info = self._venv.step(actions)
-        self._images, self._truth = batched_labels_from_info(info, self.num_envs, where="step")
+        self._images, self._truth = self._labels(info, where="step")
         ended = np.flatnonzero(np.logical_or(terminated, truncated))
         if ended.size:
-            batched_labels_from_info(
-                info.get(FINAL_INFO_KEY, {}), self.num_envs, where="step", rows=ended
-            )
+            self._labels(info.get(FINAL_INFO_KEY, {}), where="step", rows=ended)
         return obs, rewards, terminated, truncated, info
+
+    def _labels(
+        self, info: dict[str, Any], *, where: str, rows: np.ndarray | None = None
+    ) -> tuple[Any, np.ndarray]:
+        """Checks ``info``'s labels, its images made one batch that renders when read.
+
+        Each env's image is rendered when first read
+        (:class:`~noisybolt.envs.labels.FluentLabels`); ``SyncVectorEnv`` gathers those
+        per-env values in an object array, made here one
+        :class:`~noisybolt.envs.deferred.DeferredArray` ``[num_envs, H, W, C]`` (a row
+        of an env without an image, in ``final_info``, reads as zeros).
+        """
+        images = info.get(BOLT_IMAGE_KEY)
+        if isinstance(images, np.ndarray) and images.dtype == object:
+            info[BOLT_IMAGE_KEY] = _batch_of_views(images)
+        return batched_labels_from_info(
+            info, self.num_envs, where=where, rows=rows, read_images=False
+        )
 
     def _need_reset(self) -> None:
         if self._images is None:
@@ -149,11 +169,15 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
         return spec
 
     def bolt_images(self) -> np.ndarray:
-        """uint8 ``[num_envs, H, W, 3]``: the bolt's view of every env now (a view of the
-        last ``info["bolt_image"]``)."""
+        """uint8 ``[num_envs, H, W, 3]``: the bolt's view of every env now (the last
+        ``info["bolt_image"]``, rendered now if nobody has read it).
+
+        Raises:
+            StaleInfoError: read after the envs moved on (a step this object did not make).
+        """
         self._need_reset()
         assert self._images is not None
-        return self._images
+        return np.asarray(self._images)
 
     def true_fluents(self) -> np.ndarray:
         """bool ``[num_envs, n_fluents]``: the ground truth of every env now (a view of the
@@ -169,6 +193,32 @@ class LabelledVectorEnv(gym.vector.VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         """Closes the envs."""
         self._venv.close(**kwargs)
+
+
+def _has_attr(env: gym.Env, name: str) -> bool:
+    try:
+        env.get_wrapper_attr(name)
+    except AttributeError:
+        return False
+    return True
+
+
+def _batch_of_views(views: np.ndarray) -> DeferredArray:
+    """One batched image from per-env views (arrays, deferred arrays or None)."""
+    shown = [v for v in views if v is not None]
+    if not shown:
+        raise UnlabelledEnvError(f"no env put info[{BOLT_IMAGE_KEY!r}]: wrap them in FluentLabels")
+    first = shown[0]
+    shape = (len(views), *first.shape)
+
+    def stack() -> np.ndarray:
+        out = np.zeros(shape, dtype=np.uint8)
+        for i, view in enumerate(views):
+            if view is not None:
+                out[i] = np.asarray(view)
+        return out
+
+    return DeferredArray(stack, shape=shape, dtype=np.uint8)
 
 
 def _labels_of_one(info: dict[str, Any]) -> tuple[Any, Any]:

@@ -29,6 +29,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt.schemes import ReturnBounds
+from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.layout import GridLayout
 from noisybolt.errors import CameraError, ConfigError, FluentFunctionError, UnlabelledEnvError
 from noisybolt.logic.syntax import check_fluent_names
@@ -76,8 +77,18 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
     Checked at construction: the fluent names (ltlf2dfa atoms, no repeats), that every
     fluent and the camera are callable, and that an env without a camera renders RGB
     arrays. Checked at every reset and step (the first reset catches a wrong definition
-    before any training): each fluent function returns a bool, the camera a uint8
-    ``[H, W, 3]`` image of the same shape each time.
+    before any training): each fluent function returns a bool; and each image the camera
+    renders is a uint8 ``[H, W, 3]`` image of the same shape each time.
+
+    With :attr:`defer_camera` set (a vectorised world of these envs sets it,
+    :class:`~noisybolt.envs.labelled_vec.LabelledVectorEnv`, so every training run), the
+    camera renders the first image at once (it fixes the size), then each image when
+    someone first reads ``info["bolt_image"]`` (a
+    :class:`~noisybolt.envs.deferred.DeferredArray`; read it before the next step), and
+    an episode's last image before a reset: a bolt whose detector reads the truth, an
+    unbolted agent, random play never pay for a render or draw its noise (FrozenLake's
+    pygame render costs 12 ms a step against the env's own 0.03). Unset (the default for
+    an env used alone), every image is rendered at once, a plain array.
 
     Args:
         env: any Gymnasium env.
@@ -85,8 +96,8 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ``env.unwrapped`` (where the state lives) and returns a bool.
         camera: the bolt's camera, called with ``env``; default: ``env.render()``.
             False: none, for a bolt whose detector reads the truth (oracle, synthetic,
-            a noisy sensor of your own): nothing is rendered (a toy-text env's render is
-            most of its step), the bolt's images are 1x1 black, and a classifier is refused.
+            a noisy sensor of your own): nothing is ever rendered, not even at episode
+            ends, the bolt's images are 1x1 black, and a classifier is refused.
         noise: the camera's noise (see :func:`noisybolt.perception.noise.make_noise`);
             seeded by ``reset(seed=...)``, so a seeded run sees the same noise again.
         success: optional goal test, the name of one of ``fluents`` or a function like
@@ -192,6 +203,10 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         )
         self._shape: tuple[int, int, int] | None = None
         self._rng = np.random.default_rng()
+        #: Render each image when first read, not at once (see the class docs).
+        self.defer_camera = False
+        # The image of the last reset or step, rendered when first read (see _label).
+        self._view: DeferredArray | None = None
 
     @property
     def fluent_names(self) -> tuple[str, ...]:
@@ -237,6 +252,10 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         """Resets the env (a seed also re-seeds the camera's noise) and labels the first state."""
+        # The last step's view is the ended episode's last one (in final_info, read after
+        # a vector env's same-step autoreset): rendered now, before the state is gone.
+        if self._view is not None and not self._view.expired:
+            self._view.value  # noqa: B018
         obs, info = self.env.reset(seed=seed, options=options)
         if seed is not None:
             self._rng = np.random.default_rng(seed)
@@ -253,7 +272,17 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def _label(self, info: dict[str, Any]) -> dict[str, Any]:
         info = dict(info)
         info[TRUE_FLUENTS_KEY] = self._true_fluents()
-        info[BOLT_IMAGE_KEY] = self._bolt_image()
+        # Deferred, the camera is rendered (and its noise drawn) only if someone reads
+        # the image before the next step. The first image is rendered at once: it fixes
+        # the camera's size.
+        if self._view is not None:
+            self._view.expire()
+        if self._shape is None or not self.defer_camera:
+            info[BOLT_IMAGE_KEY] = self._bolt_image()
+            self._view = None
+        else:
+            self._view = DeferredArray(self._bolt_image, shape=self._shape, dtype=np.uint8)
+            info[BOLT_IMAGE_KEY] = self._view
         if self._grid is not None:
             info[GRID_POSITION_KEY] = self._grid.cell_of(self.env.unwrapped)
         return info
@@ -374,8 +403,13 @@ def labels_from_info(info: dict[str, Any], *, where: str) -> tuple[np.ndarray, n
 
 
 def batched_labels_from_info(
-    info: Mapping[str, Any], n_envs: int, *, where: str, rows: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+    info: Mapping[str, Any],
+    n_envs: int,
+    *,
+    where: str,
+    rows: np.ndarray | None = None,
+    read_images: bool = True,
+) -> tuple[Any, np.ndarray]:
     """``(bolt images, true fluents)`` of a vector env's batched ``info`` (the world–bolt
     contract, :mod:`noisybolt.perception.protocols`): uint8 ``[n_envs, H, W, C]`` and bool
     ``[n_envs, n_fluents]``, read with ``np.asarray`` (a deferred value is computed now).
@@ -385,6 +419,9 @@ def batched_labels_from_info(
         n_envs: the batch size.
         where: ``"reset"`` or ``"step"``, for the message.
         rows: the rows that must carry labels (their ``_key`` masks True); default all.
+        read_images: False: the images are returned as the world gave them, a
+            :class:`~noisybolt.envs.deferred.DeferredArray` not computed (checked by its
+            shape and dtype), for a reader that may not need them.
 
     Raises:
         UnlabelledEnvError: a key or a row of its mask is missing.
@@ -404,9 +441,11 @@ def batched_labels_from_info(
                 "masks) at reset and step, and in info['final_info'] for an ended episode; "
                 "wrap its envs in noisybolt.FluentLabels"
             )
-    images = np.asarray(info[BOLT_IMAGE_KEY])
+    images = info[BOLT_IMAGE_KEY]
+    if read_images or not isinstance(images, DeferredArray):
+        images = np.asarray(images)
     truth = np.asarray(info[TRUE_FLUENTS_KEY], dtype=bool)
-    if images.dtype != np.uint8 or images.ndim != 4 or len(images) != n_envs:
+    if images.dtype != np.uint8 or len(images.shape) != 4 or images.shape[0] != n_envs:
         raise ConfigError(
             f"info[{BOLT_IMAGE_KEY!r}] at {where} must be uint8 [{n_envs}, H, W, C], got "
             f"{images.dtype} {images.shape}"

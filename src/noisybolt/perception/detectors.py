@@ -40,6 +40,7 @@ __all__ = [
     "OracleDetector",
     "SyntheticDetector",
     "match_fluents",
+    "reads_images",
     "reseed_detector",
 ]
 
@@ -59,6 +60,14 @@ def _check_truth(
     if images is not None and len(images) != truth.shape[0]:
         raise ValueError(f"{len(images)} images but {truth.shape[0]} rows of truth")
     return truth
+
+
+def reads_images(detector: Any) -> bool:
+    """Whether ``detector.predict`` reads its images' pixels: its ``reads_images``, True
+    where it has none. A detector that says False (the oracle, the synthetic detector) is
+    handed images that render only if read (:class:`~noisybolt.envs.deferred.DeferredArray`),
+    so that a world's camera costs nothing under it."""
+    return bool(getattr(detector, "reads_images", True))
 
 
 def _check_names(fluent_names: Sequence[str]) -> tuple[str, ...]:
@@ -96,6 +105,11 @@ class FluentsByName:
     def needs_truth(self) -> bool:
         """Whether the detector reads the truth."""
         return bool(self.detector.needs_truth)
+
+    @property
+    def reads_images(self) -> bool:
+        """Whether the detector reads the images (:func:`reads_images`)."""
+        return reads_images(self.detector)
 
     @property
     def training_prior(self) -> Any:
@@ -227,6 +241,11 @@ class OracleDetector:
     def needs_truth(self) -> bool:
         """Always True."""
         return True
+
+    @property
+    def reads_images(self) -> bool:
+        """Always False: only their number is read (the camera need not render)."""
+        return False
 
     def predict(self, images: np.ndarray, *, truth: np.ndarray | None = None) -> np.ndarray:
         """float32 ``[n, k]``: 1 where ``truth`` is true, else 0."""
@@ -406,6 +425,11 @@ class SyntheticDetector:
     def needs_truth(self) -> bool:
         """Always True."""
         return True
+
+    @property
+    def reads_images(self) -> bool:
+        """Always False: only their number is read (the camera need not render)."""
+        return False
 
     @property
     def noise(self) -> dict[str, BetaNoise]:

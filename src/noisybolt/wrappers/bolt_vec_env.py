@@ -39,11 +39,12 @@ from noisybolt.bolt import (
     Tracking,
     confidence_bands,
 )
+from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.labels import batched_labels_from_info
 from noisybolt.envs.sb3 import SB3VecEnv
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.logic.dfa import DFA
-from noisybolt.perception.detectors import reseed_detector
+from noisybolt.perception.detectors import reads_images, reseed_detector
 from noisybolt.perception.protocols import FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
@@ -160,6 +161,8 @@ class BoltVecEnv(VecEnvWrapper):
         self._truth = parts.truth
         self._source = source
         self._detector = parts.detector
+        # A detector that reads the truth only is handed the world's images unrendered.
+        self._reads_images = reads_images(parts.detector)
         self._thresholds = thresholds
         self._records = bool(info_records)
         super().__init__(
@@ -180,7 +183,9 @@ class BoltVecEnv(VecEnvWrapper):
         info = self._source.batched_info
         if rows is not None:
             info = info.get(FINAL_INFO_KEY, {})
-        return batched_labels_from_info(info, self.num_envs, where=where, rows=rows)
+        return batched_labels_from_info(
+            info, self.num_envs, where=where, rows=rows, read_images=self._reads_images
+        )
 
     def _probs(self, images: np.ndarray, truth: np.ndarray) -> np.ndarray:
         probs = self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
@@ -237,11 +242,9 @@ class BoltVecEnv(VecEnvWrapper):
             # One detector call for the ended episodes' last views and the new episodes'
             # first views together (a call on a few images costs mostly its overhead):
             # rows [0, n) are the views the step's transition reads, rows n.. the first
-            # views of the new episodes. Assembled in one buffer, one copy of the images.
-            batch = np.empty((n + ended.size, *images.shape[1:]), dtype=images.dtype)
-            batch[:n] = images
-            batch[ended] = last_images[ended]
-            batch[n:] = images[ended]
+            # views of the new episodes. Assembled in one buffer, one copy of the images
+            # (when read: a detector of the truth only is handed the batch unrendered).
+            batch = _views_batch(images, last_images, ended)
             truth = truth.copy()
             truth[ended] = last_truth[ended]
             both = self._probs(batch, np.concatenate([truth, first_truth[ended]]))
@@ -285,3 +288,22 @@ class BoltVecEnv(VecEnvWrapper):
             if self._records:
                 self._truth.reset(first_truth, env_mask=dones)
         return self._obs(obs, dfa_view(self.bolt)), rewards.astype(np.float32), dones, infos
+
+
+def _views_batch(images: Any, last_images: Any, ended: np.ndarray) -> Any:
+    """``[n + len(ended), H, W, C]``: the step's views with the ended episodes' last ones in
+    their rows, then the ended envs' new first views; deferred if ``images`` is."""
+    n = len(images)
+    shape = (n + ended.size, *images.shape[1:])
+
+    def assemble() -> np.ndarray:
+        now = np.asarray(images)
+        batch = np.empty(shape, dtype=now.dtype)
+        batch[:n] = now
+        batch[ended] = np.asarray(last_images)[ended]
+        batch[n:] = now[ended]
+        return batch
+
+    if isinstance(images, DeferredArray):
+        return DeferredArray(assemble, shape=shape, dtype=images.dtype)
+    return assemble()
