@@ -19,6 +19,7 @@ from noisybolt.agents.training import (
     train,
 )
 from noisybolt.bolt import compliance_scale
+from noisybolt.bolt.schemes import COMPLIANCE_MARGIN
 from noisybolt.cli import main
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import world_return_bounds
@@ -62,6 +63,37 @@ def test_compliance_is_the_default_with_a_scale_from_the_worlds_return_bounds() 
     assert not paper.pay_on_change  # recorded as what the paper scheme does
     # The config holds the resolved scale: reading it back gives the same run.
     assert TrainConfig.from_dict(config.to_dict()) == config
+
+
+def test_a_learner_paid_clipped_rewards_is_scaled_from_the_clipped_return(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from noisybolt.envs.breakout import MAX_BRICKS, MAX_SCORE
+    from noisybolt.errors import EstimatedBoundsWarning
+
+    # Breakout's learner sees each brick's points clipped to 1 (clip_reward, from its
+    # hyperparameters): compliance must outweigh 216 clipped points, not 864 points.
+    for world in ("breakout", "breakout-ram"):
+        config = _config(["left_row5"], world=world)
+        assert config.world_config.clip_reward
+        assert config.reward_scale == pytest.approx(COMPLIANCE_MARGIN * MAX_BRICKS)
+        unclipped = _config(["left_row5"], world=world, overrides={"clip_reward": False})
+        assert unclipped.reward_scale == pytest.approx(COMPLIANCE_MARGIN * MAX_SCORE)
+    # A world that declares only its score's bounds: random play, clipped, with a warning.
+    (tmp_path / "clipped_lake.py").write_text(
+        "import gymnasium as gym\n"
+        "import noisybolt\n"
+        "def make():\n"
+        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
+        "    return noisybolt.FluentLabels(lake, fluents={'at_goal': lambda e: e.s == 15},\n"
+        "                                  return_bounds=(0, 1))\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    lake = {"world": "clipped_lake:make", "specs": ["F(at_goal)"]}
+    assert TrainConfig.create(**lake).reward_scale == pytest.approx(1.1)
+    with pytest.warns(EstimatedBoundsWarning, match=r"clipped to their sign.*--reward-scale"):
+        clipped = TrainConfig.create(**lake, overrides={"clip_reward": True})
+    assert clipped.reward_scale == pytest.approx(1.65)  # as random play's 0 or 1 above
 
 
 def test_per_spec_scales_and_the_unbolted_twin() -> None:

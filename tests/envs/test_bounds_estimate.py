@@ -106,3 +106,12 @@ def test_a_constant_cost_per_step_gives_a_width_of_the_longest_episode() -> None
         COMPLIANCE_MARGIN * (1 + ESTIMATE_MARGIN) * 8.0
     )
     assert "one step's reward times the longest episode" in estimate.describe()
+
+
+def test_clipped_bounds_are_those_of_the_rewards_signs() -> None:
+    # Each paying step pays 0.25: three of them return 0.75, clipped to their sign 3.
+    plain = estimate_return_bounds(_world(pay=0.25), steps=4000, seed=1)
+    clipped = estimate_return_bounds(_world(pay=0.25), steps=4000, seed=1, clipped=True)
+    assert plain.observed == (0.0, 0.75) and clipped.observed == (0.0, 3.0)
+    costs = estimate_return_bounds(_world(env=CostPerStep, cost=7.0), steps=400, clipped=True)
+    assert costs.observed == (-5.0, -5.0)

@@ -167,6 +167,24 @@ def test_a_dead_worker_is_named_and_the_others_are_closed() -> None:
     assert _gone(pids)
 
 
+def test_a_sigterm_to_the_process_group_leaves_the_workers_to_their_parent() -> None:
+    # `timeout`, `kill -TERM -PGID` and batch schedulers signal every process of the
+    # group: the workers must go on serving, so that the training can save its checkpoint
+    # (its SIGTERM is a KeyboardInterrupt) and then close them.
+    world = WorkerWorld("breakout-ram", num_envs=4, workers=2, seed=0)
+    pids = world.pids
+    world.reset(seed=0)
+    for pid in pids:
+        assert pid is not None
+        os.kill(pid, signal.SIGTERM)
+    time.sleep(0.2)
+    assert all(_alive(pid) for pid in pids)
+    observations, *_ = world.step(np.zeros(4, dtype=np.int64))
+    assert observations.shape[0] == 4
+    world.close()
+    assert _gone(pids)
+
+
 def test_an_error_in_a_worker_is_raised_with_its_traceback() -> None:
     world = WorkerWorld("breakout-ram", num_envs=2, workers=2, seed=0)
     pids = world.pids

@@ -132,6 +132,7 @@ RESUMABLE_KEYS: tuple[str, ...] = (
     "evaluation.stop_after",
     "world.workers",  # where the world runs, not what it plays (the same games either way)
     "world.overlap",  # how rollouts are collected, not which games they play
+    "algorithm.device",  # where the network trains, not what it learns
 )
 #: What a config saved before a setting existed meant by it, by schema path (read by
 #: :func:`nested_config`: a saved config that lacks the path gets this value).
@@ -153,6 +154,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "world.workers": 0,
     # before world.overlap existed every rollout stepped all games at once
     "world.overlap": False,
+    # before algorithm.device existed every agent trained on the CPU
+    "algorithm.device": "cpu",
     # before detector.restarts existed one classifier was trained, from detector.seed
     "detector.restarts": 1,
     # before detector.final_views existed collection never kept an episode's last state
@@ -237,6 +240,7 @@ class TrainConfig:
     bolted = _Alias[bool]("bolt.bolted")
     algo = _Alias[str]("algorithm.name")
     hyperparams = _Alias[Mapping[str, Any]]("algorithm.hyperparams")
+    device = _Alias[str]("algorithm.device")
     eval_freq = _Alias[int]("evaluation.freq")
     eval_episodes = _Alias[int]("evaluation.episodes")
     eval_envs = _Alias[int]("evaluation.envs")
@@ -720,12 +724,17 @@ ESTIMATE_STEPS = 4096
 
 def _scale_from_world(config: TrainConfig) -> float:
     """The ``compliance`` scale from the world's declared return bounds, or, for a world
-    that declares none, from bounds estimated by seeded random play (with a warning)."""
+    that declares none, from bounds estimated by seeded random play (with a warning).
+
+    With ``world.clip_reward`` the learner is paid the game's rewards clipped to their
+    sign, so the bounds are those of the clipped return (Breakout: 0 to 216 bricks, not
+    its 864 points): the scale puts compliance first over what the learner is paid."""
     from noisybolt.agents.world_checks import check_world_fits
 
+    clipped = config.world_config.clip_reward
     probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
     try:
-        bounds = world_return_bounds(probe)
+        bounds = world_return_bounds(probe, clipped=clipped)
         if bounds is None:  # what cannot run is refused before random play estimates them
             check_world_fits(config, probe)
     finally:
@@ -734,15 +743,23 @@ def _scale_from_world(config: TrainConfig) -> float:
         # A user's env rarely knows its bounds; refusing to train would send every new
         # user to a flag. Random play's returns are an estimate, said so, not a bound.
         world: Any = make_world(config.world, num_envs=8, seed=0, **config.world_settings)
-        estimate = estimate_return_bounds(world, steps=ESTIMATE_STEPS, seed=0)
+        estimate = estimate_return_bounds(world, steps=ESTIMATE_STEPS, seed=0, clipped=clipped)
         world.close()
         bounds = estimate.bounds
+        what = "its episodes' returns" + (
+            " with the rewards clipped to their sign (world.clip_reward)" if clipped else ""
+        )
         warnings.warn(
-            f"the {config.world!r} world declares no bounds on its episodes' returns; the "
+            f"the {config.world!r} world declares no bounds on {what}; the "
             f"compliance scale {compliance_scale(bounds):g} rests on bounds "
             f"{estimate.describe()}. A trained agent may return more than random play: "
-            "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or pass "
-            "--reward-scale S (S above the widest gap between two episodes' returns)",
+            + (
+                "pass --reward-scale S (S above the widest gap between two episodes' "
+                "clipped returns)"
+                if clipped
+                else "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or "
+                "pass --reward-scale S (S above the widest gap between two episodes' returns)"
+            ),
             EstimatedBoundsWarning,
             stacklevel=2,
         )

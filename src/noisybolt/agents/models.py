@@ -31,10 +31,41 @@ from noisybolt.agents.pipeline import overlapped_class
 from noisybolt.agents.policies import policy_class
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
-__all__ = ["ALGO_KEY", "load_model", "make_model", "read_model_data", "save_model"]
+__all__ = [
+    "ALGO_KEY",
+    "load_model",
+    "make_model",
+    "read_model_data",
+    "save_model",
+    "torch_device",
+]
 
 #: The entry of a saved model's ``data`` naming its algorithm (plain JSON).
 ALGO_KEY = "noisybolt_algo"
+
+
+def torch_device(requested: str) -> str:
+    """``requested`` (an ``algorithm.device``: ``cpu``, ``cuda``, ``cuda:N``) if this
+    machine has it.
+
+    Raises:
+        ConfigError: a GPU this machine's torch does not see (a CPU build of torch, no
+            driver, or fewer GPUs than the index); say how to train on the CPU instead.
+    """
+    if requested == "cpu":
+        return requested
+    import torch
+
+    count = torch.cuda.device_count() if torch.cuda.is_available() else 0
+    index = int(requested.partition(":")[2] or 0)
+    if index >= count:
+        build = " (a CPU build)" if torch.version.cuda is None else ""
+        raise ConfigError(
+            f"algorithm.device is {requested}, but torch {torch.__version__}{build} sees "
+            f"{count} CUDA device(s) here; train on the CPU with --set algorithm.device=cpu "
+            "(a resumed run may change it)"
+        )
+    return requested
 
 
 def make_model(
@@ -76,7 +107,8 @@ def make_model(
             policy_kwargs=policy_kwargs,
             seed=config.seed,
             verbose=0,
-            device="cpu",
+            # a trial only rebuilds objects: it never needs (or holds) the GPU
+            device="cpu" if trial else torch_device(config.algorithm.device),
             tensorboard_log=tensorboard_log,
             **params,
         )
@@ -126,8 +158,12 @@ def read_model_data(path: Path) -> dict[str, Any]:
     return data
 
 
-def load_model(path: Path, config: TrainConfig, env: VecEnv) -> BaseAlgorithm:
-    """Loads a saved model of ``config``'s run onto ``env`` without unpickling anything.
+def load_model(
+    path: Path, config: TrainConfig, env: VecEnv, *, device: str | None = None
+) -> BaseAlgorithm:
+    """Loads a saved model of ``config``'s run onto ``env`` without unpickling anything,
+    its network on ``device`` (default: the run's ``algorithm.device``; a model trained
+    on a GPU loads on the CPU and the other way round).
 
     Raises:
         UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
@@ -155,9 +191,13 @@ def load_model(path: Path, config: TrainConfig, env: VecEnv) -> BaseAlgorithm:
             "the run directory mixes two runs; start it over (--restart) or use another one"
         )
     custom_objects = {key: getattr(trial, key) for key in serialized}
+    device = torch_device(device or config.algorithm.device)
     try:
         return run_algorithm_class(config).load(
-            path, env=env, device="cpu", custom_objects=custom_objects
+            path,
+            env=env,
+            device=device,
+            custom_objects=custom_objects,
         )
     except (zipfile.BadZipFile, KeyError, ValueError, RuntimeError, EOFError) as error:
         raise CorruptFileError(

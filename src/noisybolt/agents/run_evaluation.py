@@ -48,7 +48,8 @@ def load_run_model(
 
     Loaded without unpickling anything (:func:`noisybolt.agents.models.load_model`), from
     inside the run directory only. ``env``: envs of the run's world to load onto (default:
-    one built here, with the oracle detector: only its spaces matter).
+    one built here, with the oracle detector: only its spaces matter). Its network goes
+    on the run's ``algorithm.device``, or on the CPU where this machine lacks that GPU.
 
     Raises:
         ConfigError: the run holds neither a model nor a checkpoint.
@@ -56,7 +57,7 @@ def load_run_model(
         UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
     """
     from noisybolt.agents.checkpoints import latest_checkpoint
-    from noisybolt.agents.models import load_model
+    from noisybolt.agents.models import load_model, torch_device
 
     path = run.file("model.zip")
     if path.exists() or path.is_symlink():
@@ -83,7 +84,12 @@ def load_run_model(
         env = make_env(
             config, detector, training=False, n_envs=config.n_envs, dfas=dfas, belief=belief
         )
-    return load_model(path, config, env)
+    # A run trained on a GPU evaluates on the CPU of a machine without one.
+    try:
+        device = torch_device(config.algorithm.device)
+    except ConfigError:
+        device = "cpu"
+    return load_model(path, config, env, device=device)
 
 
 def _single_env(config: TrainConfig) -> Any:

@@ -7,6 +7,7 @@ ranges, names), naming the setting by its path in ``config.json``. They compose
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,6 +31,7 @@ __all__ = [
     "EvaluationConfig",
     "WorldConfig",
     "check_count",
+    "check_device",
     "is_detector_factory",
 ]
 
@@ -52,6 +54,16 @@ def is_detector_factory(kind: object) -> bool:
     return bool(sep and function.isidentifier() and module) and all(
         part.isidentifier() for part in module.split(".")
     )
+
+
+def check_device(device: object) -> None:
+    """Refuses an ``algorithm.device`` that is not ``cpu``, ``cuda`` or ``cuda:N``
+    (whether the machine has it is checked where the model is built:
+    :func:`noisybolt.agents.models.torch_device`)."""
+    if not isinstance(device, str) or not re.fullmatch(r"cpu|cuda(:[0-9]+)?", device):
+        raise ConfigError(
+            f"algorithm.device must be cpu, cuda or cuda:N (a GPU's index), got {device!r}"
+        )
 
 
 def check_count(path: str, value: Any, low: int) -> None:
@@ -263,13 +275,19 @@ class AlgorithmConfig:
         hyperparams: resolved hyperparameters (:mod:`noisybolt.agents.hyperparams`): the
             SB3 constructor's arguments and noisybolt's own agent settings
             (:data:`~noisybolt.agents.hyperparams.META_KEYS`).
+        device: where the agent's network trains: ``cpu`` (default), ``cuda`` or
+            ``cuda:N`` (an image agent on a GPU machine). It may change on ``--resume``
+            (where the network runs, not what it learns). The bolt's classifier and the
+            world stay on the CPU.
     """
 
     name: str = "ppo"
     hyperparams: dict[str, Any] = field(default_factory=dict)
+    device: str = "cpu"
 
     def __post_init__(self) -> None:
         algorithm_class(self.name)
+        check_device(self.device)
         object.__setattr__(self, "hyperparams", freeze(dict(self.hyperparams)))
         known = known_hyperparameters(self.name) - WORLD_KEYS
         for key in self.hyperparams:

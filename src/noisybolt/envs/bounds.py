@@ -10,6 +10,14 @@ under ``paper``; without either, :func:`estimate_return_bounds` estimates the bo
 random play (an estimate, said so when it is used: a trained agent may return more than
 random play showed).
 
+A learner that sees the rewards clipped to their sign (the Atari convention,
+``world.clip_reward``) is paid another return than the game's score: a world whose
+rewards may be clipped declares that return's bounds too, with a method
+``clipped_return_bounds() -> ReturnBounds`` (Breakout: one clipped point per brick,
+0 to 216, where its score runs to 864). The compliance scale of a run that clips comes
+from those (:func:`world_return_bounds` with ``clipped=True``), or from random play with
+the rewards clipped.
+
 Example:
     >>> from noisybolt.envs import make_world
     >>> world_return_bounds(make_world("gridworld", num_envs=1))
@@ -50,8 +58,17 @@ class DeclaresReturnBounds(Protocol):
         ...
 
 
-def world_return_bounds(world: object) -> ReturnBounds | None:
-    """The world's declared :class:`ReturnBounds`, or None if it declares none."""
+def world_return_bounds(world: object, *, clipped: bool = False) -> ReturnBounds | None:
+    """The world's declared :class:`ReturnBounds`, or None if it declares none.
+
+    ``clipped``: the bounds of the return of its rewards clipped to their sign
+    (``clipped_return_bounds()``), which a world that declares only its score's bounds
+    does not state (None): clipping maps the rewards to -1, 0 and 1, so the score's
+    bounds say nothing of them.
+    """
+    if clipped:
+        declared = getattr(world, "clipped_return_bounds", None)
+        return declared() if callable(declared) else None
     return world.return_bounds() if isinstance(world, DeclaresReturnBounds) else None
 
 
@@ -115,7 +132,9 @@ class EstimatedBounds:
         return text
 
 
-def estimate_return_bounds(world: Any, *, steps: int = 4096, seed: int = 0) -> EstimatedBounds:
+def estimate_return_bounds(
+    world: Any, *, steps: int = 4096, seed: int = 0, clipped: bool = False
+) -> EstimatedBounds:
     """Bounds on an episode's return estimated from uniformly random play of ``world``.
 
     For a world that declares none: the range of the returns of the episodes random play
@@ -134,6 +153,8 @@ def estimate_return_bounds(world: Any, *, steps: int = 4096, seed: int = 0) -> E
             ``step``), as :func:`noisybolt.envs.make_world` builds.
         steps: environment steps to play, all envs together.
         seed: seeds the world's reset and the sampled actions.
+        clipped: the bounds of the rewards clipped to their sign (what a learner with
+            ``world.clip_reward`` is paid).
 
     Raises:
         ConfigError: a non-positive ``steps``, or rewards that are not finite.
@@ -160,6 +181,8 @@ def estimate_return_bounds(world: Any, *, steps: int = 4096, seed: int = 0) -> E
         reward = np.asarray(reward, dtype=np.float64).reshape(n)
         if not np.all(np.isfinite(reward)):
             raise ConfigError(f"the world paid a non-finite reward in random play: {reward}")
+        if clipped:
+            reward = np.sign(reward)
         step_lo, step_hi = min(step_lo, float(reward.min())), max(step_hi, float(reward.max()))
         running += reward
         length += 1

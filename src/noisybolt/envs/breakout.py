@@ -77,6 +77,8 @@ from noisybolt.perception.protocols import (
 
 #: The most points a game of Breakout can score: two walls of 432 (see return_bounds).
 MAX_SCORE = 864.0
+#: The bricks of a game: two walls of 6 rows of 18 (see clipped_return_bounds).
+MAX_BRICKS = 216
 
 __all__ = [
     "BRICK_BITS",
@@ -612,6 +614,13 @@ class BreakoutWorld(gym.vector.VectorEnv):
         """Bounds on an episode's game score (see :mod:`noisybolt.envs.bounds`): 0 to two
         walls of 108 bricks, each wall worth (1 + 1 + 4 + 4 + 7 + 7) * 18 = 432 points."""
         return ReturnBounds(0.0, MAX_SCORE)
+
+    def clipped_return_bounds(self) -> ReturnBounds:
+        """Bounds on an episode's score clipped to its sign step by step (what a learner
+        with the Atari convention ``clip_reward`` is paid): 0 to one point per brick of
+        two walls, 216 (a step that takes a brick scores, and no step scores without
+        one)."""
+        return ReturnBounds(0.0, float(MAX_BRICKS))
 
     @property
     def fluent_names(self) -> tuple[str, ...]:

@@ -161,6 +161,7 @@ class WorkerWorld(gym.vector.VectorEnv):
         self._fluent_names: tuple[str, ...] = world["fluent_names"]
         self._camera_spec: CameraSpec = world["camera_spec"]
         self._return_bounds = world["return_bounds"]
+        self._clipped_return_bounds = world["clipped_return_bounds"]
         self._lives: np.ndarray | None = None
 
     # -- what the world declares ------------------------------------------------------------
@@ -177,6 +178,11 @@ class WorkerWorld(gym.vector.VectorEnv):
     def return_bounds(self) -> Any:
         """The world's declared bounds on an episode's return (None: it declares none)."""
         return self._return_bounds
+
+    def clipped_return_bounds(self) -> Any:
+        """Its declared bounds on the return of its rewards clipped to their sign (None:
+        it declares none; see :mod:`noisybolt.envs.bounds`)."""
+        return self._clipped_return_bounds
 
     def lives(self) -> np.ndarray:
         """Lives left in each game, from the last reset or step's ``info["lives"]``.
@@ -345,16 +351,13 @@ def _context() -> Any:  # a ForkServerContext (POSIX) or a SpawnContext
 
 
 def _shut_down(processes: Sequence[BaseProcess], conns: Sequence[Connection]) -> None:
-    """Asks every worker to close, then terminates (and at last kills) those still alive."""
+    """Asks every worker to close, then kills those still alive (they ignore SIGTERM)."""
     for conn in conns:
         with contextlib.suppress(BrokenPipeError, ConnectionResetError, OSError):
             conn.send(("close", None))
     for process in processes:
         process.join(CLOSE_TIMEOUT_S)
-        if process.is_alive():
-            process.terminate()
-            process.join(CLOSE_TIMEOUT_S)
-        if process.is_alive():  # pragma: no cover - a worker that ignores SIGTERM
+        if process.is_alive():  # a worker stuck in a step: it ignores SIGTERM (_work)
             process.kill()
             process.join()
     for conn in conns:
@@ -423,8 +426,12 @@ def _work(
     or until its parent is gone."""
     import signal
 
-    # Ctrl-C reaches the whole process group: the parent decides, and closes the workers.
+    # Ctrl-C reaches the whole process group, and so does a SIGTERM sent to it (`timeout`,
+    # `kill -TERM -PGID`, a batch scheduler's notice): the parent decides (a training saves
+    # its checkpoint, which may still need the workers) and closes them; a worker whose
+    # parent is gone ends on its closed pipe.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     try:
         import cv2
 
@@ -440,6 +447,7 @@ def _work(
         conn.close()
         return
     bounds = world.return_bounds() if callable(getattr(world, "return_bounds", None)) else None
+    clipped = getattr(world, "clipped_return_bounds", None)
     conn.send(
         (
             "ok",
@@ -452,6 +460,7 @@ def _work(
                 "fluent_names": tuple(world.fluent_names),
                 "camera_spec": world.camera_spec,
                 "return_bounds": bounds,
+                "clipped_return_bounds": clipped() if callable(clipped) else None,
             },
         )
     )
