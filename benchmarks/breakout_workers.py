@@ -22,8 +22,9 @@ them alike.
 
 ``--stepping N`` measures the world alone instead: 8 games of ``breakout-ram`` with the
 bolt's noisy camera read every step, N steps of seeded random actions, in process against
-2 workers, twice each interleaved in this process: CPU ms per frame of this process and of
-the workers, and wall ms per frame.
+2 workers and against 2 threads (two shards of 4 games, each stepped in its own thread of
+this process), twice each interleaved in this process: CPU ms per frame of this process
+and of the workers, and wall ms per frame.
 """
 
 from __future__ import annotations
@@ -111,7 +112,10 @@ def train(variant: str, frames: int, eval_freq: int, out: Path) -> Run:
 
 
 def stepping(steps: int, rounds: int = 2) -> None:
-    """The world alone, in process against 2 workers (see the module docstring)."""
+    """The world alone, in process against 2 workers and against 2 threads (see the
+    module docstring)."""
+    from concurrent.futures import ThreadPoolExecutor
+
     import numpy as np
 
     from noisybolt.envs.breakout import BreakoutWorld
@@ -120,22 +124,43 @@ def stepping(steps: int, rounds: int = 2) -> None:
     settings: dict[str, Any] = {"noise": "gaussian:sigma=50", "fire_on_reset": True}
     inside = BreakoutWorld(num_envs=8, seed=0, obs_mode="ram", **settings)
     outside = WorkerWorld("breakout-ram", num_envs=8, workers=2, seed=0, **settings)
+    halves = [
+        BreakoutWorld(num_envs=4, seed=0, obs_mode="ram", shard=(first, 8), **settings)
+        for first in (0, 4)
+    ]
+    pool = ThreadPoolExecutor(2)
     workers = [psutil.Process(pid) for pid in outside.pids if pid is not None]
 
     def worker_cpu() -> float:
         return sum(p.cpu_times().user + p.cpu_times().system for p in workers)
 
+    def read(info: dict[str, Any]) -> None:
+        np.asarray(info["bolt_image"]), np.asarray(info["true_fluents"])
+        if "final_info" in info:
+            np.asarray(info["final_info"]["bolt_image"])
+
+    def step_half(world: BreakoutWorld, actions: np.ndarray) -> None:
+        read(world.step(actions)[4])
+
+    def threaded(actions: np.ndarray) -> None:
+        # each shard stepped and its camera read in its own thread (the ALE releases the
+        # GIL while it emulates; the world's Python and numpy glue does not)
+        list(pool.map(step_half, halves, (actions[:4], actions[4:])))
+
+    variants: dict[str, Any] = {
+        "in process": (lambda a: read(inside.step(a)[4]), [inside]),
+        "2 workers": (lambda a: read(outside.step(a)[4]), [outside]),
+        "2 threads": (threaded, halves),
+    }
     try:
         for _ in range(rounds):
-            for name, world in (("in process", inside), ("2 workers", outside)):
-                world.reset(seed=0)
+            for name, (step, worlds) in variants.items():
+                for world in worlds:
+                    world.reset(seed=0)
                 rng = np.random.default_rng(0)
                 cpu, wall, other = time.process_time(), time.perf_counter(), worker_cpu()
                 for _ in range(steps):
-                    info = world.step(rng.integers(0, 4, 8))[4]
-                    np.asarray(info["bolt_image"]), np.asarray(info["true_fluents"])
-                    if "final_info" in info:
-                        np.asarray(info["final_info"]["bolt_image"])
+                    step(rng.integers(0, 4, 8))
                 frames = 8 * steps
                 print(
                     f"{name:>10}: CPU ms per frame {1e3 * (time.process_time() - cpu) / frames:.3f}"
@@ -145,8 +170,11 @@ def stepping(steps: int, rounds: int = 2) -> None:
                     flush=True,
                 )
     finally:
+        pool.shutdown()
         outside.close()
         inside.close()
+        for world in halves:
+            world.close()
 
 
 def main() -> None:
