@@ -44,8 +44,14 @@ while [ $# -ge 2 ]; do
         python3 scripts/breakout_runs.py restore "$name"
     fi
     # shellcheck disable=SC2086  # the run's arguments are words
-    timeout -s TERM -k 120 "$budget" python3 -m noisybolt train $args --no-progress \
-        --out "runs/$name" >"$out/$name.log" 2>&1 &
+    (
+        status=0
+        timeout -s TERM -k 120 "$budget" python3 -m noisybolt train $args --no-progress \
+            --out "runs/$name" || status=$?
+        # 124: stopped by the budget (it saved a checkpoint); 130: interrupted otherwise;
+        # 137 or a signal's 128+N: killed (what it trained since its checkpoint is lost)
+        echo "gpu_breakout: $name ended with exit status $status at $(date +%T)"
+    ) >"$out/$name.log" 2>&1 &
     names="$names $name"
 done
 wait || true
