@@ -56,3 +56,50 @@ def test_sigterm_stops_a_sweep_with_a_checkpoint_and_one_line(tmp_path: Path) ->
     assert checkpoint["frames"] > 0
     assert "interrupted at" in (trial / "log.txt").read_text()
     assert not (trial / "summary.json").exists()  # not finished: the same command resumes
+
+
+def _group_gone(pgid: int, seconds: float = 20.0) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.2)
+    return False
+
+
+def test_sigterm_to_the_whole_group_of_a_world_in_workers_keeps_a_checkpoint(
+    tmp_path: Path,
+) -> None:
+    # `timeout`, `kill -TERM -PGID` and batch schedulers signal every process of the
+    # group: the trainer, its world's workers and their fork server. Evaluations every 512
+    # frames take most of the time, so the signal most likely lands in one (in the
+    # evaluation world's workers). The trainer must still save, say so and exit 130, and
+    # leave no process behind.
+    out = tmp_path / "run"
+    command = [
+        sys.executable, "-m", "noisybolt", "train", "--world", "breakout-ram", "--spec",
+        "left_row5", "--reward", "paper", "--detector", "oracle", "--frames", "2m",
+        "--eval-freq", "512", "--eval-episodes", "4", "--checkpoint-freq", "0",
+        "--no-progress", "--set", "world.workers=2", "--out", str(out),
+    ]  # fmt: skip
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    process = subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
+    _wait_for(out / "tensorboard" / "run_1", process)  # learn() has begun
+    time.sleep(3.0)
+    os.killpg(process.pid, signal.SIGTERM)
+    stdout, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err
+    assert "interrupted at" in stdout and "checkpoint saved" in stdout
+    checkpoint = json.loads((out / "checkpoints" / "latest.json").read_text())
+    assert checkpoint["frames"] > 0
+    assert _group_gone(process.pid), "a worker or the fork server outlived the training"
