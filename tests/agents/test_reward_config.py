@@ -48,6 +48,22 @@ def _config(specs: list, **kwargs: object) -> TrainConfig:
     )
 
 
+def _lake_module(folder: Path, monkeypatch: pytest.MonkeyPatch, name: str, labels: str = "") -> str:
+    """A user's FrozenLake world, ``make`` in module ``name`` under ``folder`` (on the
+    path); ``labels``: further ``FluentLabels`` arguments. Returns its factory path."""
+    (folder / f"{name}.py").write_text(
+        "import gymnasium as gym\n"
+        "import noisybolt\n"
+        "def make():\n"
+        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
+        "    return noisybolt.FluentLabels(\n"
+        f"        lake, fluents={{'at_goal': lambda e: e.s == 15}}, {labels}\n"
+        "    )\n"
+    )
+    monkeypatch.syspath_prepend(str(folder))
+    return f"{name}:make"
+
+
 def test_compliance_is_the_default_with_a_scale_from_the_worlds_return_bounds() -> None:
     config = _config(["avoid_top_right"])
     bounds = world_return_bounds(make_world("gridworld"))
@@ -80,16 +96,8 @@ def test_a_learner_paid_clipped_rewards_is_scaled_from_the_clipped_return(
         unclipped = _config(["left_row5"], world=world, overrides={"clip_reward": False})
         assert unclipped.reward_scale == pytest.approx(COMPLIANCE_MARGIN * MAX_SCORE)
     # A world that declares only its score's bounds: random play, clipped, with a warning.
-    (tmp_path / "clipped_lake.py").write_text(
-        "import gymnasium as gym\n"
-        "import noisybolt\n"
-        "def make():\n"
-        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
-        "    return noisybolt.FluentLabels(lake, fluents={'at_goal': lambda e: e.s == 15},\n"
-        "                                  return_bounds=(0, 1))\n"
-    )
-    monkeypatch.syspath_prepend(str(tmp_path))
-    lake = {"world": "clipped_lake:make", "specs": ["F(at_goal)"]}
+    world = _lake_module(tmp_path, monkeypatch, "clipped_lake", "return_bounds=(0, 1)")
+    lake = {"world": world, "specs": ["F(at_goal)"]}
     assert TrainConfig.create(**lake).reward_scale == pytest.approx(1.1)
     with pytest.warns(EstimatedBoundsWarning, match=r"clipped to their sign.*--reward-scale"):
         clipped = TrainConfig.create(**lake, overrides={"clip_reward": True})
@@ -262,14 +270,7 @@ def test_check_command(capsys: pytest.CaptureFixture) -> None:
 def test_check_on_worlds_with_and_without_return_bounds(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
 ) -> None:
-    (tmp_path / "unbounded_lake.py").write_text(
-        "import gymnasium as gym\n"
-        "import noisybolt\n"
-        "def make():\n"
-        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
-        "    return noisybolt.FluentLabels(lake, fluents={'at_goal': lambda e: e.s == 15})\n"
-    )
-    monkeypatch.syspath_prepend(str(tmp_path))
+    _lake_module(tmp_path, monkeypatch, "unbounded_lake")
     assert main(["check", "--world", "unbounded_lake:make", "--spec", "F(at_goal)"]) == 0
     out = capsys.readouterr().out
     assert "declares no bounds" in out and "satisfiable" in out and "no route check" in out
@@ -308,14 +309,7 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
     from noisybolt.agents.training import DetectorConfig, TrainConfig
     from noisybolt.errors import EstimatedBoundsWarning
 
-    (tmp_path / "bare_lake.py").write_text(
-        "import gymnasium as gym\n"
-        "import noisybolt\n"
-        "def make():\n"
-        "    lake = gym.make('FrozenLake-v1', render_mode='rgb_array', is_slippery=False)\n"
-        "    return noisybolt.FluentLabels(lake, fluents={'at_goal': lambda e: e.s == 15})\n"
-    )
-    monkeypatch.syspath_prepend(str(tmp_path))
+    _lake_module(tmp_path, monkeypatch, "bare_lake")
     common = {"world": "bare_lake:make", "specs": ["F(at_goal)"]}
     with pytest.warns(EstimatedBoundsWarning, match=r"declare the bounds.*--reward-scale"):
         config = TrainConfig.create(**common, detector=DetectorConfig(kind="oracle"))
