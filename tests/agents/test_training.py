@@ -487,6 +487,39 @@ def test_an_interrupted_run_keeps_its_frames_and_resumes(
     assert result.history[0]["frames"] == 1024  # kept across the interrupt
 
 
+def test_an_interrupt_in_a_periodic_evaluation_is_caught_up_on_resume(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # SIGTERM while the policy of 2,048 frames is evaluated: the checkpoint is saved at
+    # 2,048 frames without that evaluation. The resume must evaluate it first (at 2,048,
+    # as the uninterrupted run did, with the same seeded actions), not skip to 3,072.
+    from noisybolt.agents import callbacks
+
+    config = _config(frames=3072)
+    whole = train(config, tmp_path / "whole", log=_quiet)
+    original = callbacks.EvaluationCallback.evaluate
+
+    def interrupted_at_2048(self: callbacks.EvaluationCallback) -> object:
+        if self.model.num_timesteps == 2048:
+            raise KeyboardInterrupt
+        return original(self)
+
+    monkeypatch.setattr(callbacks.EvaluationCallback, "evaluate", interrupted_at_2048)
+    with pytest.raises(KeyboardInterrupt):
+        train(config, tmp_path / "run", log=_quiet)
+    latest = json.loads((tmp_path / "run" / "checkpoints" / "latest.json").read_text())
+    assert latest["frames"] == 2048
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert [r["frames"] for r in metrics] == [1024]
+    monkeypatch.setattr(callbacks.EvaluationCallback, "evaluate", original)
+    result = train(config, tmp_path / "run", resume=True, log=_quiet)
+    assert [r["frames"] for r in result.history] == [1024, 2048, 3072]
+    assert result.history[:2] == whole.history[:2]
+    # A resume from a checkpoint whose evaluation is recorded evaluates nothing twice.
+    resumed = train(_config(frames=4096), tmp_path / "run", resume=True, log=_quiet)
+    assert [r["frames"] for r in resumed.history] == [1024, 2048, 3072, 4096]
+
+
 def test_an_interrupt_in_the_final_evaluation_keeps_every_frame(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

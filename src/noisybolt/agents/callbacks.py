@@ -95,12 +95,35 @@ class EvaluationCallback(BaseCallback):
                 child.parent = self
         self.last_result: EvalResult | None = None
         self._next_eval = 0
+        self._stop = False
 
     def _init_callback(self) -> None:
         self._next_eval = next_multiple(self.model.num_timesteps, self.config.eval_freq)
+        self._stop = False
         for child in (self.callback_on_new_best, self.callback_after_eval):
             if child is not None:
                 child.init_callback(self.model)
+
+    def missed(self) -> bool:
+        """Whether the evaluation due at the model's frames is not in the history: a run
+        stopped during a periodic evaluation (Ctrl-C, SIGTERM) saves its checkpoint at
+        those very frames, and a resume would otherwise go on to the next one, leaving a
+        hole in the learning curve."""
+        frames, freq = int(self.model.num_timesteps), self.config.eval_freq
+        return bool(
+            freq
+            and frames > 0
+            and frames % freq == 0
+            and not any(record["frames"] == frames for record in self.history)
+        )
+
+    def _on_training_start(self) -> None:
+        # learn() has set up the logger evaluations record to: catch up on a missed one,
+        # at the frames it was due (its actions seeded by them, as it would have been).
+        if self.missed():
+            self.evaluate()
+            if self.callback_after_eval is not None:
+                self._stop = not self.callback_after_eval.on_step()
 
     @property
     def success_rate(self) -> float:
@@ -146,6 +169,8 @@ class EvaluationCallback(BaseCallback):
         return result
 
     def _on_step(self) -> bool:
+        if self._stop:  # the caught-up evaluation ended the run
+            return False
         frames = self.model.num_timesteps
         if not self.config.eval_freq or frames < self._next_eval:
             return True
