@@ -13,6 +13,9 @@ writes ``results/breakout/summary.json`` from every kept run's evaluations.
     .venv/bin/python scripts/breakout_runs.py keep runs/breakout-ram-ppo-bolted-seed0 ...
     .venv/bin/python scripts/breakout_runs.py restore breakout-ram-ppo-bolted-seed0 ...
     .venv/bin/python scripts/breakout_runs.py summary
+    .venv/bin/python scripts/breakout_runs.py resume breakout-ram-ppo-bolted-seed0 ... \
+        [--tree /tmp/wt]                   # restore where needed, resume at nice 19
+    .venv/bin/python scripts/breakout_runs.py stop     # SIGTERM them: each saves, exits
 
 ``summary.json`` is a list, one entry per run (sorted by agent, algo, bolted, seed):
 ``run``, ``agent`` (``image`` or ``ram``), ``algo``, ``seed``, ``bolted``, ``frames`` (of
@@ -31,8 +34,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -127,6 +134,58 @@ def restore(name: str, runs: Path) -> None:
     print(f"{source} -> {target}; continue with: noisybolt train --out {target} --resume")
 
 
+def resume(name: str, runs: Path, pids: Path, *, tree: Path | None = None) -> int:
+    """Restores a kept ``name`` where ``runs/`` lacks it (or holds an older checkpoint) and
+    resumes it in the background at nice 19, in a session of its own (so a stopped
+    terminal does not stop it), its output appended to ``runs/bk-<name>.log``; its pid is
+    appended to ``pids``. ``tree``: a checkout (a git worktree) whose ``src/`` the run
+    imports, so that editing this one does not change a run under way. Returns the pid."""
+    if (RESULTS / name).exists():
+        restore(name, runs)
+    elif not (runs / name / "config.json").exists():
+        raise SystemExit(f"{name}: neither kept in {RESULTS} nor a run in {runs}")
+    env = dict(os.environ)
+    if tree is not None:
+        env["PYTHONPATH"] = str(tree.resolve() / "src")
+    command = ["nice", "-n", "19", sys.executable, "-m", "noisybolt", "train"]
+    command += ["--out", str(runs / name), "--resume", "--no-progress"]
+    runs.mkdir(parents=True, exist_ok=True)
+    with open(runs / f"bk-{name}.log", "a") as log:
+        process = subprocess.Popen(
+            command, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True
+        )
+    with open(pids, "a") as out:
+        out.write(f"{process.pid} {name}\n")
+    print(f"{name}: resumed, pid {process.pid}, log {runs / f'bk-{name}.log'}")
+    return process.pid
+
+
+def stop(pids: Path, *, wait_s: float = 600.0) -> list[int]:
+    """SIGTERMs every run ``resume`` recorded in ``pids`` that is still going (each saves a
+    checkpoint, then exits), waits for them (at most ``wait_s``), and empties the file.
+    Returns the pids that were still going."""
+    going = []
+    for line in pids.read_text().splitlines() if pids.exists() else []:
+        pid = int(line.split()[0])
+        try:
+            os.kill(pid, signal.SIGTERM)
+        except ProcessLookupError:
+            continue
+        going.append(pid)
+    deadline = time.monotonic() + wait_s
+    for pid in going:
+        while time.monotonic() < deadline:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(1.0)
+        else:
+            print(f"pid {pid} is still going after {wait_s:.0f} s", file=sys.stderr)
+    atomic_write_bytes(pids, b"")
+    return going
+
+
 def _agent(config: dict[str, Any]) -> str:
     from noisybolt.agents.config import nested_config
 
@@ -197,6 +256,15 @@ def main(argv: list[str] | None = None) -> None:
     restore_parser.add_argument("names", nargs="+")
     restore_parser.add_argument("--runs", type=Path, default=Path("runs"))
     sub.add_parser("summary", help="write results/breakout/summary.json")
+    resume_parser = sub.add_parser(
+        "resume", help="restore kept runs where needed and resume them in the background"
+    )
+    resume_parser.add_argument("names", nargs="+")
+    resume_parser.add_argument("--runs", type=Path, default=Path("runs"))
+    resume_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
+    resume_parser.add_argument("--tree", type=Path, help="a checkout whose src/ the runs import")
+    stop_parser = sub.add_parser("stop", help="SIGTERM the resumed runs and wait for them")
+    stop_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
     args = parser.parse_args(argv)
     if args.command == "keep":
         for run in args.runs:
@@ -205,6 +273,11 @@ def main(argv: list[str] | None = None) -> None:
     elif args.command == "restore":
         for name in args.names:
             restore(name, args.runs)
+    elif args.command == "resume":
+        for name in args.names:
+            resume(name, args.runs, args.pids, tree=args.tree)
+    elif args.command == "stop":
+        print(f"stopped {len(stop(args.pids))} runs (each saved a checkpoint)")
     else:
         for entry in summary(RESULTS):
             print(json.dumps(entry))

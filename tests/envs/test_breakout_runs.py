@@ -3,6 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
@@ -136,3 +142,44 @@ def test_keep_then_restore_gives_back_the_checkpoint(script: ModuleType, tmp_pat
     )
     script.restore("ram-b0", fresh)
     assert json.loads((restored / "checkpoints" / "latest.json").read_text())["frames"] == 300
+
+
+def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
+    script: ModuleType, tmp_path: Path
+) -> None:
+    from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+
+    runs = tmp_path / "runs"
+    config = TrainConfig.create(
+        specs=["edge"], detector=DetectorConfig(kind="oracle"), frames=512, eval_freq=0,
+        eval_episodes=2, checkpoint_freq=256, progress_bar=False, overrides={"n_steps": 32},
+    )  # fmt: skip
+    train(config, runs / "grid", log=lambda _: None)
+    saved = json.loads((runs / "grid" / "config.json").read_text())
+    saved["frames"] = 1024  # as if it had been stopped halfway through a longer budget
+    (runs / "grid" / "config.json").write_text(json.dumps(saved))
+    script.keep(runs / "grid")
+    shutil.rmtree(runs)  # a new machine: runs/ is gone
+    pids = tmp_path / "breakout.pids"
+    pid = script.resume("grid", runs, pids)
+    assert pids.read_text() == f"{pid} grid\n"
+    deadline = time.monotonic() + 300
+    while os.waitpid(pid, os.WNOHANG) == (0, 0):  # still going
+        assert time.monotonic() < deadline, (runs / "bk-grid.log").read_text()
+        time.sleep(0.5)
+    log = (runs / "bk-grid.log").read_text()
+    assert "resuming" in log and "from 512 frames" in log
+    assert json.loads((runs / "grid" / "summary.json").read_text())["frames"] == 1024
+    with pytest.raises(SystemExit, match="neither kept"):
+        script.resume("nothing", runs, pids)
+
+
+def test_stop_terminates_the_recorded_runs_and_empties_the_file(
+    script: ModuleType, tmp_path: Path
+) -> None:
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
+    pids = tmp_path / "breakout.pids"
+    pids.write_text(f"{sleeper.pid} sleeper\n999999999 long-gone\n")
+    assert script.stop(pids, wait_s=0.0) == [sleeper.pid]
+    assert sleeper.wait(timeout=30) == -signal.SIGTERM
+    assert pids.read_text() == ""
