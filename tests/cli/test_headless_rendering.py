@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from noisybolt.cli import headless_rendering
+from noisybolt.envs.labels import headless_rendering
 
 RENDER = (
     "import gymnasium as gym\n"
@@ -39,9 +39,16 @@ def test_a_pygame_world_renders_without_the_sdl_alarm() -> None:
     bare = _render("")
     if "XDG_RUNTIME_DIR" not in bare.stderr:
         pytest.skip("this machine's SDL prints no alarm without a display")
-    fixed = _render("from noisybolt.cli import headless_rendering\nheadless_rendering()\n")
+    fixed = _render("from noisybolt.envs.labels import headless_rendering\nheadless_rendering()\n")
     assert fixed.stdout.strip() == bare.stdout.strip() == "(500, 500, 3)"
     assert "XDG_RUNTIME_DIR" not in fixed.stderr
+    # A world labelled from Python (no command line) is as quiet: FluentLabels sets it up.
+    labelled = _render(
+        "import gymnasium as gym, noisybolt\n"
+        "noisybolt.FluentLabels(gym.make('Acrobot-v1', render_mode='rgb_array'),\n"
+        "                       fluents={'up': lambda e: True})\n"
+    )
+    assert "XDG_RUNTIME_DIR" not in labelled.stderr
 
 
 def test_a_display_or_the_users_own_driver_is_left_alone(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
-import os
 import signal
 import sys
 import threading
@@ -54,6 +53,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not hasattr(args, "func"):
         parser.print_help()
         return 2
+    from noisybolt.envs.labels import headless_rendering
+
     headless_rendering()
     try:
         with _plain_warnings(f"noisybolt {args.command}"), sigterm_as_interrupt():
@@ -66,16 +67,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         # is a plain line, not a traceback through the library.
         print(f"noisybolt {args.command}: interrupted", file=sys.stderr)
         return 130
-
-
-def headless_rendering() -> None:
-    """On a machine without a display, pygame's renderers (Gymnasium's classic-control
-    and Box2D worlds, drawn for the bolt's camera and for ``--gif``) draw into SDL's
-    dummy video driver: without it, SDL prints "error: XDG_RUNTIME_DIR is invalid" on
-    every world it renders, an alarm about nothing. noisybolt never opens a window; a
-    value the user set is kept."""
-    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
 
 @contextlib.contextmanager

@@ -22,6 +22,7 @@ Example:
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
 from typing import Any, Literal, SupportsFloat
 
@@ -51,6 +52,7 @@ __all__ = [
     "collect_labelled_samples",
     "declares_goal_of",
     "fluent_names_of",
+    "headless_rendering",
     "labels_from_info",
     "render_camera",
 ]
@@ -69,6 +71,18 @@ def blind_camera(env: gym.Env) -> np.ndarray:
 def render_camera(env: gym.Env) -> np.ndarray:
     """The default bolt camera: the env's own ``render()`` (``render_mode="rgb_array"``)."""
     return env.render()  # type: ignore[return-value]
+
+
+def headless_rendering() -> None:
+    """On a machine without a display, pygame's renderers (Gymnasium's classic-control
+    and Box2D worlds, drawn for the bolt's camera and for ``--gif``) draw into SDL's
+    dummy video driver: without it, SDL prints "error: XDG_RUNTIME_DIR is invalid" on
+    every world it renders, an alarm about nothing. noisybolt never opens a window; a
+    value the user set is kept. The command line sets it up at start, and
+    :class:`FluentLabels` when it wraps an env (before the env's first render), so a
+    world trained from Python is as quiet."""
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
 
 class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
@@ -145,6 +159,7 @@ class FluentLabels(gym.Wrapper, gym.utils.RecordConstructorArgs):
             grid=grid,
         )
         super().__init__(env)
+        headless_rendering()  # the camera renders the env, most often a pygame one
         if not isinstance(fluents, Mapping) or not fluents:
             raise ConfigError(
                 "FluentLabels needs fluents={name: fn(env) -> bool, ...} with at least one "
