@@ -85,7 +85,8 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
         "seed": seed,
         "bolted": spec is not None,
         "compliance": float(next(iter(final["compliance"].values()))),
-        "goal_rate": float(final["goal_rate"]),
+        # None for a world without a goal (CartPole): the table says "-"
+        "goal_rate": None if final["goal_rate"] is None else float(final["goal_rate"]),
         "env_return": float(final["env_return_mean"]),
         "frames_to_comply": data.get("frames_to_comply"),
         "frames": data["frames"],
@@ -140,7 +141,7 @@ def summarise(records: Sequence[dict], threshold: float) -> list[str]:
 
 
 def _pct(values: Any) -> str:
-    v = [float(x) for x in values]
+    v = [float(x) for x in values if x is not None]
     return f"{statistics.mean(v):.0%}" if v else "-"
 
 
@@ -189,7 +190,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             records.append(record)
             print(
                 f"[{i}/{len(trials)}] {_name(world)} {spec or 'unbolted'} {algo} seed {seed}: "
-                f"compliance {record['compliance']:.0%}, goal {record['goal_rate']:.0%}, "
+                f"compliance {record['compliance']:.0%}, goal {_pct([record['goal_rate']])}, "
                 f"return {record['env_return']:.1f}, scale {record['reward_scale']}",
                 flush=True,
             )
