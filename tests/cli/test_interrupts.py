@@ -28,6 +28,18 @@ SWEEP = {
 }
 
 
+def _noisybolt(*argv: str, start_new_session: bool = False) -> subprocess.Popen[str]:
+    """``noisybolt ARGV`` in a process of its own (one torch thread), its output piped."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "noisybolt", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+        start_new_session=start_new_session,
+    )
+
+
 def _wait_for(path: Path, process: subprocess.Popen[str], seconds: float = 120.0) -> None:
     deadline = time.monotonic() + seconds
     while not path.exists():
@@ -39,11 +51,7 @@ def _wait_for(path: Path, process: subprocess.Popen[str], seconds: float = 120.0
 def test_sigterm_stops_a_sweep_with_a_checkpoint_and_one_line(tmp_path: Path) -> None:
     config, out = tmp_path / "stopped.yaml", tmp_path / "sweep"
     config.write_text(yaml.safe_dump(SWEEP))
-    command = [sys.executable, "-m", "noisybolt", "sweep", str(config), "--out", str(out)]
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    process = subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
-    )
+    process = _noisybolt("sweep", str(config), "--out", str(out))
     trial = out / "trials" / "edge" / "seed-0"
     _wait_for(trial / "tensorboard" / "run_1", process)  # learn() has begun
     time.sleep(1.0)
@@ -78,21 +86,12 @@ def test_sigterm_to_the_whole_group_of_a_world_in_workers_keeps_a_checkpoint(
     # evaluation world's workers). The trainer must still save, say so and exit 130, and
     # leave no process behind.
     out = tmp_path / "run"
-    command = [
-        sys.executable, "-m", "noisybolt", "train", "--world", "breakout-ram", "--spec",
-        "left_row5", "--reward", "paper", "--detector", "oracle", "--frames", "2m",
-        "--eval-freq", "512", "--eval-episodes", "4", "--checkpoint-freq", "0",
-        "--no-progress", "--set", "world.workers=2", "--out", str(out),
-    ]  # fmt: skip
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    process = subprocess.Popen(
-        command,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
+    process = _noisybolt(
+        "train", "--world", "breakout-ram", "--spec", "left_row5", "--reward", "paper",
+        "--detector", "oracle", "--frames", "2m", "--eval-freq", "512", "--eval-episodes", "4",
+        "--checkpoint-freq", "0", "--no-progress", "--set", "world.workers=2", "--out", str(out),
         start_new_session=True,
-    )
+    )  # fmt: skip
     _wait_for(out / "tensorboard" / "run_1", process)  # learn() has begun
     time.sleep(3.0)
     os.killpg(process.pid, signal.SIGTERM)

@@ -746,20 +746,20 @@ def _scale_from_world(config: TrainConfig) -> float:
         estimate = estimate_return_bounds(world, steps=ESTIMATE_STEPS, seed=0, clipped=clipped)
         world.close()
         bounds = estimate.bounds
-        what = "its episodes' returns" + (
-            " with the rewards clipped to their sign (world.clip_reward)" if clipped else ""
-        )
+        if clipped:
+            what = "its episodes' returns with the rewards clipped to their sign "
+            what += "(world.clip_reward)"
+            advice = "pass --reward-scale S (S above the widest gap between two episodes' "
+            advice += "clipped returns)"
+        else:
+            what = "its episodes' returns"
+            advice = "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or "
+            advice += "pass --reward-scale S (S above the widest gap between two episodes' returns)"
         warnings.warn(
             f"the {config.world!r} world declares no bounds on {what}; the "
             f"compliance scale {compliance_scale(bounds):g} rests on bounds "
             f"{estimate.describe()}. A trained agent may return more than random play: "
-            + (
-                "pass --reward-scale S (S above the widest gap between two episodes' "
-                "clipped returns)"
-                if clipped
-                else "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or "
-                "pass --reward-scale S (S above the widest gap between two episodes' returns)"
-            ),
+            f"{advice}",
             EstimatedBoundsWarning,
             stacklevel=2,
         )
