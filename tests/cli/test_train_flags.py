@@ -72,6 +72,7 @@ def _at(config: TrainConfig, path: str) -> Any:
         (["--low-confidence", "on_edge"], "detector.low_confidence", ["on_edge"]),
         (["--algo", "a2c"], "algorithm.name", "a2c"),
         (["--hp", "gamma=0.9"], "algorithm.hyperparams.gamma", 0.9),
+        (["--init-from", "runs/a"], "algorithm.init_from", "runs/a"),
         (["--frames", "5k"], "frames", 5000),
         (["--seed", "4"], "seed", 4),
         (["--seed", "4"], "detector.seed", 4),

@@ -156,6 +156,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "world.overlap": False,
     # before algorithm.device existed every agent trained on the CPU
     "algorithm.device": "cpu",
+    # before algorithm.init_from existed every agent started from random weights
+    "algorithm.init_from": None,
     # before detector.restarts existed one classifier was trained, from detector.seed
     "detector.restarts": 1,
     # before detector.final_views existed collection never kept an episode's last state

@@ -279,15 +279,28 @@ class AlgorithmConfig:
             ``cuda:N`` (an image agent on a GPU machine). It may change on ``--resume``
             (where the network runs, not what it learns). The bolt's classifier and the
             world stay on the CPU.
+        init_from: a saved agent whose network this run starts from instead of random
+            weights (:mod:`noisybolt.agents.warm_start`): a run directory, a checkpoint
+            folder or a ``model.zip`` of the same world, specs and network. Only a new run
+            reads it (and keeps a copy, ``init_model.zip``); a resume continues from its
+            own checkpoint. None (default): random weights.
     """
 
     name: str = "ppo"
     hyperparams: dict[str, Any] = field(default_factory=dict)
     device: str = "cpu"
+    init_from: str | None = None
 
     def __post_init__(self) -> None:
         algorithm_class(self.name)
         check_device(self.device)
+        if self.init_from is not None and (
+            not isinstance(self.init_from, str) or not self.init_from.strip()
+        ):
+            raise ConfigError(
+                "algorithm.init_from must be the path of a saved agent (a run directory, a "
+                f"checkpoint folder or a model.zip), got {self.init_from!r}"
+            )
         object.__setattr__(self, "hyperparams", freeze(dict(self.hyperparams)))
         known = known_hyperparameters(self.name) - WORLD_KEYS
         for key in self.hyperparams:

@@ -82,8 +82,13 @@ from noisybolt.agents.evaluation import EvalResult
 from noisybolt.agents.models import load_model
 from noisybolt.agents.models import make_model as _make_model
 from noisybolt.agents.stopping import StopWhenSolved, trailing_streak
+from noisybolt.agents.warm_start import (
+    INIT_MODEL,
+    apply_initial_weights,
+    read_initial_weights,
+)
 from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError
-from noisybolt.io import atomic_write_json
+from noisybolt.io import atomic_write_bytes, atomic_write_json
 from noisybolt.rundir import RunDirectory, config_differences
 
 __all__ = [
@@ -119,6 +124,7 @@ RUN_OUTPUTS: tuple[str, ...] = (
     "checkpoints",
     BEST_DIR,
     "tensorboard",
+    INIT_MODEL,
 )
 
 
@@ -216,7 +222,13 @@ def train(
     )
     tensorboard = str(run.file("tensorboard"))
     fresh = _make_model(config, env, tensorboard_log=tensorboard) if not resume else None
+    initial = None
+    if fresh is not None and config.algorithm.init_from is not None:
+        initial = read_initial_weights(config)
+        apply_initial_weights(fresh, initial)
     log(describe_scheme(config))  # once every check has passed
+    if initial is not None:
+        log(initial.describe())
     warn_of_unnormalized_rewards(config)
 
     with run.lock(argv):
@@ -243,6 +255,8 @@ def train(
             assert fresh is not None
             model = fresh
         run.write_config(config.to_dict())
+        if initial is not None:  # the run stays reproducible when its source changes
+            atomic_write_bytes(run.file(INIT_MODEL), initial.content)
         if not resume or not run.file("command.txt").exists():
             run.write_command(argv)  # a resume keeps the command that set the run up
         run.record_versions(frames=model.num_timesteps, argv=argv)

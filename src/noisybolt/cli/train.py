@@ -66,6 +66,7 @@ FLAG_PATHS: dict[str, str] = {
     "--low-confidence": "detector.low_confidence",
     "--algo": "algorithm.name",
     "--hp": "algorithm.hyperparams",
+    "--init-from": "algorithm.init_from",
     "--frames": "frames",
     "--seed": "seed",
     "--eval-freq": "evaluation.freq",
@@ -170,6 +171,13 @@ def register(subparsers: Any) -> None:
         metavar="KEY=VALUE",
         help="hyperparameter override, e.g. --hp learning_rate=3e-4 "
         "(= --set algorithm.hyperparams.learning_rate=3e-4)",
+    )
+    flag(
+        "--init-from",
+        metavar="PATH",
+        help="start the agent's network from a saved agent (a run directory, a checkpoint "
+        "folder or a model.zip of the same world and specs, bolted or not) instead of random "
+        "weights: a bolt put on an agent that already plays; the run keeps a copy",
     )
     train.add_argument(
         "--hp-file",

@@ -1,0 +1,193 @@
+"""Starting a run's network from a saved agent (``algorithm.init_from``): the new run's
+policy is the saved one's tensor for tensor, it keeps a copy of what it started from, a
+resume never reads the source again, and a source that does not fit is refused by name."""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import pytest
+import torch
+
+from noisybolt.agents import training
+from noisybolt.agents.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
+from noisybolt.agents.training import train
+from noisybolt.agents.warm_start import INIT_MODEL, find_initial_model, read_initial_weights
+from noisybolt.errors import ConfigError, CorruptFileError, IncompatibleError, NoCheckpointError
+
+
+def _config(**overrides: object) -> TrainConfig:
+    settings = {
+        "bolt.specs": ["edge"],
+        "detector.kind": "oracle",
+        "frames": 256,
+        "checkpoint_freq": 128,
+        "evaluation.freq": 0,
+        "evaluation.episodes": 1,
+        "progress_bar": False,
+        "algorithm.hyperparams.n_steps": 32,
+        **overrides,
+    }
+    if settings.get("algorithm.name") == "dqn":
+        del settings["algorithm.hyperparams.n_steps"]
+    return TrainConfig.build(settings)
+
+
+def _policy(model_zip: Path) -> dict[str, torch.Tensor]:
+    with zipfile.ZipFile(model_zip) as archive:
+        return torch.load(io.BytesIO(archive.read("policy.pth")), weights_only=True)
+
+
+def _perturb(model_zip: Path) -> None:
+    """Rewrites a saved agent with every weight moved by 0.5 (another agent, same network)."""
+    with zipfile.ZipFile(model_zip) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    policy = torch.load(io.BytesIO(entries["policy.pth"]), weights_only=True)
+    buffer = io.BytesIO()
+    torch.save({k: v + 0.5 if v.is_floating_point() else v for k, v in policy.items()}, buffer)
+    entries["policy.pth"] = buffer.getvalue()
+    with zipfile.ZipFile(model_zip, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+
+
+def _same(a: dict[str, torch.Tensor], b: dict[str, torch.Tensor]) -> bool:
+    return a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A trained PPO run (gridworld, ``edge``) to start from."""
+    out = tmp_path_factory.mktemp("warm") / "source"
+    train(_config(), out, log=lambda _: None)
+    return out
+
+
+@pytest.fixture
+def started(monkeypatch: pytest.MonkeyPatch) -> list[dict[str, torch.Tensor]]:
+    """The policy each training starts to learn with (recorded as ``_learn`` gets it)."""
+    seen: list[dict[str, torch.Tensor]] = []
+    learn = training._learn
+
+    def spy(config: TrainConfig, run: object, model: Any, *args: Any, **kwargs: Any) -> Any:
+        seen.append({k: v.clone() for k, v in model.policy.state_dict().items()})
+        return learn(config, run, model, *args, **kwargs)
+
+    monkeypatch.setattr(training, "_learn", spy)
+    return seen
+
+
+def test_a_run_starts_from_the_saved_policy_and_keeps_a_copy(
+    source: Path, tmp_path: Path, started: list[dict[str, torch.Tensor]]
+) -> None:
+    lines: list[str] = []
+    out = tmp_path / "fine-tuned"
+    config = _config(**{"algorithm.init_from": str(source), "seed": 7})
+    result = train(config, out, log=lines.append)
+    saved = _policy(source / "model.zip")
+    assert _same(started[-1], saved)
+    assert not _same(_policy(out / "model.zip"), saved)  # and then it learnt
+    assert (out / INIT_MODEL).read_bytes() == (source / "model.zip").read_bytes()
+    assert result.frames == 256  # its own frames, from 0
+    assert json.loads((out / "config.json").read_text())["algorithm"]["init_from"] == str(source)
+    assert any(f"starts from {source / 'model.zip'} (a PPO agent trained 256" in x for x in lines)
+    # without it, the same settings start from the seed's random weights
+    plain = tmp_path / "plain"
+    train(_config(**{"seed": 7}), plain, log=lambda _: None)
+    assert not _same(started[-1], saved)
+    assert not (plain / INIT_MODEL).exists()
+
+
+def test_a_running_source_gives_its_latest_checkpoint_and_a2c_starts_from_ppo(
+    source: Path, tmp_path: Path, started: list[dict[str, torch.Tensor]]
+) -> None:
+    running = tmp_path / "running"
+    shutil.copytree(source, running)
+    (running / "model.zip").unlink()  # as while it trains: checkpoints only
+    latest = json.loads((running / "checkpoints" / "latest.json").read_text())["folder"]
+    _perturb(running / "checkpoints" / latest / "model.zip")  # not the final model's weights
+    assert find_initial_model(running) == running / "checkpoints" / latest / "model.zip"
+    assert find_initial_model(running / "checkpoints" / latest) == (
+        running / "checkpoints" / latest / "model.zip"
+    )
+    out = tmp_path / "a2c"
+    config = _config(
+        **{
+            "algorithm.name": "a2c",
+            "algorithm.init_from": str(running),
+            "algorithm.hyperparams.n_steps": 8,
+        }
+    )
+    train(config, out, log=lambda _: None)
+    checkpoint = _policy(running / "checkpoints" / latest / "model.zip")
+    assert _same(started[-1], checkpoint)
+    assert not _same(checkpoint, _policy(source / "model.zip"))
+
+
+def test_a_resume_never_reads_the_source_again(source: Path, tmp_path: Path) -> None:
+    copy = tmp_path / "source"
+    shutil.copytree(source, copy)
+    out = tmp_path / "run"
+    train(_config(**{"algorithm.init_from": str(copy)}), out, log=lambda _: None)
+    shutil.rmtree(copy)
+    saved = TrainConfig.from_dict(json.loads((out / "config.json").read_text()))
+    result = train(saved.override({"frames": 384}), out, resume=True, log=lambda _: None)
+    assert result.frames >= 384
+    # and a restart forgets the copy of the old source before failing on the missing one
+    with pytest.raises(ConfigError, match="does not exist"):
+        train(saved, out, restart=True, log=lambda _: None)
+    assert (out / INIT_MODEL).exists()  # nothing was written: the check came first
+
+
+def test_old_runs_started_from_random_weights_and_a_resume_cannot_change_it() -> None:
+    assert LEGACY_DEFAULTS["algorithm.init_from"] is None
+    assert "algorithm.init_from" not in RESUMABLE_KEYS
+    for bad in ("", "  "):
+        with pytest.raises(ConfigError, match=r"algorithm\.init_from must be the path"):
+            _config(**{"algorithm.init_from": bad})
+    with pytest.raises(ConfigError, match=r"algorithm\.init_from must be a string or null"):
+        _config(**{"algorithm.init_from": 3})
+
+
+def test_sources_that_do_not_fit_are_refused_by_name(source: Path, tmp_path: Path) -> None:
+    def weights(path: Path, **overrides: object) -> object:
+        return read_initial_weights(_config(**{"algorithm.init_from": str(path), **overrides}))
+
+    with pytest.raises(ConfigError, match="does not exist; give a run directory"):
+        weights(tmp_path / "nowhere")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(NoCheckpointError, match=r"holds no model\.zip and no checkpoint"):
+        weights(tmp_path / "empty")
+    (tmp_path / "junk.zip").write_bytes(b"not a zip")
+    with pytest.raises(CorruptFileError, match="is not a readable saved agent"):
+        weights(tmp_path / "junk.zip")
+    # its run directory says other specs: the DFA states it observed were others
+    with pytest.raises(IncompatibleError, match=r"specs \['G\(on_edge\)'\].*same specs"):
+        weights(source, **{"bolt.specs": ["avoid_top_right"]})
+    with pytest.raises(IncompatibleError, match="DQN"):
+        weights(source, **{"algorithm.name": "dqn"})
+    other_world = tmp_path / "other-world"
+    shutil.copytree(source, other_world)
+    saved = json.loads((other_world / "config.json").read_text())
+    saved["world"]["name"] = "breakout-ram"
+    (other_world / "config.json").write_text(json.dumps(saved))
+    with pytest.raises(IncompatibleError, match="world 'breakout-ram'"):
+        weights(other_world)
+
+
+def test_a_bare_model_file_must_fit_the_network_tensor_for_tensor(
+    source: Path, tmp_path: Path
+) -> None:
+    bare = tmp_path / "agent.zip"  # no run directory around it: only the tensors can tell
+    shutil.copy(source / "model.zip", bare)
+    config = _config(
+        **{"algorithm.init_from": str(bare), "bolt.specs": ["edge", "avoid_top_right"]}
+    )
+    with pytest.raises(IncompatibleError, match=r"does not fit this run's \(shaped otherwise"):
+        train(config, tmp_path / "run", log=lambda _: None)
+    assert not (tmp_path / "run").exists()  # refused before anything was written
