@@ -604,7 +604,7 @@ def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
     Example:
         >>> nested = nested_config({"algo": "dqn", "eval_freq": 500, "hyperparams": {"n_envs": 2}})
         >>> nested["algorithm"], nested["evaluation"]["freq"], nested["world"]["n_envs"]
-        ({'name': 'dqn', 'hyperparams': {}, 'device': 'cpu'}, 500, 2)
+        ({'name': 'dqn', 'hyperparams': {}, 'device': 'cpu', 'init_from': None}, 500, 2)
         >>> nested["bolt"]["tracking"]  # runs saved before belief tracking tracked by threshold
         'threshold'
     """
