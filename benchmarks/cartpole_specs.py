@@ -19,6 +19,11 @@ already finished (their ``summary.json``).
 
     .venv/bin/python benchmarks/cartpole_specs.py --specs 12 --suite-seed 0 --workers 2 \
         --out runs/cartpole_specs
+
+``--warm-start F``: the bolt is put on an agent that already plays instead: per spec, an
+unbolted run of ``F`` frames that tracks that spec (``<spec>/seed<k>-pretrain``), then the
+bolted run starts from it (``--init-from``) for the remaining ``--frames - F``, so every
+bolted agent has seen as many frames as one trained from scratch.
 """
 
 from __future__ import annotations
@@ -80,16 +85,22 @@ def _can_accept(dfa: Any) -> bool:
 
 
 def trial_config(
-    specs: Sequence[dict], seed: int, args: argparse.Namespace, *, bolted: bool
+    specs: Sequence[dict],
+    seed: int,
+    args: argparse.Namespace,
+    *,
+    bolted: bool,
+    frames: int | None = None,
+    init_from: Path | None = None,
 ) -> Any:
     from noisybolt.agents.training import DetectorConfig, TrainConfig
 
-    return TrainConfig.create(
+    config = TrainConfig.create(
         world=WORLD,
         specs=[{"formula": s["formula"], "name": s["name"]} for s in specs],
         algo="ppo",
         detector=DetectorConfig(kind=args.detector),
-        frames=args.frames,
+        frames=frames or args.frames,
         seed=seed,
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
@@ -97,12 +108,14 @@ def trial_config(
         bolted=bolted,
         progress_bar=False,
     )
+    return config.override({"algorithm.init_from": str(init_from)}) if init_from else config
 
 
 def run_trial(
     specs: Sequence[dict], seed: int, args: argparse.Namespace, out: Path, bolted: bool
 ) -> dict:
-    """Trains one run (unless finished) and returns its final evaluation."""
+    """Trains one run (unless finished) and returns its final evaluation; with
+    ``args.warm_start`` a bolted run starts from an unbolted one of those frames."""
     import torch
 
     from noisybolt.agents.training import train
@@ -113,7 +126,16 @@ def run_trial(
     if not summary.exists():
         if out.exists():  # an unfinished trial: start it again
             shutil.rmtree(out)
-        config = trial_config(specs, seed, args, bolted=bolted)
+        source, frames = None, None
+        if bolted and args.warm_start:
+            source = out.with_name(f"{out.name}-pretrain")
+            if not (source / "summary.json").exists():
+                if source.exists():
+                    shutil.rmtree(source)
+                config = trial_config(specs, seed, args, bolted=False, frames=args.warm_start)
+                train(config, source, argv=[sys.executable, *sys.argv], log=lambda _: None)
+            frames = args.frames - args.warm_start
+        config = trial_config(specs, seed, args, bolted=bolted, frames=frames, init_from=source)
         train(config, out, argv=[sys.executable, *sys.argv], log=lambda _: None)
     final = json.loads(summary.read_text())["final"]
     return {
@@ -184,8 +206,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--eval-episodes", type=int, default=20)
     parser.add_argument("--detector", default="synthetic")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--warm-start",
+        type=int,
+        default=0,
+        metavar="F",
+        help="bolt an agent first trained unbolted for F of the --frames (0: from scratch)",
+    )
     parser.add_argument("--out", default="runs/cartpole_specs")
     args = parser.parse_args(argv)
+    if not 0 <= args.warm_start < args.frames:
+        parser.error("--warm-start must be at least 0 and below --frames")
 
     sys.path.insert(0, str(ROOT))
     started = time.perf_counter()
