@@ -41,6 +41,7 @@ import signal
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -236,7 +237,18 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
         "reward": config["bolt"]["reward"],
         "camera": _camera(config),
         "tracking": str(config["bolt"].get("tracking", "threshold")),
+        "frames_before": _frames_before(run),
     }
+
+
+def _frames_before(run: Path) -> int:
+    """Frames the run's network had trained before the run (``--init-from``: its source's,
+    read from the copy ``init_model.zip``; 0 for a run from random weights)."""
+    init = run / "init_model.zip"
+    if not init.exists():
+        return 0
+    with zipfile.ZipFile(init) as archive:
+        return int(json.loads(archive.read("data")).get("num_timesteps", 0))
 
 
 def _camera(config: dict[str, Any]) -> str:

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
@@ -67,6 +68,8 @@ def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> No
         [_record(200_000, 0.5, rows, 30.0), _record(100_000, 0.0, [0.0] * 6, 3.0)],
     )
     _run(results / "img-u0", image, [_record(50_000, 0.0, [], 1.5)])
+    with zipfile.ZipFile(results / "img-u0" / "init_model.zip", "w") as archive:  # --init-from
+        archive.writestr("data", json.dumps({"num_timesteps": 1_800_000}))
     _run(results / "empty", ram, [])  # no evaluation yet: no entry
     entries = script.summary(results)
     assert [e["run"] for e in entries] == ["img-u0", "ram-b1"]
@@ -86,7 +89,9 @@ def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> No
         "reward": "paper",
         "camera": "gaussian:sigma=40+occlusion:count=2,size=0.25",
         "tracking": "belief",
+        "frames_before": 0,  # from random weights
     }
+    assert image_entry["frames_before"] == 1_800_000  # its source's, from the copy it keeps
     assert image_entry["agent"] == "image" and image_entry["bolted"] is False
     assert (image_entry["camera"], image_entry["tracking"]) == ("none", "threshold")
     assert image_entry["left_bricks_gone"] is None  # no per-brick specs
