@@ -4,7 +4,11 @@ A restraining bolt is often put on an agent that already plays: the bolt then ha
 *steer* a player, not to teach the game from nothing. A run with ``init_from`` builds its
 model as any new run does (seeded, its own hyperparameters, a fresh optimiser and reward
 normaliser), then replaces the policy's weights with the saved agent's; everything else
-starts anew, its frame count included.
+starts anew, its frame count included, so its schedules start over too (a DQN explores
+from ``exploration_initial_eps`` again and fills its buffer for ``learning_starts`` frames:
+lower them with ``--hp`` to keep more of a trained Q-network's play). A fresh optimiser
+and reward normaliser cost some play at first: a Breakout RAM agent scoring 10 dropped to
+5 in its first 100k frames and was back by 200k, bolted or not.
 
 The source is a run directory (its final ``model.zip``, or its latest checkpoint's while
 it trains), a checkpoint folder (``checkpoints/step_N``, ``best/step_N``) or a
