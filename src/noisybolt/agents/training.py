@@ -13,6 +13,8 @@ A run directory holds::
                            ``keep_best`` the best one
     tensorboard/           TensorBoard logs
     summary.json           the final evaluation and the first frame count of compliance
+    init_model.zip         with ``algorithm.init_from``: a copy of the saved agent the run's
+                           network started from (:mod:`~noisybolt.agents.warm_start`)
 
 :func:`train` validates the whole run (config, detector, environments, the model on their
 spaces) before it writes anything, then holds the directory's lock for the training's
