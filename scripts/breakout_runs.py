@@ -41,7 +41,6 @@ import signal
 import subprocess
 import sys
 import time
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -244,11 +243,10 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
 def _frames_before(run: Path) -> int:
     """Frames the run's network had trained before the run (``--init-from``: its source's,
     read from the copy ``init_model.zip``; 0 for a run from random weights)."""
+    from noisybolt.agents.models import read_model_data
+
     init = run / "init_model.zip"
-    if not init.exists():
-        return 0
-    with zipfile.ZipFile(init) as archive:
-        return int(json.loads(archive.read("data")).get("num_timesteps", 0))
+    return int(read_model_data(init).get("num_timesteps", 0)) if init.exists() else 0
 
 
 def _camera(config: dict[str, Any]) -> str:

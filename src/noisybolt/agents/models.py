@@ -11,6 +11,7 @@ construction of the same model on the same spaces), and refuses a key it cannot 
 
 from __future__ import annotations
 
+import io
 import json
 import zipfile
 from pathlib import Path
@@ -139,14 +140,15 @@ def save_model(model: BaseAlgorithm, handle: Any, *, algo: str) -> None:
     model.save(handle, include=[ALGO_KEY])
 
 
-def read_model_data(path: Path) -> dict[str, Any]:
+def read_model_data(path: Path, content: bytes | None = None) -> dict[str, Any]:
     """The JSON ``data`` entry of a saved model, read without unpickling anything.
+    ``content``: the file's bytes, where the caller has read them already.
 
     Raises:
         CorruptFileError: the file is not a readable SB3 model archive.
     """
     try:
-        with zipfile.ZipFile(path) as archive:
+        with zipfile.ZipFile(path if content is None else io.BytesIO(content)) as archive:
             data = json.loads(archive.read("data"))
     except (zipfile.BadZipFile, KeyError, ValueError, EOFError) as error:
         raise CorruptFileError(

@@ -28,7 +28,6 @@ its own checkpoint and never reads the source again.
 from __future__ import annotations
 
 import io
-import json
 import pickle
 import zipfile
 from collections.abc import Mapping
@@ -41,7 +40,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from noisybolt.agents.checkpoints import MODEL, latest_checkpoint
 from noisybolt.agents.config import TrainConfig
-from noisybolt.agents.models import ALGO_KEY
+from noisybolt.agents.models import ALGO_KEY, read_model_data
 from noisybolt.errors import ConfigError, CorruptFileError, IncompatibleError, NoCheckpointError
 from noisybolt.io import read_json
 from noisybolt.rundir import RunDirectory
@@ -142,11 +141,12 @@ def read_initial_weights(config: TrainConfig) -> InitialWeights:
     path = find_initial_model(config.algorithm.init_from)
     content = path.read_bytes()
     try:
+        data = read_model_data(path, content)
         with zipfile.ZipFile(io.BytesIO(content)) as archive:
-            data = json.loads(archive.read("data"))
             policy = archive.read(_POLICY_ENTRY)
         state_dict = torch.load(io.BytesIO(policy), map_location="cpu", weights_only=True)
     except (
+        CorruptFileError,
         zipfile.BadZipFile,
         KeyError,
         ValueError,
@@ -158,7 +158,7 @@ def read_initial_weights(config: TrainConfig) -> InitialWeights:
             f"algorithm.init_from: {path} is not a readable saved agent ({type(error).__name__}: "
             f"{str(error)[:200]}); give a model.zip that noisybolt or Stable-Baselines3 saved"
         ) from None
-    if not isinstance(data, dict) or not isinstance(state_dict, dict):
+    if not isinstance(state_dict, dict):
         raise CorruptFileError(f"algorithm.init_from: {path} is not a saved agent")
     algo = data.get(ALGO_KEY)
     algo = algo if isinstance(algo, str) else None
