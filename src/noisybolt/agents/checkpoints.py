@@ -30,6 +30,7 @@ from noisybolt.agents.models import save_model
 from noisybolt.errors import CorruptFileError, NoCheckpointError, UnsafeFileError
 from noisybolt.io import atomic_open, atomic_write_json, read_json
 from noisybolt.rundir import RunDirectory
+from noisybolt.wrappers import SplitRewardNormalize
 
 __all__ = [
     "BEST_DIR",
@@ -120,6 +121,11 @@ def save_normaliser(env: VecNormalize, path: Path) -> None:
         "ret_count": np.asarray(env.ret_rms.count, dtype=np.float64),
         "returns": np.asarray(env.returns, dtype=np.float64),
     }
+    if isinstance(env, SplitRewardNormalize):
+        arrays["bolt_ret_mean"] = np.asarray(env.bolt_ret_rms.mean, dtype=np.float64)
+        arrays["bolt_ret_var"] = np.asarray(env.bolt_ret_rms.var, dtype=np.float64)
+        arrays["bolt_ret_count"] = np.asarray(env.bolt_ret_rms.count, dtype=np.float64)
+        arrays["bolt_returns"] = np.asarray(env.bolt_returns, dtype=np.float64)
     if env.norm_obs:
         rms = env.obs_rms if isinstance(env.obs_rms, dict) else {"": env.obs_rms}
         for key, stats in rms.items():
@@ -220,6 +226,12 @@ def load_normaliser(env: VecNormalize, path: Path) -> None:
         env.ret_rms.var = _fit(arrays, "ret_var", np.shape(env.ret_rms.var), path)
         env.ret_rms.count = float(_fit(arrays, "ret_count", (), path))
         env.returns = _fit(arrays, "returns", np.shape(env.returns), path)
+        if isinstance(env, SplitRewardNormalize):
+            stats = env.bolt_ret_rms
+            stats.mean = _fit(arrays, "bolt_ret_mean", np.shape(stats.mean), path)
+            stats.var = _fit(arrays, "bolt_ret_var", np.shape(stats.var), path)
+            stats.count = float(_fit(arrays, "bolt_ret_count", (), path))
+            env.bolt_returns = _fit(arrays, "bolt_returns", np.shape(env.bolt_returns), path)
         if env.norm_obs:
             rms = env.obs_rms if isinstance(env.obs_rms, dict) else {"": env.obs_rms}
             for key, stats in rms.items():

@@ -9,7 +9,9 @@ Bottom to top::
                               see whole games)
       -> VecTransposeImage   (training, ``normalize_reward``: below the normaliser, see
                               :func:`_transposed`)
-      -> VecNormalize        (training, ``normalize_reward``: rewards only)
+      -> VecNormalize        (training, ``normalize_reward``: rewards only; with
+                              ``split``, :class:`~noisybolt.wrappers.SplitRewardNormalize`:
+                              the world's and the bolt's rewards apart)
 
 Training, evaluation (periodic and ``noisybolt evaluate``) and case 4 build their envs
 here, so the stack is written once. With ``world.workers`` the world at the bottom runs its
@@ -32,6 +34,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.detectors import make_detector
+from noisybolt.agents.hyperparams import SPLIT
 from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
 from noisybolt.agents.world_checks import check_specs_against_world, check_world_spaces
 from noisybolt.bolt import BeliefSettings, Thresholds
@@ -46,7 +49,7 @@ from noisybolt.perception.protocols import (
     TRUE_FLUENTS_KEY,
     FluentDetector,
 )
-from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
+from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal, SplitRewardNormalize
 
 __all__ = [
     "BoltSetup",
@@ -141,9 +144,11 @@ def make_env(
         # top, and off-policy replay buffers, which store VecNormalize's original (here:
         # untransposed) observations, then get the wrong shape (DQN crashed).
         env = _transposed(env)
-        env = VecNormalize(
-            env, norm_obs=False, norm_reward=True, gamma=config.hyperparams.get("gamma", 0.99)
-        )
+        gamma = config.hyperparams.get("gamma", 0.99)
+        if config.hyperparams["normalize_reward"] == SPLIT:
+            env = SplitRewardNormalize(env, gamma=gamma)
+        else:
+            env = VecNormalize(env, norm_obs=False, norm_reward=True, gamma=gamma)
     return env
 
 

@@ -32,6 +32,7 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_HYPERPARAMS",
     "META_KEYS",
+    "SPLIT",
     "WORLD_KEYS",
     "algorithm_class",
     "check_action_space",
@@ -65,6 +66,10 @@ META_KEYS: frozenset[str] = frozenset(
         "exploration_frames",
     }
 )
+
+#: ``normalize_reward``'s third value (besides true and false): the world's rewards and the
+#: bolt's normalised apart (:class:`~noisybolt.wrappers.SplitRewardNormalize`).
+SPLIT = "split"
 
 #: Settings of the world that the per-world files give beside the hyperparameters, as RL
 #: Zoo's files give ``n_envs``: training environments and the Atari conventions
@@ -303,6 +308,9 @@ def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
             continue
         if value is None and key in META_KEYS:  # noisybolt's own settings: null is unset
             continue
+        if key == "normalize_reward":
+            _check_normalize_reward(algo, value)
+            continue
         if key in _RANGES or numeric_default:
             wants_int = key in _INTEGERS or (isinstance(default, int) and numeric_default)
             number = isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -321,6 +329,21 @@ def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
                 raise ConfigError(
                     f"hyperparameter {key}={value!r} is out of range: it must be in {interval}"
                 )
+
+
+def _check_normalize_reward(algo: str, value: Any) -> None:
+    if not isinstance(value, bool) and value != SPLIT:
+        raise ConfigError(
+            f"hyperparameter normalize_reward={value!r} must be true, false or {SPLIT!r} "
+            "(the world's rewards and the bolt's normalised apart)"
+        )
+    if value == SPLIT and algo.lower() not in ("ppo", "a2c"):
+        raise ConfigError(
+            f"hyperparameter normalize_reward={SPLIT!r} needs an on-policy learner (ppo, a2c): "
+            f"{algo}'s replay buffer keeps each step's summed reward and normalises it as it "
+            "samples, which cannot tell the world's share from the bolt's; use "
+            "normalize_reward=true"
+        )
 
 
 #: The action spaces of the algorithms that take only some (SB3 asserts them deep inside

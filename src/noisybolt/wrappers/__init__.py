@@ -6,6 +6,7 @@ from noisybolt.wrappers.atari import ClipGameReward, LifeLossTerminal
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
 from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
 from noisybolt.wrappers.make_vec import make_bolted_vec_env
+from noisybolt.wrappers.normalize import SplitRewardNormalize
 
 __all__ = [
     "BoltObservableEnv",
@@ -13,5 +14,6 @@ __all__ = [
     "ClipGameReward",
     "LifeLossTerminal",
     "RestrainingBoltWrapper",
+    "SplitRewardNormalize",
     "make_bolted_vec_env",
 ]
