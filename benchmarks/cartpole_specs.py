@@ -93,6 +93,7 @@ def trial_config(
     frames: int | None = None,
     init_from: Path | None = None,
 ) -> Any:
+    from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.agents.training import DetectorConfig, TrainConfig
 
     config = TrainConfig.create(
@@ -107,6 +108,7 @@ def trial_config(
         checkpoint_freq=0,
         bolted=bolted,
         progress_bar=False,
+        overrides=parse_overrides(args.hp),
     )
     return config.override({"algorithm.init_from": str(init_from)}) if init_from else config
 
@@ -212,6 +214,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=0,
         metavar="F",
         help="bolt an agent first trained unbolted for F of the --frames (0: from scratch)",
+    )
+    parser.add_argument(
+        "--hp",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a hyperparameter for every run, as noisybolt train --hp (repeatable)",
     )
     parser.add_argument("--out", default="runs/cartpole_specs")
     args = parser.parse_args(argv)

@@ -231,3 +231,11 @@ def test_shares_that_do_not_add_up_to_the_reward_are_refused() -> None:
     env.reset()
     with pytest.raises(RuntimeError, match="changed them"):
         env.step(np.zeros(1, dtype=np.int64))
+
+
+@pytest.mark.parametrize(("value", "said"), [("split", True), (True, False)])
+def test_the_run_says_when_the_scale_no_longer_matters(value: Any, said: bool) -> None:
+    from noisybolt.agents.config import describe_scheme
+
+    config = TrainConfig.create(specs=["edge"], overrides={"normalize_reward": value})
+    assert ("the scale does not change what it learns" in describe_scheme(config)) is said

@@ -54,6 +54,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.agents.hyperparams import (
+    SPLIT,
     WORLD_KEYS,
     check_hyperparameter_values,
     frame_schedules,
@@ -780,11 +781,18 @@ def describe_scheme(config: TrainConfig) -> str:
         if config.pay_on_change
         else "at the episode's end"
     )
-    return (
+    text = (
         f"reward scheme: compliance, {shaping} progress shaping; complying is worth, {when}, "
         f"{spec_worths(config)} (scale {config.reward_scale:g}; "
         "--reward-scale, or a spec's own reward_scale, to change it)"
     )
+    if config.hyperparams.get("normalize_reward") == SPLIT:
+        text += (
+            "; the learner sees the bolt's rewards normalised apart from the world's "
+            "(normalize_reward split): the scale does not change what it learns, and "
+            "complying is traded against the world's return rather than put first"
+        )
+    return text
 
 
 #: A compliance worth above which an on-policy learner without ``normalize_reward`` is
