@@ -270,3 +270,19 @@ def test_a_belief_run_is_recorded_and_drawn_with_its_own_bolt(
     assert main([*evaluate, "--heatmap", str(heatmap)]) == 0
     assert gif.stat().st_size > 0 and heatmap.stat().st_size > 0
     assert not [w for w in recwarn if w.category is UnknownBaseRatesWarning]
+
+
+def test_a_threshold_run_is_evaluated_under_belief_tracking_beside_its_own(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "run"
+    argv = ["train", "--spec", "edge", "--detector", "oracle", "--frames", "64"]
+    argv += ["--eval-freq", "0", "--eval-episodes", "1", "--no-progress"]
+    assert main([*argv, "--set", "world.n_envs=2", "--out", str(out)]) == 0
+    assert main(["evaluate", str(out), "--episodes", "2", "--tracking", "belief"]) == 0
+    (written,) = out.glob("evaluation-*.json")
+    record = json.loads(written.read_text())
+    assert record["overrides"] == {"bolt.tracking": "belief"}
+    assert not (out / "evaluation.json").exists()  # the run's own is not overwritten
+    with pytest.raises(SystemExit):
+        main(["evaluate", str(out), "--tracking", "beleif"])

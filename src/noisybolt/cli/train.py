@@ -270,6 +270,13 @@ def register(subparsers: Any) -> None:
         help="evaluate under another bolt camera noise (its classifier: cached or trained "
         "on the fly); written to evaluation-<hash>.json beside the run's own",
     )
+    evaluate.add_argument(
+        "--tracking",
+        choices=("threshold", "belief"),
+        default=None,
+        help="evaluate with another bolt tracking (what its DFAs accept, and so the false "
+        "acceptances; the agent sees those DFA states); written beside the run's own too",
+    )
     evaluate.set_defaults(func=_evaluate)
 
 
@@ -458,7 +465,11 @@ def format_eval_table(
 def _evaluate(args: argparse.Namespace) -> int:
     from noisybolt.agents.run_evaluation import evaluate_run
 
-    overrides = None if args.noise is None else {"world.kwargs.noise": args.noise}
+    overrides: dict[str, Any] = {}
+    if args.noise is not None:
+        overrides["world.kwargs.noise"] = args.noise
+    if args.tracking is not None:
+        overrides["bolt.tracking"] = args.tracking
     report = evaluate_run(
         args.run_dir,
         episodes=args.episodes,
@@ -467,7 +478,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         gif=args.gif,
         heatmap=args.heatmap,
         heatmap_episodes=args.episodes,
-        overrides=overrides,
+        overrides=overrides or None,
     )
     print(format_eval_table(report.result.to_dict(), greedy=not args.stochastic))
     for label, path in report.files.items():
