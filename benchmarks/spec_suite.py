@@ -48,6 +48,9 @@ SCHEMES = {
     # The default scheme with belief tracking instead of Algorithm 1's threshold (base
     # rates estimated in each run, as `noisybolt train --tracking belief` does).
     "belief": {"reward": "compliance", "tracking": "belief"},
+    # The default scheme with the world's rewards and the bolt's normalised apart
+    # (`--hp normalize_reward=split`): the scale no longer puts complying first.
+    "split": {"reward": "compliance", "overrides": {"normalize_reward": "split"}},
 }
 
 

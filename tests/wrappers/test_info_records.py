@@ -2,8 +2,8 @@
 
 Same seed, same world, same detector: the observations, rewards, dones and terminal
 observations are those of the bolt with records, and a PPO trained on either ends with the
-same weights; ``noisybolt train`` builds its learner's envs without records and its
-evaluation envs with them.
+same weights; ``noisybolt train`` builds its learner's envs without records (but with the
+reward's two shares) and its evaluation envs with them.
 """
 
 from __future__ import annotations
@@ -34,7 +34,9 @@ SPECS = [
         reward_timing="on_entry",
     ),
 ]
-RECORD_KEYS = ("bolt_reward", "fluent_probs", "true_dfa_states", "confidence_bands")
+RECORD_KEYS = ("bolt_terminal", "fluent_probs", "true_dfa_states", "confidence_bands")
+#: What both write: the reward's shares (``normalize_reward: split`` reads them in training).
+SHARE_KEYS = ("env_reward", "bolt_reward")
 
 
 def _bolted(records: bool, *, n: int = 6, seed: int = 0) -> BoltVecEnv:
@@ -62,6 +64,7 @@ def test_same_seed_same_steps_with_and_without_records() -> None:
         for a, b in zip(i_full, i_lean, strict=True):
             assert all(key in a for key in RECORD_KEYS)
             assert not any(key in b for key in RECORD_KEYS)
+            assert all(key in b for key in SHARE_KEYS)  # compared with a's below
             assert b.keys() <= a.keys()
             for key in b.keys() - {"terminal_observation", "episode"}:
                 np.testing.assert_array_equal(a[key], b[key])

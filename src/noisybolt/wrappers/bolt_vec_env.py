@@ -79,11 +79,13 @@ class BoltVecEnv(VecEnvWrapper):
             settings, as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
         info_records: whether each step's ``infos`` get the bolt's records (reward parts,
             fluent probabilities and bands, the bolt's and the true DFA states: see
-            :func:`~noisybolt.wrappers._common.bolt_info`). False leaves them out and does
-            not track the true DFAs, for a learner that reads none of them (training:
-            SB3 reads only the monitor's, the time limit's and the terminal observation's
-            entries, and evaluation runs on envs of its own, with records); observations,
-            rewards and dones are the same either way (tested).
+            :func:`~noisybolt.wrappers._common.bolt_info`). False leaves them out, but for
+            the reward's two shares (``env_reward``, ``bolt_reward``: what
+            ``normalize_reward: split`` reads), and does not track the true DFAs, for a
+            learner that reads none of them (training: SB3 reads only the monitor's, the
+            time limit's and the terminal observation's entries, and evaluation runs on
+            envs of its own, with records); observations, rewards and dones are the same
+            either way (tested).
 
     Raises:
         ConfigError: ``venv`` is not an ``SB3VecEnv`` (possibly wrapped), or ``world`` is
@@ -273,6 +275,12 @@ class BoltVecEnv(VecEnvWrapper):
                         true_accepting=true_accepting,
                     )
                 )
+        else:
+            # The reward's two shares, always: a learner's normaliser may read them
+            # (``normalize_reward: split``, noisybolt.wrappers.SplitRewardNormalize).
+            for i, info in enumerate(infos):
+                info["env_reward"] = float(env_rewards[i])
+                info["bolt_reward"] = float(out.total[i])
         if ended.size:
             final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
             for row in ended.tolist():

@@ -17,13 +17,14 @@ a constant leaves what the learner sees unchanged (tested; up to SB3's running-v
 prior, a variance of 1 weighing 1e-4 of a step). What is given up is the
 ``compliance`` scheme's lexicographic order: a spec is no longer worth more than any
 world return by construction, but as much as its own variation says; the learner trades
-the two. Where the world pays nothing (an unbolted run's bolt pays 0), this is plain
+the two. Where the bolt pays nothing (an unbolted run's bolt pays 0), this is plain
 ``VecNormalize`` (tested, step for step).
 
-The shares are what the bolt reports in ``info`` (``env_reward``, ``bolt_reward``;
-without them the whole reward is the world's); they must add up to the reward the
-normaliser receives, which holds for noisybolt's stack (nothing between the bolt and the
-normaliser changes rewards) and is checked each step.
+The shares are what the bolt reports in ``info`` (``env_reward``, ``bolt_reward``, which
+:class:`~noisybolt.wrappers.BoltVecEnv` writes on every step, training included); a step
+without them is refused, and they must add up to the reward the normaliser receives,
+which holds for noisybolt's stack (nothing between the bolt and the normaliser changes
+rewards) and is checked each step.
 
 On-policy learners only: SB3's replay buffer stores the summed reward and normalises it
 as it samples (``VecNormalize.normalize_reward``), which cannot tell the streams apart.
@@ -98,17 +99,19 @@ class SplitRewardNormalize(VecNormalize):
         deviation) would blow up.
 
         Raises:
-            RuntimeError: the shares do not add up to the reward (a wrapper between the
-                bolt and the normaliser changed the rewards).
+            RuntimeError: an info lacks a share (no bolt below), or the shares do not add
+                up to the reward (a wrapper between the bolt and the normaliser changed the
+                rewards).
         """
-        bolt = np.array([info.get(BOLT_REWARD_KEY, 0.0) for info in infos], dtype=np.float64)
-        world = np.array(
-            [
-                info.get(ENV_REWARD_KEY, r - b)
-                for info, r, b in zip(infos, rewards, bolt, strict=True)
-            ],
-            dtype=np.float64,
-        )
+        try:
+            bolt = np.array([info[BOLT_REWARD_KEY] for info in infos], dtype=np.float64)
+            world = np.array([info[ENV_REWARD_KEY] for info in infos], dtype=np.float64)
+        except KeyError as missing:
+            raise RuntimeError(
+                f"a step's info lacks {missing}: normalize_reward=split reads the world's "
+                "and the bolt's shares of each reward from the info the restraining bolt "
+                "(BoltVecEnv) writes, and needs it below the normaliser"
+            ) from None
         if not np.allclose(world + bolt, rewards, rtol=1e-5, atol=1e-5):
             raise RuntimeError(
                 f"rewards {rewards.tolist()} are not the world's {world.tolist()} plus the "
