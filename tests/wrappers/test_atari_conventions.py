@@ -7,8 +7,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from gymnasium import spaces
-from stable_baselines3.common.vec_env import VecEnv
+from playback import PlaybackVecEnv
 
 from noisybolt.agents.specs import resolve_spec
 from noisybolt.envs import SB3VecEnv
@@ -19,7 +18,7 @@ from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 NOOP = 0
 
 
-class Scripted(VecEnv):
+class Scripted(PlaybackVecEnv):
     """Plays back rewards, dones and lives given per step (one env per column)."""
 
     def __init__(self, rewards: list[list[float]], dones: list[list[bool]], lives: list[list[int]]):
@@ -27,7 +26,7 @@ class Scripted(VecEnv):
         self.dones = np.asarray(dones, dtype=bool)
         self.life_table = np.asarray(lives, dtype=np.int64)  # row 0: after reset
         n = self.rewards.shape[1]
-        super().__init__(n, spaces.Box(0, 1, (1,), np.float32), spaces.Discrete(2))
+        super().__init__(n)
         self.t = 0
 
     def lives(self) -> np.ndarray:
@@ -37,29 +36,11 @@ class Scripted(VecEnv):
         self.t = 0
         return np.zeros((self.num_envs, 1), np.float32)
 
-    def step_async(self, actions: np.ndarray) -> None:
-        pass
-
     def step_wait(self) -> Any:
         self.t += 1
         obs = np.full((self.num_envs, 1), self.t, np.float32)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         return obs, self.rewards[self.t - 1], self.dones[self.t - 1], infos
-
-    def close(self) -> None:
-        pass
-
-    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        return [None] * self.num_envs
-
-    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
-        pass
-
-    def env_method(self, method_name: str, *args: Any, indices: Any = None, **kw: Any) -> list:
-        return []
-
-    def env_is_wrapped(self, wrapper_class: Any, indices: Any = None) -> list[bool]:
-        return [False] * self.num_envs
 
 
 def test_clip_game_reward_keeps_the_sign_and_reports_the_score():

@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 import pytest
-from gymnasium import spaces
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from playback import PlaybackVecEnv
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from noisybolt.agents.checkpoints import NORMALISER, load_normaliser, save_normaliser
@@ -23,7 +23,7 @@ from noisybolt.wrappers import SplitRewardNormalize
 GAMMA = 0.9
 
 
-class Scripted(VecEnv):
+class Scripted(PlaybackVecEnv):
     """Plays back the world's and the bolt's rewards per step, summed as the reward and
     each reported in ``info`` as the bolt reports them (no ``info`` and no bolt reward
     where ``bolt`` is None), and dones; one env per column."""
@@ -34,17 +34,12 @@ class Scripted(VecEnv):
         summed = self.world if bolt is None else self.world + bolt
         self.rewards = summed.astype(np.float32)  # as the bolt hands them on
         self.dones = np.asarray(dones, dtype=bool)
-        super().__init__(
-            self.rewards.shape[1], spaces.Box(0, 1, (1,), np.float32), spaces.Discrete(2)
-        )
+        super().__init__(self.rewards.shape[1])
         self.t = 0
 
     def reset(self) -> Any:
         self.t = 0
         return np.zeros((self.num_envs, 1), np.float32)
-
-    def step_async(self, actions: np.ndarray) -> None:
-        pass
 
     def step_wait(self) -> Any:
         t, self.t = self.t, self.t + 1
@@ -54,21 +49,6 @@ class Scripted(VecEnv):
                 info["bolt_reward"] = float(self.bolt[t, i])
                 info["env_reward"] = float(self.world[t, i])
         return np.zeros((self.num_envs, 1), np.float32), self.rewards[t], self.dones[t], infos
-
-    def close(self) -> None:
-        pass
-
-    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        return [None] * self.num_envs
-
-    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
-        pass
-
-    def env_method(self, method_name: str, *args: Any, indices: Any = None, **kw: Any) -> list:
-        return []
-
-    def env_is_wrapped(self, wrapper_class: Any, indices: Any = None) -> list[bool]:
-        return [False] * self.num_envs
 
 
 def _play(env: VecEnv, steps: int) -> np.ndarray:
