@@ -9,9 +9,9 @@ the point a brick is worth, the signal that teaches keeping the ball in play, wa
 a normalised unit (``results/breakout/README.md``). The bolted agents then played worse
 than the unbolted ones without taking more of the bricks the bolt wanted.
 
-:class:`SplitRewardNormalize` keeps two running returns, one of the world's rewards
-and one of the bolt's, divides each stream by its own deviation,
-clips each, and pays the sum. Each stream is then worth about one unit per standard
+:class:`SplitRewardNormalize` keeps two running returns, one of the world's rewards and
+one of the bolt's, divides each stream by its own deviation, clips each, and pays the
+sum. Each stream is then worth about one unit per standard
 deviation of its own return, whatever the reward scale: multiplying every bolt reward by
 a constant leaves what the learner sees unchanged (tested; up to SB3's running-variance
 prior, a variance of 1 weighing 1e-4 of a step). What is given up is the
