@@ -44,6 +44,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
     import torch
 
     from noisybolt.agents.config import nested_config
+    from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 
     torch.set_num_threads(1)
@@ -73,6 +74,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
             eval_deterministic=algo == "dqn",
             keep_best=True,
             progress_bar=False,
+            overrides=parse_overrides(args.hp),
         )
         train(config, out, argv=[sys.executable, *sys.argv], log=lambda _: None)
     data = json.loads(summary.read_text())
@@ -161,6 +163,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--detector", default="synthetic")
     parser.add_argument("--threshold", type=float, default=0.95)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--hp",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a hyperparameter for every trial, as noisybolt train --hp (repeatable)",
+    )
     parser.add_argument("--out", default=str(HERE.parent / "runs" / "world_suite"))
     parser.add_argument("--collect", action="store_true", help="tabulate finished trials only")
     args = parser.parse_args(argv)
