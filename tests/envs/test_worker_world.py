@@ -156,12 +156,16 @@ def test_close_and_garbage_collection_end_every_worker() -> None:
     assert _gone(pids)
 
 
-def test_a_dead_worker_is_named_and_the_others_are_closed() -> None:
+@pytest.mark.parametrize("wait_s", [0.0, 0.5])
+def test_a_dead_worker_is_named_and_the_others_are_closed(wait_s: float) -> None:
+    # Sent to at once, or once its end of the pipe is surely closed (the send then breaks
+    # the pipe before any receive): either way the message says it exited.
     world = WorkerWorld("breakout-ram", num_envs=4, workers=2, seed=0)
     pids = world.pids
     world.reset(seed=0)
     assert pids[1] is not None
     os.kill(pids[1], signal.SIGKILL)
+    time.sleep(wait_s)
     with pytest.raises(WorldWorkerError, match=r"worker 1 .* games 2\.\.3, failed: it exited"):
         world.step(np.zeros(4, dtype=np.int64))
     assert _gone(pids)

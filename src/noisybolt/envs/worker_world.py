@@ -304,6 +304,13 @@ class WorkerWorld(gym.vector.VectorEnv):
         try:
             self._conns[k].send((command, payload))
         except (BrokenPipeError, ConnectionResetError, OSError):
+            # Most often the worker died: its end of the pipe closes as it exits, so
+            # whether the send or the next receive notices first is a race. Say it exited
+            # when it did, as the receive would.
+            process = self._processes[k]
+            process.join(CLOSE_TIMEOUT_S)
+            if process.exitcode is not None:
+                self._fail(k, f"it exited (exit code {process.exitcode})")
             self._fail(k, "its pipe is broken")
 
     def _receive(self, k: int, *, starting: bool = False) -> Any:
