@@ -33,6 +33,8 @@ from noisybolt.perception.detectors import match_fluents
 from noisybolt.perception.protocols import FluentDetector
 
 __all__ = [
+    "BOLT_REWARD_KEY",
+    "ENV_REWARD_KEY",
     "BoltParts",
     "TruthTracker",
     "bolt_info",
@@ -43,7 +45,13 @@ __all__ = [
     "dfa_view",
     "dict_observation_space",
     "observes_beliefs",
+    "reward_shares",
 ]
+
+#: The ``info`` entries holding a step's reward as the world paid it and as the bolt added
+#: to it; every bolted step reports both (:func:`reward_shares`), records or not.
+ENV_REWARD_KEY = "env_reward"
+BOLT_REWARD_KEY = "bolt_reward"
 
 # Band codes are computed once per batch by the wrappers (``confidence_bands``).
 
@@ -330,6 +338,12 @@ def dfa_view(bolt: RestrainingBolt) -> np.ndarray:
     return bolt.states
 
 
+def reward_shares(env_reward: float, bolt_reward: float) -> dict[str, float]:
+    """A step's reward in its two shares, the ``info`` entries every bolted step reports
+    (a learner's normaliser may read them: ``normalize_reward: split``)."""
+    return {ENV_REWARD_KEY: float(env_reward), BOLT_REWARD_KEY: float(bolt_reward)}
+
+
 def bolt_info(
     index: int,
     *,
@@ -346,8 +360,7 @@ def bolt_info(
     Batched arrays are sliced, not copied: each entry is a view of row ``index``.
     """
     return {
-        "env_reward": float(env_reward),
-        "bolt_reward": float(out.total[index]),
+        **reward_shares(env_reward, out.total[index]),
         "bolt_terminal": out.terminal[index],
         "bolt_low_confidence": out.low_confidence[index],
         "bolt_progress": out.progress[index],

@@ -54,6 +54,7 @@ from noisybolt.wrappers._common import (
     dfa_view,
     dict_observation_space,
     observes_beliefs,
+    reward_shares,
 )
 
 __all__ = ["BoltVecEnv"]
@@ -279,8 +280,7 @@ class BoltVecEnv(VecEnvWrapper):
             # The reward's two shares, always: a learner's normaliser may read them
             # (``normalize_reward: split``, noisybolt.wrappers.SplitRewardNormalize).
             for i, info in enumerate(infos):
-                info["env_reward"] = float(env_rewards[i])
-                info["bolt_reward"] = float(out.total[i])
+                info.update(reward_shares(env_rewards[i], out.total[i]))
         if ended.size:
             final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
             for row in ended.tolist():

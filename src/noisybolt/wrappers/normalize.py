@@ -39,11 +39,9 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
-__all__ = ["BOLT_REWARD_KEY", "ENV_REWARD_KEY", "SplitRewardNormalize"]
+from noisybolt.wrappers._common import BOLT_REWARD_KEY, ENV_REWARD_KEY
 
-#: The ``info`` entries holding the bolt's share of a step's reward, and the world's.
-BOLT_REWARD_KEY = "bolt_reward"
-ENV_REWARD_KEY = "env_reward"
+__all__ = ["SplitRewardNormalize"]
 
 
 class SplitRewardNormalize(VecNormalize):
