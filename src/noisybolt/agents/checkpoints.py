@@ -113,25 +113,37 @@ def save_checkpoint(
     return folder
 
 
-def save_normaliser(env: VecNormalize, path: Path) -> None:
-    """The reward normaliser's running statistics as npz (what a resume needs)."""
-    arrays: dict[str, np.ndarray] = {
-        "ret_mean": np.asarray(env.ret_rms.mean, dtype=np.float64),
-        "ret_var": np.asarray(env.ret_rms.var, dtype=np.float64),
-        "ret_count": np.asarray(env.ret_rms.count, dtype=np.float64),
-        "returns": np.asarray(env.returns, dtype=np.float64),
-    }
+def _running_stats(env: VecNormalize) -> list[tuple[Any, tuple[str, str, str]]]:
+    """Every running mean and variance of the normaliser ``env``, each with the names of
+    its mean, variance and count in the file."""
+    found: list[tuple[Any, tuple[str, str, str]]] = [
+        (env.ret_rms, ("ret_mean", "ret_var", "ret_count"))
+    ]
     if isinstance(env, SplitRewardNormalize):
-        arrays["bolt_ret_mean"] = np.asarray(env.bolt_ret_rms.mean, dtype=np.float64)
-        arrays["bolt_ret_var"] = np.asarray(env.bolt_ret_rms.var, dtype=np.float64)
-        arrays["bolt_ret_count"] = np.asarray(env.bolt_ret_rms.count, dtype=np.float64)
-        arrays["bolt_returns"] = np.asarray(env.bolt_returns, dtype=np.float64)
+        found.append((env.bolt_ret_rms, ("bolt_ret_mean", "bolt_ret_var", "bolt_ret_count")))
     if env.norm_obs:
         rms = env.obs_rms if isinstance(env.obs_rms, dict) else {"": env.obs_rms}
-        for key, stats in rms.items():
-            arrays[f"obs_mean/{key}"] = np.asarray(stats.mean, dtype=np.float64)
-            arrays[f"obs_var/{key}"] = np.asarray(stats.var, dtype=np.float64)
-            arrays[f"obs_count/{key}"] = np.asarray(stats.count, dtype=np.float64)
+        found += [
+            (stats, (f"obs_mean/{key}", f"obs_var/{key}", f"obs_count/{key}"))
+            for key, stats in rms.items()
+        ]
+    return found
+
+
+def _running_returns(env: VecNormalize) -> tuple[str, ...]:
+    """The attributes of ``env`` holding its games' running returns (named so in the file)."""
+    return ("returns", "bolt_returns") if isinstance(env, SplitRewardNormalize) else ("returns",)
+
+
+def save_normaliser(env: VecNormalize, path: Path) -> None:
+    """The reward normaliser's running statistics as npz (what a resume needs)."""
+    arrays: dict[str, np.ndarray] = {}
+    for stats, (mean, var, count) in _running_stats(env):
+        arrays[mean] = np.asarray(stats.mean, dtype=np.float64)
+        arrays[var] = np.asarray(stats.var, dtype=np.float64)
+        arrays[count] = np.asarray(stats.count, dtype=np.float64)
+    for name in _running_returns(env):
+        arrays[name] = np.asarray(getattr(env, name), dtype=np.float64)
     with atomic_open(path, "wb") as handle:
         np.savez(handle, **arrays)  # type: ignore[arg-type]
 
@@ -222,22 +234,12 @@ def load_normaliser(env: VecNormalize, path: Path) -> None:
     """
     arrays = _load_npz(path)
     try:
-        env.ret_rms.mean = _fit(arrays, "ret_mean", np.shape(env.ret_rms.mean), path)
-        env.ret_rms.var = _fit(arrays, "ret_var", np.shape(env.ret_rms.var), path)
-        env.ret_rms.count = float(_fit(arrays, "ret_count", (), path))
-        env.returns = _fit(arrays, "returns", np.shape(env.returns), path)
-        if isinstance(env, SplitRewardNormalize):
-            stats = env.bolt_ret_rms
-            stats.mean = _fit(arrays, "bolt_ret_mean", np.shape(stats.mean), path)
-            stats.var = _fit(arrays, "bolt_ret_var", np.shape(stats.var), path)
-            stats.count = float(_fit(arrays, "bolt_ret_count", (), path))
-            env.bolt_returns = _fit(arrays, "bolt_returns", np.shape(env.bolt_returns), path)
-        if env.norm_obs:
-            rms = env.obs_rms if isinstance(env.obs_rms, dict) else {"": env.obs_rms}
-            for key, stats in rms.items():
-                stats.mean = _fit(arrays, f"obs_mean/{key}", np.shape(stats.mean), path)
-                stats.var = _fit(arrays, f"obs_var/{key}", np.shape(stats.var), path)
-                stats.count = float(_fit(arrays, f"obs_count/{key}", (), path))
+        for stats, (mean, var, count) in _running_stats(env):
+            stats.mean = _fit(arrays, mean, np.shape(stats.mean), path)
+            stats.var = _fit(arrays, var, np.shape(stats.var), path)
+            stats.count = float(_fit(arrays, count, (), path))
+        for name in _running_returns(env):
+            setattr(env, name, _fit(arrays, name, np.shape(getattr(env, name)), path))
     except KeyError as error:
         raise CorruptFileError(f"{path} is corrupt: it lacks {error}") from None
 
