@@ -304,14 +304,7 @@ class WorkerWorld(gym.vector.VectorEnv):
         try:
             self._conns[k].send((command, payload))
         except (BrokenPipeError, ConnectionResetError, OSError):
-            # Most often the worker died: its end of the pipe closes as it exits, so
-            # whether the send or the next receive notices first is a race. Say it exited
-            # when it did, as the receive would.
-            process = self._processes[k]
-            process.join(CLOSE_TIMEOUT_S)
-            if process.exitcode is not None:
-                self._fail(k, f"it exited (exit code {process.exitcode})")
-            self._fail(k, "its pipe is broken")
+            self._fail_gone(k, "its pipe is broken")
 
     def _receive(self, k: int, *, starting: bool = False) -> Any:
         conn, process = self._conns[k], self._processes[k]
@@ -325,8 +318,7 @@ class WorkerWorld(gym.vector.VectorEnv):
             except (EOFError, OSError):
                 message = None
         if message is None:
-            process.join(CLOSE_TIMEOUT_S)
-            self._fail(k, f"it exited (exit code {process.exitcode})")
+            self._fail_gone(k, "its pipe closed without an answer")
         status, payload = message
         if status == "ok":
             return payload
@@ -334,6 +326,16 @@ class WorkerWorld(gym.vector.VectorEnv):
             self.close()
             raise ConfigError(f"world {self.name!r} cannot run in worker processes: {payload}")
         self._fail(k, f"it raised:\n{payload}")
+
+    def _fail_gone(self, k: int, otherwise: str) -> NoReturn:
+        """Worker ``k``'s pipe failed: most often the worker died, and its end of the pipe
+        closed as it exited, so whether a send or a receive notices first is a race. Says
+        it exited (with its exit code) when it did, whichever noticed; else ``otherwise``."""
+        process = self._processes[k]
+        process.join(CLOSE_TIMEOUT_S)
+        if process.exitcode is not None:
+            self._fail(k, f"it exited (exit code {process.exitcode})")
+        self._fail(k, otherwise)
 
     def _fail(self, k: int, cause: str) -> NoReturn:
         first, count = self.shards[k]
