@@ -15,9 +15,13 @@ from playback import PlaybackVecEnv
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from noisybolt.agents.checkpoints import NORMALISER, load_normaliser, save_normaliser
+from noisybolt.agents.config import describe_scheme
+from noisybolt.agents.environments import make_env
 from noisybolt.agents.hyperparams import check_hyperparameter_values
 from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+from noisybolt.envs import make_world
 from noisybolt.errors import ConfigError, CorruptFileError
+from noisybolt.perception.detectors import OracleDetector
 from noisybolt.wrappers import SplitRewardNormalize
 
 GAMMA = 0.9
@@ -224,7 +228,51 @@ def test_shares_that_do_not_add_up_to_the_reward_are_refused() -> None:
 
 @pytest.mark.parametrize(("value", "said"), [("split", True), (True, False)])
 def test_the_run_says_when_the_scale_no_longer_matters(value: Any, said: bool) -> None:
-    from noisybolt.agents.config import describe_scheme
-
     config = TrainConfig.create(specs=["edge"], overrides={"normalize_reward": value})
     assert ("the scale does not change what it learns" in describe_scheme(config)) is said
+
+
+@settings(max_examples=30, deadline=None)
+@given(_streams, st.floats(0.1, 20.0))
+def test_bolt_weight_multiplies_the_bolts_normalised_share_alone(
+    streams: tuple, weight: float
+) -> None:
+    world, bolt, dones = (np.asarray(s, dtype=np.float64) for s in streams)
+    dones = dones.astype(bool)
+    weighed = SplitRewardNormalize(Scripted(world, bolt, dones), gamma=GAMMA, bolt_weight=weight)
+    expected = _plain(world, dones) + weight * _plain(bolt, dones)
+    np.testing.assert_allclose(_play(weighed, len(world)), expected, rtol=1e-5, atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("overrides", "error"),
+    [
+        ({"normalize_reward": "split", "bolt_weight": 5.0}, None),
+        ({"normalize_reward": True, "bolt_weight": 5.0}, "only normalize_reward=split keeps apart"),
+        ({"bolt_weight": 5.0}, "normalize_reward=split"),
+        ({"normalize_reward": "split", "bolt_weight": 0.0}, "out of range"),
+        ({"normalize_reward": "split", "bolt_weight": "heavy"}, "must be a number"),
+    ],
+)
+def test_bolt_weight_needs_split_and_a_positive_number(
+    overrides: dict[str, Any], error: str | None
+) -> None:
+    if error is None:
+        config = TrainConfig.create(specs=["edge"], overrides=overrides)
+        assert "the bolt's weighed 5 times the world's" in describe_scheme(config)
+    else:
+        with pytest.raises(ConfigError, match=error):
+            TrainConfig.create(specs=["edge"], overrides=overrides)
+
+
+def test_a_weighted_run_builds_its_normaliser_with_the_weight() -> None:
+    # the weight reaches the normaliser a run builds (not only the class's default)
+    config = TrainConfig.create(
+        specs=["edge"],
+        detector=DetectorConfig(kind="oracle"),
+        overrides={"normalize_reward": "split", "bolt_weight": 7.0},
+    )
+    fluents = make_world("gridworld", num_envs=1, seed=0).fluent_names
+    env = make_env(config, OracleDetector(fluents), training=True)
+    assert isinstance(env, SplitRewardNormalize)
+    assert env.bolt_weight == 7.0

@@ -787,10 +787,16 @@ def describe_scheme(config: TrainConfig) -> str:
         "--reward-scale, or a spec's own reward_scale, to change it)"
     )
     if config.hyperparams.get("normalize_reward") == SPLIT:
+        weight = config.hyperparams.get("bolt_weight")
         text += (
             "; the learner sees the bolt's rewards normalised apart from the world's "
             "(normalize_reward split): the scale does not change what it learns, and "
-            "complying is traded against the world's return rather than put first"
+            "complying is traded against the world's return rather than put first, "
+            + (
+                "the two weighed equally (--hp bolt_weight to weigh the bolt's more)"
+                if weight is None
+                else f"the bolt's weighed {weight:g} times the world's (bolt_weight)"
+            )
         )
     return text
 

@@ -146,7 +146,10 @@ def make_env(
         env = _transposed(env)
         gamma = config.hyperparams.get("gamma", 0.99)
         if config.hyperparams["normalize_reward"] == SPLIT:
-            env = SplitRewardNormalize(env, gamma=gamma)
+            weight = config.hyperparams.get("bolt_weight")
+            env = SplitRewardNormalize(
+                env, gamma=gamma, bolt_weight=1.0 if weight is None else weight
+            )
         else:
             env = VecNormalize(env, norm_obs=False, norm_reward=True, gamma=gamma)
     return env

@@ -54,6 +54,8 @@ DEFAULT_HYPERPARAMS = "_default"
 META_KEYS: frozenset[str] = frozenset(
     {
         "normalize_reward",
+        # normalize_reward split: the bolt's normalised stream is multiplied by this
+        "bolt_weight",
         "image_features",
         # the agent's convolutions (extractor.conv_stack): auto, nature, atari2013, grid
         "cnn",
@@ -267,6 +269,7 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "tau": (0.0, 1.0, True, False),
     "ent_coef": (0.0, float("inf"), False, True),
     "ent_coef_final": (0.0, float("inf"), False, True),
+    "bolt_weight": (0.0, float("inf"), True, True),
     "ent_coef_frames": (1, float("inf"), False, True),
     "exploration_frames": (1, float("inf"), False, True),
     "vf_coef": (0.0, float("inf"), False, True),

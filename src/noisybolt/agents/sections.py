@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from noisybolt.agents.hyperparams import (
+    SPLIT,
     WORLD_KEYS,
     algorithm_class,
     check_hyperparameter_values,
@@ -316,6 +317,16 @@ class AlgorithmConfig:
         check_hyperparameter_values(
             self.name, {k: v for k, v in self.hyperparams.items() if k != "policy_kwargs"}
         )
+        if (
+            self.hyperparams.get("bolt_weight") is not None
+            and self.hyperparams.get("normalize_reward") != SPLIT
+        ):
+            raise ConfigError(
+                "bolt_weight weighs the bolt's normalised rewards against the world's, which "
+                "only normalize_reward=split keeps apart: add --hp normalize_reward=split, or "
+                "drop bolt_weight and change --reward-scale (which weighs them where rewards "
+                "are not normalised apart)"
+            )
         if self.hyperparams.get("ent_coef_final") is not None and self.name not in ("ppo", "a2c"):
             raise ConfigError(
                 f"ent_coef_final: {self.name.upper()} has no entropy bonus (only PPO and A2C); "

@@ -45,7 +45,8 @@ __all__ = ["SplitRewardNormalize"]
 
 
 class SplitRewardNormalize(VecNormalize):
-    """Rewards only: ``clip(world / sd_world) + clip(bolt / sd_bolt)`` (module text).
+    """Rewards only: ``clip(world / sd_world) + bolt_weight * clip(bolt / sd_bolt)``
+    (module text).
 
     ``ret_rms`` and ``returns`` are the world stream's statistics, as in
     :class:`VecNormalize`; ``bolt_ret_rms`` and ``bolt_returns`` the bolt's.
@@ -60,7 +61,10 @@ class SplitRewardNormalize(VecNormalize):
         gamma: float = 0.99,
         clip_reward: float = 10.0,
         epsilon: float = 1e-8,
+        bolt_weight: float = 1.0,
     ) -> None:
+        if not bolt_weight > 0:
+            raise ValueError(f"bolt_weight must be > 0, got {bolt_weight!r}")
         super().__init__(
             venv,
             training=True,
@@ -72,6 +76,7 @@ class SplitRewardNormalize(VecNormalize):
         )
         self.bolt_ret_rms = RunningMeanStd(shape=())
         self.bolt_returns = np.zeros(self.num_envs)
+        self.bolt_weight = float(bolt_weight)
 
     def step_wait(self) -> VecEnvStepReturn:
         obs, rewards, dones, infos = self.venv.step_wait()
@@ -83,7 +88,9 @@ class SplitRewardNormalize(VecNormalize):
             self._update_reward(world)
             self.bolt_returns = self.bolt_returns * self.gamma + bolt
             self.bolt_ret_rms.update(self.bolt_returns)
-        scaled = self._scaled(world, self.ret_rms) + self._scaled(bolt, self.bolt_ret_rms)
+        scaled = self._scaled(world, self.ret_rms) + self.bolt_weight * self._scaled(
+            bolt, self.bolt_ret_rms
+        )
         self.returns[dones] = 0
         self.bolt_returns[dones] = 0
         return obs, scaled.astype(np.float32), dones, infos
