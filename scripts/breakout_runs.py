@@ -26,8 +26,10 @@ column gone at an episode's end; null for a run without the per-brick specs), ``
 DFA, run on what the bolt perceived, ended
 accepting while the true trace did not; null where not recorded), ``episodes`` and
 ``reward`` (the reward scheme), ``camera`` (the bolt camera's noise, as given to
-``--noise``; ``none`` for a clean camera) and ``tracking`` (``threshold``, Algorithm 1, or
-``belief``).
+``--noise``; ``none`` for a clean camera), ``tracking`` (``threshold``, Algorithm 1, or
+``belief``), ``normalize_reward`` (``true``, ``false`` or ``split``: how the learner's
+rewards were normalised) and ``bolt_weight`` (under ``split``, the bolt's stream's weight;
+1 where not set).
 """
 
 from __future__ import annotations
@@ -221,6 +223,7 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
     rates = last.get("compliance", {})
     false = last.get("false_acceptance")
     rows = {k: v for k, v in rates.items() if k.startswith("left_row")}  # one spec per brick
+    hyperparams = config["algorithm"].get("hyperparams") or {}
     return {
         "run": run.name,
         "agent": _agent(config),
@@ -236,6 +239,8 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
         "reward": config["bolt"]["reward"],
         "camera": _camera(config),
         "tracking": str(config["bolt"].get("tracking", "threshold")),
+        "normalize_reward": hyperparams.get("normalize_reward", False),
+        "bolt_weight": float(hyperparams.get("bolt_weight") or 1.0),
         "frames_before": _frames_before(run),
     }
 

@@ -58,6 +58,7 @@ def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> No
         "reward": "paper",
         "world_kwargs": {"noise": "gaussian:sigma=40+occlusion:count=2,size=0.25"},
         "tracking": "belief",
+        "hyperparams": {"normalize_reward": "split", "bolt_weight": 5.0},
     }
     image = {"world": "breakout", "algo": "dqn", "seed": 0, "bolted": False}
     rows = [0.0, 0.0, 0.125, 0.25, 0.75, 0.875]
@@ -89,12 +90,15 @@ def test_summary_reads_the_last_evaluation_of_each_run(script: ModuleType) -> No
         "reward": "paper",
         "camera": "gaussian:sigma=40+occlusion:count=2,size=0.25",
         "tracking": "belief",
+        "normalize_reward": "split",
+        "bolt_weight": 5.0,
         "frames_before": 0,  # from random weights
     }
     assert image_entry["frames_before"] == 1_800_000  # its source's, from the copy it keeps
     assert image_entry["agent"] == "image" and image_entry["bolted"] is False
     assert (image_entry["camera"], image_entry["tracking"]) == ("none", "threshold")
     assert image_entry["left_bricks_gone"] is None  # no per-brick specs
+    assert (image_entry["normalize_reward"], image_entry["bolt_weight"]) == (False, 1.0)
     assert json.loads((results / "summary.json").read_text()) == entries
 
 
