@@ -233,14 +233,15 @@ def test_the_run_says_when_the_scale_no_longer_matters(value: Any, said: bool) -
 
 
 @settings(max_examples=30, deadline=None)
-@given(_streams, st.floats(0.1, 20.0))
-def test_bolt_weight_multiplies_the_bolts_normalised_share_alone(
+@given(_streams, st.sampled_from([1.0, 5.0]) | st.floats(0.1, 20.0))
+def test_bolt_weight_mixes_the_normalised_shares_with_weights_adding_up_to_two(
     streams: tuple, weight: float
 ) -> None:
     world, bolt, dones = (np.asarray(s, dtype=np.float64) for s in streams)
     dones = dones.astype(bool)
     weighed = SplitRewardNormalize(Scripted(world, bolt, dones), gamma=GAMMA, bolt_weight=weight)
-    expected = _plain(world, dones) + weight * _plain(bolt, dones)
+    # w = 5: a third of the world's share and five thirds of the bolt's
+    expected = (2 / (1 + weight)) * (_plain(world, dones) + weight * _plain(bolt, dones))
     np.testing.assert_allclose(_play(weighed, len(world)), expected, rtol=1e-5, atol=1e-4)
 
 

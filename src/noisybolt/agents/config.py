@@ -795,7 +795,8 @@ def describe_scheme(config: TrainConfig) -> str:
             + (
                 "the two weighed equally (--hp bolt_weight to weigh the bolt's more)"
                 if weight is None
-                else f"the bolt's weighed {weight:g} times the world's (bolt_weight)"
+                else f"the bolt's weighed {weight:g} times the world's (bolt_weight; the "
+                "learner's rewards keep their size, their mix changes)"
             )
         )
     return text

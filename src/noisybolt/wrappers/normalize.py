@@ -20,6 +20,18 @@ world return by construction, but as much as its own variation says; the learner
 the two. Where the bolt pays nothing (an unbolted run's bolt pays 0), this is plain
 ``VecNormalize`` (tested, step for step).
 
+How the two are traded is then the one free choice, and ``bolt_weight`` ``w`` (the
+hyperparameter, default 1) makes it: the learner is paid
+``(2 / (1 + w)) * (world_n + w * bolt_n)`` of the normalised, clipped streams, so a weight
+of 5 makes a deviation of the bolt's return worth five of the world's, whatever either's
+units (a reward scale cannot do this here: it is normalised away). The two weights add up
+to 2 whatever ``w``, as at ``w = 1``: the mix changes, not the size of the rewards. A
+weight on the bolt's stream alone grows the value targets ``w``-fold, and with them the
+value loss, which shares the agent's features with the policy and, under gradient-norm
+clipping, crowds the policy's gradient out: the first Breakout runs weighed that way
+(``w = 5``) lost their game within 300k frames (from 23 points a game to 1.5) where their
+unbolted control kept it.
+
 The shares are what the bolt reports in ``info`` (``env_reward``, ``bolt_reward``, which
 :class:`~noisybolt.wrappers.BoltVecEnv` writes on every step, training included); a step
 without them is refused, and they must add up to the reward the normaliser receives,
@@ -45,8 +57,8 @@ __all__ = ["SplitRewardNormalize"]
 
 
 class SplitRewardNormalize(VecNormalize):
-    """Rewards only: ``clip(world / sd_world) + bolt_weight * clip(bolt / sd_bolt)``
-    (module text).
+    """Rewards only: ``clip(world / sd_world) + clip(bolt / sd_bolt)``, the two weighed
+    ``2 / (1 + bolt_weight)`` and ``2 * bolt_weight / (1 + bolt_weight)`` (module text).
 
     ``ret_rms`` and ``returns`` are the world stream's statistics, as in
     :class:`VecNormalize`; ``bolt_ret_rms`` and ``bolt_returns`` the bolt's.
@@ -77,6 +89,8 @@ class SplitRewardNormalize(VecNormalize):
         self.bolt_ret_rms = RunningMeanStd(shape=())
         self.bolt_returns = np.zeros(self.num_envs)
         self.bolt_weight = float(bolt_weight)
+        # the two streams' weights: w's mix, adding up to 2 as at w = 1 (module text)
+        self._weights = (2 / (1 + self.bolt_weight), 2 * self.bolt_weight / (1 + self.bolt_weight))
 
     def step_wait(self) -> VecEnvStepReturn:
         obs, rewards, dones, infos = self.venv.step_wait()
@@ -88,7 +102,8 @@ class SplitRewardNormalize(VecNormalize):
             self._update_reward(world)
             self.bolt_returns = self.bolt_returns * self.gamma + bolt
             self.bolt_ret_rms.update(self.bolt_returns)
-        scaled = self._scaled(world, self.ret_rms) + self.bolt_weight * self._scaled(
+        world_weight, bolt_weight = self._weights
+        scaled = world_weight * self._scaled(world, self.ret_rms) + bolt_weight * self._scaled(
             bolt, self.bolt_ret_rms
         )
         self.returns[dones] = 0
