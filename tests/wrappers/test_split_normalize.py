@@ -266,14 +266,17 @@ def test_bolt_weight_needs_split_and_a_positive_number(
             TrainConfig.create(specs=["edge"], overrides=overrides)
 
 
-def test_a_weighted_run_builds_its_normaliser_with_the_weight() -> None:
-    # the weight reaches the normaliser a run builds (not only the class's default)
+@pytest.mark.parametrize(("bolted", "weight"), [(True, 7.0), (False, 1.0)])
+def test_a_weighted_run_builds_its_normaliser_with_the_weight(bolted: bool, weight: float):
+    # the weight reaches the normaliser a run builds (not only the class's default); an
+    # unbolted control's world rewards are normalised as plainly as any other control's
     config = TrainConfig.create(
         specs=["edge"],
         detector=DetectorConfig(kind="oracle"),
+        bolted=bolted,
         overrides={"normalize_reward": "split", "bolt_weight": 7.0},
     )
     fluents = make_world("gridworld", num_envs=1, seed=0).fluent_names
     env = make_env(config, OracleDetector(fluents), training=True)
     assert isinstance(env, SplitRewardNormalize)
-    assert env.bolt_weight == 7.0
+    assert env.bolt_weight == weight

@@ -146,10 +146,12 @@ def make_env(
         env = _transposed(env)
         gamma = config.hyperparams.get("gamma", 0.99)
         if config.hyperparams["normalize_reward"] == SPLIT:
+            # An unbolted run's bolt pays nothing: there is nothing to mix, and its world
+            # rewards are normalised as the control of any weight's run (weight 1).
             weight = config.hyperparams.get("bolt_weight")
-            env = SplitRewardNormalize(
-                env, gamma=gamma, bolt_weight=1.0 if weight is None else weight
-            )
+            if weight is None or not config.bolted:
+                weight = 1.0
+            env = SplitRewardNormalize(env, gamma=gamma, bolt_weight=weight)
         else:
             env = VecNormalize(env, norm_obs=False, norm_reward=True, gamma=gamma)
     return env

@@ -30,7 +30,9 @@ weight on the bolt's stream alone grows the value targets ``w``-fold, and with t
 value loss, which shares the agent's features with the policy and, under gradient-norm
 clipping, crowds the policy's gradient out: the first Breakout runs weighed that way
 (``w = 5``) lost their game within 300k frames (from 23 points a game to 1.5) where their
-unbolted control kept it.
+unbolted control kept it. An unbolted run (its bolt pays 0) is normalised with weight 1
+whatever its ``bolt_weight``, as the control of a weighted run should be: plain
+``VecNormalize``.
 
 The shares are what the bolt reports in ``info`` (``env_reward``, ``bolt_reward``, which
 :class:`~noisybolt.wrappers.BoltVecEnv` writes on every step, training included); a step
