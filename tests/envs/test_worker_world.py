@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import torch
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.environments import make_env, make_run_world
@@ -22,6 +23,7 @@ from noisybolt.envs.breakout import FLUENT_NAMES, BreakoutWorld, make_breakout_w
 from noisybolt.envs.registry import make_world
 from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import ConfigError, WorldWorkerError
+from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.detectors import OracleDetector
 from noisybolt.wrappers import BoltVecEnv
 
@@ -270,3 +272,74 @@ def test_a_worker_world_can_be_a_shard_and_step_in_two_halves() -> None:
         whole.close()
     with pytest.raises(ConfigError, match="shard"):
         WorkerWorld("breakout-ram", num_envs=3, workers=1, shard=(3, 5))
+
+
+def test_a_classifier_runs_in_the_workers_with_the_bolts_own_results() -> None:
+    """A classifier detector goes to the workers with the world: each runs it on its own
+    images, and the bolted run is the one in process — the same probabilities in every
+    step's records (the ended games' last views and the new games' first ones included),
+    the same DFA states in the observations, the same rewards."""
+
+    def config(workers: int) -> TrainConfig:
+        return TrainConfig.build(
+            {
+                "world.name": "breakout-ram",
+                "world.workers": workers,
+                "world.kwargs": {"noise": "gaussian:sigma=30", "max_episode_frames": 320},
+                "bolt.specs": ["left_column_milestones"],
+                "bolt.reward": "paper",
+                "detector.kind": "oracle",  # the config's; the envs get the classifier below
+                "seed": 3,
+            }
+        )
+
+    camera = make_breakout_world(num_envs=1, seed=0, obs_mode="ram", **SETTINGS).camera_spec
+    torch.manual_seed(0)
+    # its columns in another order than the world's: the workers must reorder them too
+    detector = ClassifierDetector.untrained(
+        fluent_names=tuple(reversed(FLUENT_NAMES)), camera_spec=camera
+    )
+    with torch.no_grad():  # louder weights: probabilities that move with the images
+        for parameter in detector.model.parameters():
+            parameter.mul_(3)
+    inside = make_env(config(0), detector, training=False, n_envs=3)
+    outside = make_env(config(2), detector, training=False, n_envs=3)
+    try:
+        assert outside.world.detector is detector  # type: ignore[attr-defined]
+        assert not inside._world_probs  # type: ignore[attr-defined]
+        assert outside._world_probs  # type: ignore[attr-defined]
+        inside.seed(3)
+        outside.seed(3)
+        a: Any = inside.reset()
+        b: Any = outside.reset()
+        for ours, theirs in zip(inside.reset_infos, outside.reset_infos, strict=True):
+            np.testing.assert_allclose(ours["fluent_probs"], theirs["fluent_probs"], atol=1e-5)
+        rng = np.random.default_rng(2)
+        ended = 0
+        seen: list[np.ndarray] = []
+        for step in range(200):
+            for key in a:
+                assert np.array_equal(a[key], b[key]), (step, key)
+            actions = rng.integers(0, 4, 3)
+            a, ra, da, ia = inside.step(actions)
+            b, rb, db, ib = outside.step(actions)
+            assert np.array_equal(ra, rb) and np.array_equal(da, db), step
+            # the same network on the same images; a batch of another size may round
+            # the last bit of a float32 differently
+            ours = np.stack([info["fluent_probs"] for info in ia])
+            theirs = np.stack([info["fluent_probs"] for info in ib])
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-5, err_msg=str(step))
+            seen.append(theirs)
+            ended += int(da.sum())
+        assert ended >= 3  # the ended games' last views were read from final_info
+        # images differ, and so do their probabilities: not a constant a mix-up would give
+        assert np.stack(seen).std(axis=0).min() > 1e-3
+    finally:
+        outside.close()
+        inside.close()
+
+
+def test_only_a_classifier_goes_to_the_workers() -> None:
+    with pytest.raises(ConfigError, match="only a classifier"):
+        oracle: Any = OracleDetector(FLUENT_NAMES)
+        WorkerWorld("breakout-ram", num_envs=2, workers=2, detector=oracle)

@@ -233,7 +233,9 @@ def build_bolted_env(
     the compliance scheme's progress terms. ``world.workers``, ``shard``, ``workers``: see
     :func:`make_run_world`.
     """
-    world = make_run_world(config, n_envs=n_envs, seed=seed, shard=shard, workers=workers)
+    world = make_run_world(
+        config, n_envs=n_envs, seed=seed, shard=shard, workers=workers, detector=detector
+    )
     venv: VecEnv = VecMonitor(SB3VecEnv(world))
     if training and config.world_config.clip_reward:
         venv = ClipGameReward(venv)
@@ -262,11 +264,13 @@ def make_run_world(
     seed: int,
     shard: tuple[int, int] | None = None,
     workers: int | None = None,
+    detector: FluentDetector | None = None,
 ) -> Any:
     """The run's vectorised world: in this process, or with ``world.workers`` N >= 1 its
     games split over N worker processes (at most one per game; a
     :class:`~noisybolt.envs.worker_world.WorkerWorld`, which plays the same games as the
-    world in process).
+    world in process). A classifier ``detector`` then runs in the workers too, beside the
+    camera (the bolt reads its probabilities from ``info``); any other stays with the bolt.
 
     ``shard=(first, total)``: these ``n_envs`` games are games ``first`` .. of the world
     of ``total`` games with this seed (a group of ``world.overlap``), in ``workers``
@@ -289,6 +293,7 @@ def make_run_world(
         workers=min(workers, n_envs),
         seed=seed,
         shard=shard,
+        detector=detector if isinstance(detector, ClassifierDetector) else None,
         **config.world_settings,
     )
 

@@ -15,6 +15,15 @@ joined along the game axis. Two differences:
 * **the camera renders every step**, in the worker (a deferred value could only be
   computed in the process that holds the emulator, and a training run's bolt reads it
   every step anyway);
+* given a ``detector`` (the run's classifier), **each worker runs it on its own images**
+  and puts the probabilities beside them (``info["bolt_probs"]``, and in ``final_info``
+  for the games that ended), in the world's fluent order; the bolt reads them instead of
+  calling its detector (:class:`~noisybolt.wrappers.BoltVecEnv`, when the world's
+  ``detector`` is its own). Perception then runs where the camera is, in parallel, and
+  the caller keeps only the bolt and the agent. Only a detector whose output is a
+  function of the images alone may go there (a classifier: same images, same
+  probabilities, whatever the batch; tested against the detector in process): a
+  detector that draws noise or reads the truth stays with the bolt;
 * a world splits only if its factory takes ``shard=(first, total)``, meaning "these
   ``num_envs`` games are games ``first`` .. of a world of ``total`` games with this seed,
   playing exactly as they do there" (:class:`~noisybolt.envs.breakout.BreakoutWorld`
@@ -47,12 +56,13 @@ from __future__ import annotations
 import contextlib
 import itertools
 import multiprocessing
+import pickle
 import traceback
 import weakref
 from collections.abc import Mapping, Sequence
 from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import gymnasium as gym
 import numpy as np
@@ -60,7 +70,17 @@ from gymnasium.vector import AutoresetMode
 
 from noisybolt.envs.deferred import DeferredArray
 from noisybolt.errors import ConfigError, WorldWorkerError
-from noisybolt.perception.protocols import FINAL_INFO_KEY, CameraSpec, goal_declared
+from noisybolt.perception.protocols import (
+    BOLT_IMAGE_KEY,
+    BOLT_PROBS_KEY,
+    FINAL_INFO_KEY,
+    CameraSpec,
+    FluentDetector,
+    goal_declared,
+)
+
+if TYPE_CHECKING:  # torch stays out of the fork server (see _context)
+    from noisybolt.perception.classifier import ClassifierDetector
 
 __all__ = ["WorkerWorld"]
 
@@ -83,6 +103,9 @@ class WorkerWorld(gym.vector.VectorEnv):
         shard: ``(first, total)``: these ``num_envs`` games are games ``first`` .. of a
             world of ``total`` games with this seed (None: the whole world,
             ``(0, num_envs)``); each worker's shard is placed in that world.
+        detector: a :class:`~noisybolt.perception.classifier.ClassifierDetector` each
+            worker runs on its images (``info["bolt_probs"]``, module text); None: the
+            images alone are sent.
         **settings: the world's other settings (``noise``, ``obs_mode``, ...), as
             :func:`~noisybolt.envs.registry.make_world` takes them.
 
@@ -101,8 +124,15 @@ class WorkerWorld(gym.vector.VectorEnv):
         workers: int,
         seed: int | None = None,
         shard: tuple[int, int] | None = None,
+        detector: ClassifierDetector | None = None,
         **settings: Any,
     ) -> None:
+        if detector is not None and not _is_classifier(detector):
+            raise ConfigError(
+                f"a WorkerWorld runs only a classifier in its workers (same images, same "
+                f"probabilities), not a {type(detector).__name__}: leave detector out and let "
+                "the bolt call it"
+            )
         if not 1 <= workers <= num_envs:
             raise ConfigError(
                 f"workers must be in 1..num_envs ({num_envs}) for world {name!r}, got {workers}"
@@ -123,6 +153,12 @@ class WorkerWorld(gym.vector.VectorEnv):
             (int(a), int(b - a)) for a, b in itertools.pairwise(bounds)
         )
         self._seed = seed
+        #: The detector the workers run (None: none); the bolt reads its probabilities
+        #: from ``info`` when it is the bolt's own.
+        self.detector = detector
+        # Pickled once for every worker, by value (standard pickle, not the torch
+        # reductions of multiprocessing's pickler, which would share its tensors' memory).
+        detector_bytes = None if detector is None else pickle.dumps(detector)
         self._stepping = False  # a step sent by step_async, not yet received
         context = _context()
         self._conns: list[Connection] = []
@@ -133,7 +169,16 @@ class WorkerWorld(gym.vector.VectorEnv):
             parent, child = context.Pipe()
             process = context.Process(
                 target=_work,
-                args=(child, name, offset + first, count, total, seed, dict(settings)),
+                args=(
+                    child,
+                    name,
+                    offset + first,
+                    count,
+                    total,
+                    seed,
+                    dict(settings),
+                    detector_bytes,
+                ),
                 name=f"noisybolt-world-{name}-{first}",
                 daemon=True,
             )
@@ -422,6 +467,32 @@ def _merge_infos(
     return out
 
 
+def _is_classifier(detector: Any) -> bool:
+    from noisybolt.perception.classifier import ClassifierDetector
+
+    return isinstance(detector, ClassifierDetector)
+
+
+def _with_probs(info: dict[str, Any], detector: FluentDetector) -> dict[str, Any]:
+    """``info`` (materialised) with the detector's probabilities beside its images: of
+    this step's images, and in ``final_info`` of the ended games' last views (the other
+    rows there are this step's, as the world's own ``final_info`` images are)."""
+    if BOLT_IMAGE_KEY not in info:
+        return info
+    probs = np.asarray(detector.predict(info[BOLT_IMAGE_KEY]), dtype=np.float32)
+    info[BOLT_PROBS_KEY] = probs
+    info[f"_{BOLT_PROBS_KEY}"] = np.asarray(info[f"_{BOLT_IMAGE_KEY}"], dtype=bool)
+    final = info.get(FINAL_INFO_KEY)
+    if final and BOLT_IMAGE_KEY in final:
+        ended = np.asarray(final[f"_{BOLT_IMAGE_KEY}"], dtype=bool)
+        last = probs.copy()
+        if ended.any():
+            last[ended] = detector.predict(np.asarray(final[BOLT_IMAGE_KEY])[ended])
+        final[BOLT_PROBS_KEY] = last
+        final[f"_{BOLT_PROBS_KEY}"] = ended
+    return info
+
+
 def _work(
     conn: Connection,
     name: str,
@@ -430,6 +501,7 @@ def _work(
     total: int,
     seed: int,
     settings: dict[str, Any],
+    detector_bytes: bytes | None = None,
 ) -> None:
     """A worker: builds its shard of the world, then serves commands until told to close
     or until its parent is gone."""
@@ -451,6 +523,15 @@ def _work(
         from noisybolt.envs.registry import make_world
 
         world: Any = make_world(name, num_envs=count, seed=seed, shard=(first, total), **settings)
+        detector = None
+        if detector_bytes is not None:
+            import torch
+
+            from noisybolt.perception.detectors import match_fluents
+
+            torch.set_num_threads(1)  # the workers are the parallelism
+            # its columns in the world's fluent order, as the bolt reads them
+            detector = match_fluents(pickle.loads(detector_bytes), tuple(world.fluent_names))
     except Exception as error:
         conn.send(("config", f"{type(error).__name__}: {error}"))
         conn.close()
@@ -484,8 +565,12 @@ def _work(
             try:
                 if command == "step":
                     result: Any = _materialised(world.step(payload))
+                    if detector is not None:
+                        result = (*result[:4], _with_probs(result[4], detector))
                 elif command == "reset":
                     result = _materialised(world.reset(**payload))
+                    if detector is not None:
+                        result = (result[0], _with_probs(result[1], detector))
                 elif command == "render":
                     result = world.render()
                 else:  # pragma: no cover - only WorkerWorld sends commands

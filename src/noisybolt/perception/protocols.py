@@ -52,6 +52,7 @@ import numpy as np
 
 __all__ = [
     "BOLT_IMAGE_KEY",
+    "BOLT_PROBS_KEY",
     "FINAL_INFO_KEY",
     "GRID_POSITION_KEY",
     "TRUE_FLUENTS_KEY",
@@ -65,6 +66,11 @@ __all__ = [
 BOLT_IMAGE_KEY = "bolt_image"
 #: ``info`` key of the true fluents of the state just reached (see the module docs).
 TRUE_FLUENTS_KEY = "true_fluents"
+#: ``info`` key of the bolt's detector's probabilities of ``bolt_image`` (float32
+#: ``[n, n_fluents]``, the world's fluent order), where the world computed them beside its
+#: camera (:class:`~noisybolt.envs.worker_world.WorkerWorld` given the run's classifier):
+#: the bolt then reads them instead of calling its detector.
+BOLT_PROBS_KEY = "bolt_probs"
 #: ``info`` key of the agent's grid cell ``(x, y)``, for worlds that declare a grid layout.
 GRID_POSITION_KEY = "grid_position"
 #: A vector env's ``info`` key of the ended episodes' last labels (Gymnasium's name).

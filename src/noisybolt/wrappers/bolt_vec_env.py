@@ -45,7 +45,7 @@ from noisybolt.envs.sb3 import SB3VecEnv
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import reads_images, reseed_detector
-from noisybolt.perception.protocols import FINAL_INFO_KEY, FluentDetector
+from noisybolt.perception.protocols import BOLT_PROBS_KEY, FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
     bolt_info,
     build_bolt,
@@ -164,8 +164,12 @@ class BoltVecEnv(VecEnvWrapper):
         self._truth = parts.truth
         self._source = source
         self._detector = parts.detector
-        # A detector that reads the truth only is handed the world's images unrendered.
-        self._reads_images = reads_images(parts.detector)
+        # A world that runs this bolt's own detector beside its camera (WorkerWorld with
+        # the run's classifier) puts its probabilities in info: read, not recomputed.
+        self._world_probs = getattr(source.venv, "detector", None) is detector
+        # A detector that reads the truth only is handed the world's images unrendered,
+        # and so are a world's probabilities' images.
+        self._reads_images = reads_images(parts.detector) and not self._world_probs
         self._thresholds = thresholds
         self._records = bool(info_records)
         super().__init__(
@@ -194,6 +198,26 @@ class BoltVecEnv(VecEnvWrapper):
         probs = self._detector.predict(images, truth=truth if self._detector.needs_truth else None)
         return detector_output(probs, self._detector, rows=len(images))
 
+    def _probs_of_world(self, where: str, rows: np.ndarray | None = None) -> np.ndarray:
+        """The detector's probabilities the world computed (``_world_probs``) of this
+        reset's or step's views (with ``rows``: of ``final_info``, the ended games' last
+        views there, this step's elsewhere)."""
+        info = self._source.batched_info
+        if rows is not None:
+            info = info.get(FINAL_INFO_KEY, {})
+        present = info.get(f"_{BOLT_PROBS_KEY}")
+        if (
+            BOLT_PROBS_KEY not in info
+            or present is None
+            or not np.all(present if rows is None else np.asarray(present)[rows])
+        ):
+            raise UnlabelledEnvError(
+                f"the world's info at {where} has no {BOLT_PROBS_KEY!r} although the world "
+                "runs the bolt's detector (its detector attribute): its workers must put "
+                "the probabilities beside the images"
+            )
+        return detector_output(info[BOLT_PROBS_KEY], self._detector, rows=self.num_envs)
+
     def _obs(self, image: Any, dfa: np.ndarray) -> dict[str, Any]:
         return {"image": image, "dfa": dfa.copy()}
 
@@ -208,7 +232,7 @@ class BoltVecEnv(VecEnvWrapper):
         """Resets every environment; every DFA reads its first observation."""
         obs = self.venv.reset()
         images, truth = self._labels("reset")
-        probs = self._probs(images, truth)
+        probs = self._probs_of_world("reset") if self._world_probs else self._probs(images, truth)
         out = self.bolt.reset(probs)
         if self._records:
             self._truth.reset(truth)
@@ -242,18 +266,27 @@ class BoltVecEnv(VecEnvWrapper):
         truncated = np.zeros(n, dtype=bool)  # SB3 flags a time limit's cut in the info
         if ended.size:
             last_images, last_truth = self._labels("step", rows=ended)
-            # One detector call for the ended episodes' last views and the new episodes'
-            # first views together (a call on a few images costs mostly its overhead):
-            # rows [0, n) are the views the step's transition reads, rows n.. the first
-            # views of the new episodes. Assembled in one buffer, one copy of the images
-            # (when read: a detector of the truth only is handed the batch unrendered).
-            batch = _views_batch(images, last_images, ended)
             truth = truth.copy()
             truth[ended] = last_truth[ended]
-            both = self._probs(batch, np.concatenate([truth, first_truth[ended]]))
-            probs, first_probs = both[:n], both[n:]
+            if self._world_probs:
+                first_probs = self._probs_of_world("step")
+                probs = first_probs.copy()
+                probs[ended] = self._probs_of_world("step", rows=ended)[ended]
+                first_probs = first_probs[ended]
+            else:
+                # One detector call for the ended episodes' last views and the new
+                # episodes' first views together (a call on a few images costs mostly its
+                # overhead): rows [0, n) are the views the step's transition reads, rows
+                # n.. the first views of the new episodes. Assembled in one buffer, one
+                # copy of the images (when read: a detector of the truth only is handed
+                # the batch unrendered).
+                batch = _views_batch(images, last_images, ended)
+                both = self._probs(batch, np.concatenate([truth, first_truth[ended]]))
+                probs, first_probs = both[:n], both[n:]
             for row in ended.tolist():
                 truncated[row] = bool(infos[row].get("TimeLimit.truncated"))
+        elif self._world_probs:
+            probs = self._probs_of_world("step")
         else:
             probs = self._probs(images, truth)
         out = self.bolt.step(probs, done=dones, truncated=truncated)
