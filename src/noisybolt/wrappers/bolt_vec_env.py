@@ -268,11 +268,10 @@ class BoltVecEnv(VecEnvWrapper):
             last_images, last_truth = self._labels("step", rows=ended)
             truth = truth.copy()
             truth[ended] = last_truth[ended]
-            if self._world_probs:
-                first_probs = self._probs_of_world("step")
-                probs = first_probs.copy()
+            if self._world_probs:  # this step's views: the new episodes' first ones
+                now = self._probs_of_world("step")
+                probs, first_probs = now.copy(), now[ended]
                 probs[ended] = self._probs_of_world("step", rows=ended)[ended]
-                first_probs = first_probs[ended]
             else:
                 # One detector call for the ended episodes' last views and the new
                 # episodes' first views together (a call on a few images costs mostly its
