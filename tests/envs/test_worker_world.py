@@ -200,27 +200,30 @@ def test_an_error_in_a_worker_is_raised_with_its_traceback() -> None:
     assert _gone(pids)
 
 
+def _run_config(workers: int) -> TrainConfig:
+    """A bolted Breakout RAM run with its world in ``workers`` processes (0: in process);
+    the envs are built with whatever detector a test hands them."""
+    return TrainConfig.build(
+        {
+            "world.name": "breakout-ram",
+            "world.workers": workers,
+            "world.kwargs": {"noise": "gaussian:sigma=30", "max_episode_frames": 320},
+            "bolt.specs": ["left_column_milestones"],
+            "bolt.reward": "paper",
+            "detector.kind": "oracle",
+            "seed": 3,
+        }
+    )
+
+
 def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
     """``world.workers`` through the run's whole stack (SB3VecEnv, the bolt, the Atari
     conventions): the same observations, rewards and ends as in process."""
 
-    def config(workers: int) -> TrainConfig:
-        return TrainConfig.build(
-            {
-                "world.name": "breakout-ram",
-                "world.workers": workers,
-                "world.kwargs": {"noise": "gaussian:sigma=30", "max_episode_frames": 320},
-                "bolt.specs": ["left_column_milestones"],
-                "bolt.reward": "paper",
-                "detector.kind": "oracle",
-                "seed": 3,
-            }
-        )
-
-    assert isinstance(make_run_world(config(0), n_envs=2, seed=0), BreakoutWorld)
+    assert isinstance(make_run_world(_run_config(0), n_envs=2, seed=0), BreakoutWorld)
     detector = OracleDetector(FLUENT_NAMES)
-    inside = make_env(config(0), detector, training=True, n_envs=3)
-    outside = make_env(config(2), detector, training=True, n_envs=3)
+    inside = make_env(_run_config(0), detector, training=True, n_envs=3)
+    outside = make_env(_run_config(2), detector, training=True, n_envs=3)
     try:
         bolted = outside
         while not isinstance(bolted, BoltVecEnv):
@@ -280,19 +283,6 @@ def test_a_classifier_runs_in_the_workers_with_the_bolts_own_results() -> None:
     step's records (the ended games' last views and the new games' first ones included),
     the same DFA states in the observations, the same rewards."""
 
-    def config(workers: int) -> TrainConfig:
-        return TrainConfig.build(
-            {
-                "world.name": "breakout-ram",
-                "world.workers": workers,
-                "world.kwargs": {"noise": "gaussian:sigma=30", "max_episode_frames": 320},
-                "bolt.specs": ["left_column_milestones"],
-                "bolt.reward": "paper",
-                "detector.kind": "oracle",  # the config's; the envs get the classifier below
-                "seed": 3,
-            }
-        )
-
     camera = make_breakout_world(num_envs=1, seed=0, obs_mode="ram", **SETTINGS).camera_spec
     torch.manual_seed(0)
     # its columns in another order than the world's: the workers must reorder them too
@@ -302,8 +292,8 @@ def test_a_classifier_runs_in_the_workers_with_the_bolts_own_results() -> None:
     with torch.no_grad():  # louder weights: probabilities that move with the images
         for parameter in detector.model.parameters():
             parameter.mul_(3)
-    inside = make_env(config(0), detector, training=False, n_envs=3)
-    outside = make_env(config(2), detector, training=False, n_envs=3)
+    inside = make_env(_run_config(0), detector, training=False, n_envs=3)
+    outside = make_env(_run_config(2), detector, training=False, n_envs=3)
     try:
         assert outside.world.detector is detector  # type: ignore[attr-defined]
         assert not inside._world_probs  # type: ignore[attr-defined]

@@ -49,6 +49,7 @@ __all__ = [
     "FluentLabels",
     "batched_labels_from_info",
     "blind_camera",
+    "carries",
     "collect_labelled_samples",
     "declares_goal_of",
     "fluent_names_of",
@@ -417,6 +418,15 @@ def labels_from_info(info: dict[str, Any], *, where: str) -> tuple[np.ndarray, n
         ) from None
 
 
+def carries(info: Mapping[str, Any], key: str, rows: np.ndarray | None = None) -> bool:
+    """Whether a batched ``info`` holds ``key`` for ``rows`` (default all): the key and
+    its ``_key`` mask, True on those rows."""
+    present = info.get(f"_{key}")
+    if key not in info or present is None:
+        return False
+    return bool(np.all(present if rows is None else np.asarray(present)[rows]))
+
+
 def batched_labels_from_info(
     info: Mapping[str, Any],
     n_envs: int,
@@ -444,12 +454,7 @@ def batched_labels_from_info(
             ``[n_envs, n_fluents]``.
     """
     for key in (BOLT_IMAGE_KEY, TRUE_FLUENTS_KEY):
-        present = info.get(f"_{key}")
-        if (
-            key not in info
-            or present is None
-            or not np.all(present if rows is None else np.asarray(present)[rows])
-        ):
+        if not carries(info, key, rows):
             raise UnlabelledEnvError(
                 f"an env's info at {where} has no {key!r}: a bolted vector env must put "
                 f"info[{BOLT_IMAGE_KEY!r}] and info[{TRUE_FLUENTS_KEY!r}] (with their '_' "

@@ -40,7 +40,7 @@ from noisybolt.bolt import (
     confidence_bands,
 )
 from noisybolt.envs.deferred import DeferredArray
-from noisybolt.envs.labels import batched_labels_from_info
+from noisybolt.envs.labels import batched_labels_from_info, carries
 from noisybolt.envs.sb3 import SB3VecEnv
 from noisybolt.errors import ConfigError, UnlabelledEnvError
 from noisybolt.logic.dfa import DFA
@@ -205,12 +205,7 @@ class BoltVecEnv(VecEnvWrapper):
         info = self._source.batched_info
         if rows is not None:
             info = info.get(FINAL_INFO_KEY, {})
-        present = info.get(f"_{BOLT_PROBS_KEY}")
-        if (
-            BOLT_PROBS_KEY not in info
-            or present is None
-            or not np.all(present if rows is None else np.asarray(present)[rows])
-        ):
+        if not carries(info, BOLT_PROBS_KEY, rows):
             raise UnlabelledEnvError(
                 f"the world's info at {where} has no {BOLT_PROBS_KEY!r} although the world "
                 "runs the bolt's detector (its detector attribute): its workers must put "
