@@ -216,6 +216,25 @@ def _run_config(workers: int) -> TrainConfig:
     )
 
 
+def _lockstep(inside: Any, outside: Any, *, steps: int) -> Any:
+    """Seeds and resets two bolted envs of 3 games alike, then steps them with the same
+    random actions, asserting the same observations (before each step), rewards and
+    dones; yields ``(step, dones, infos inside, infos outside)`` after each step."""
+    inside.seed(3)
+    outside.seed(3)
+    a: Any = inside.reset()
+    b: Any = outside.reset()
+    rng = np.random.default_rng(2)
+    for step in range(steps):
+        for key in a:
+            assert np.array_equal(a[key], b[key]), (step, key)
+        actions = rng.integers(0, 4, 3)
+        a, ra, da, ia = inside.step(actions)
+        b, rb, db, ib = outside.step(actions)
+        assert np.array_equal(ra, rb) and np.array_equal(da, db), step
+        yield step, da, ia, ib
+
+
 def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
     """``world.workers`` through the run's whole stack (SB3VecEnv, the bolt, the Atari
     conventions): the same observations, rewards and ends as in process."""
@@ -229,18 +248,8 @@ def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
         while not isinstance(bolted, BoltVecEnv):
             bolted = bolted.venv  # type: ignore[attr-defined]
         assert isinstance(bolted.world, WorkerWorld)
-        inside.seed(3)
-        outside.seed(3)
-        a: Any = inside.reset()
-        b: Any = outside.reset()
-        rng = np.random.default_rng(2)
-        for step in range(200):
-            for key in a:
-                assert np.array_equal(a[key], b[key]), (step, key)
-            actions = rng.integers(0, 4, 3)
-            a, ra, da, _ = inside.step(actions)
-            b, rb, db, _ = outside.step(actions)
-            assert np.array_equal(ra, rb) and np.array_equal(da, db), step
+        for _ in _lockstep(inside, outside, steps=200):
+            pass
     finally:
         outside.close()
         inside.close()
@@ -298,22 +307,14 @@ def test_a_classifier_runs_in_the_workers_with_the_bolts_own_results() -> None:
         assert outside.world.detector is detector  # type: ignore[attr-defined]
         assert not inside._world_probs  # type: ignore[attr-defined]
         assert outside._world_probs  # type: ignore[attr-defined]
-        inside.seed(3)
-        outside.seed(3)
-        a: Any = inside.reset()
-        b: Any = outside.reset()
-        for ours, theirs in zip(inside.reset_infos, outside.reset_infos, strict=True):
-            np.testing.assert_allclose(ours["fluent_probs"], theirs["fluent_probs"], atol=1e-5)
-        rng = np.random.default_rng(2)
         ended = 0
         seen: list[np.ndarray] = []
-        for step in range(200):
-            for key in a:
-                assert np.array_equal(a[key], b[key]), (step, key)
-            actions = rng.integers(0, 4, 3)
-            a, ra, da, ia = inside.step(actions)
-            b, rb, db, ib = outside.step(actions)
-            assert np.array_equal(ra, rb) and np.array_equal(da, db), step
+        for step, da, ia, ib in _lockstep(inside, outside, steps=200):
+            if step == 0:  # the reset's records (a step leaves them)
+                for ours, theirs in zip(inside.reset_infos, outside.reset_infos, strict=True):
+                    np.testing.assert_allclose(
+                        ours["fluent_probs"], theirs["fluent_probs"], atol=1e-5
+                    )
             # the same network on the same images; a batch of another size may round
             # the last bit of a float32 differently
             ours = np.stack([info["fluent_probs"] for info in ia])
