@@ -1,13 +1,15 @@
-"""Shared test settings: one torch thread (see FACTS.md), Hypothesis profiles; the
-repository's scripts as modules (``load_script``); a user's world module in a test's own
-directory (``world_module``)."""
+"""Shared test settings: one torch thread (see FACTS.md), Hypothesis profiles, SB3's log
+folder in one temporary folder; the repository's scripts as modules (``load_script``); a
+user's world module in a test's own directory (``world_module``)."""
 
 from __future__ import annotations
 
+import atexit
 import importlib.util
 import os
 import shutil
 import sys
+import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
@@ -15,6 +17,12 @@ from types import ModuleType
 from hypothesis import HealthCheck, settings
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+# SB3's learn() without a tensorboard folder makes a new empty tempdir/SB3-<time> folder
+# per call (its logger.configure), which a test suite leaves behind by the hundred: they
+# all go to one folder of this session, removed at exit.
+if "SB3_LOGDIR" not in os.environ:
+    os.environ["SB3_LOGDIR"] = tempfile.mkdtemp(prefix="noisybolt-tests-sb3-")
+    atexit.register(shutil.rmtree, os.environ["SB3_LOGDIR"], ignore_errors=True)
 
 settings.register_profile(
     "default", deadline=None, suppress_health_check=[HealthCheck.too_slow], max_examples=100

@@ -1,9 +1,11 @@
 """Starting a run's network from a saved agent (``algorithm.init_from``): the new run's
 policy is the saved one's tensor for tensor, it keeps a copy of what it started from, a
-resume never reads the source again, and a source that does not fit is refused by name."""
+resume never reads the source again, a source of other specs starts it playing as the
+source did at its specs' start, and a source that does not fit is refused by name."""
 
 from __future__ import annotations
 
+import copy
 import io
 import json
 import shutil
@@ -11,6 +13,7 @@ import zipfile
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import torch
 
@@ -80,6 +83,64 @@ def started(monkeypatch: pytest.MonkeyPatch) -> list[dict[str, torch.Tensor]]:
 
     monkeypatch.setattr(training, "_learn", spy)
     return seen
+
+
+@pytest.fixture
+def policies(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """A copy of the policy each training starts to learn with."""
+    seen: list[Any] = []
+    learn = training._learn
+
+    def spy(config: TrainConfig, run: object, model: Any, *args: Any, **kwargs: Any) -> Any:
+        seen.append(copy.deepcopy(model.policy))
+        return learn(config, run, model, *args, **kwargs)
+
+    monkeypatch.setattr(training, "_learn", spy)
+    return seen
+
+
+def _outputs(policy: Any, images: torch.Tensor, states: np.ndarray) -> torch.Tensor:
+    """Action probabilities and values of a policy (PPO) or Q-values (DQN)."""
+    obs = {"image": images, "dfa": torch.as_tensor(states)}
+    with torch.no_grad():
+        if hasattr(policy, "q_net"):
+            return policy.q_net(obs)
+        probs = policy.get_distribution(obs).distribution.probs
+        return torch.cat([probs, policy.predict_values(obs)], dim=1)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "dqn"])
+def test_an_agent_of_other_specs_starts_playing_as_the_source_did_at_its_start(
+    algo: str, tmp_path: Path, policies: list[Any]
+) -> None:
+    overrides = {"algorithm.name": algo, "frames": 128 if algo == "dqn" else 256}
+    source = tmp_path / "source"
+    train(_config(**overrides), source, log=lambda _: None)  # specs: G(on_edge)
+    # the source's own network, as a run of its specs starts from it (tested above)
+    same = _config(**overrides, **{"algorithm.init_from": str(source)})
+    train(same, tmp_path / "same", log=lambda _: None)
+    theirs = policies[-1]
+    lines: list[str] = []
+    specs = ["avoid_top_right", "F(top_right_corner) & F(on_edge)"]  # DFAs of 2 and 4 states
+    out = tmp_path / "respecified"
+    settings = {**overrides, "algorithm.init_from": str(source), "bolt.specs": specs}
+    train(_config(**settings), out, log=lines.append)
+    mine = policies[-1]
+    assert mine.observation_space["dfa"].nvec.tolist() == [2, 4]
+    assert theirs.observation_space["dfa"].nvec.tolist() == [2]
+    rng = np.random.default_rng(0)
+    space = theirs.observation_space["image"]
+    images = torch.as_tensor(rng.integers(0, 256, (64, *space.shape)), dtype=torch.float32)
+    # G(on_edge)'s DFA: 0 while on the edge (its first state), 1 once it left it (a sink)
+    first, left = np.zeros((64, 1), dtype=np.int64), np.ones((64, 1), dtype=np.int64)
+    expected = _outputs(theirs, images, first)
+    assert not torch.allclose(expected, _outputs(theirs, images, left), atol=1e-4)  # it reads them
+    for states in ([0, 0], [1, 3], [0, 2]):  # whatever state the new specs are in
+        new_states = np.tile(np.asarray(states, dtype=np.int64), (64, 1))
+        assert torch.allclose(_outputs(mine, images, new_states), expected, atol=1e-5)
+    assert any("trained with the specs ['G(on_edge)']: it plays as it did" in x for x in lines)
+    assert (out / INIT_MODEL).read_bytes() == (source / "model.zip").read_bytes()
+    assert not _same(_policy(out / "model.zip"), _policy(source / "model.zip"))
 
 
 def test_a_run_starts_from_the_saved_policy_and_keeps_a_copy(
@@ -166,9 +227,14 @@ def test_sources_that_do_not_fit_are_refused_by_name(source: Path, tmp_path: Pat
     (tmp_path / "junk.zip").write_bytes(b"not a zip")
     with pytest.raises(CorruptFileError, match="is not a readable saved agent"):
         weights(tmp_path / "junk.zip")
-    # its run directory says other specs: the DFA states it observed were others
-    with pytest.raises(IncompatibleError, match=r"specs \['G\(on_edge\)'\].*same specs"):
+    # its run directory says other specs: their DFAs need the world's fluents
+    with pytest.raises(IncompatibleError, match=r"specs \['G\(on_edge\)'\].*world's fluents"):
         weights(source, **{"bolt.specs": ["avoid_top_right"]})
+    with pytest.raises(IncompatibleError, match=r"'G\(on_edge\)', which does not compile"):
+        read_initial_weights(
+            _config(**{"algorithm.init_from": str(source), "bolt.specs": ["avoid_top_right"]}),
+            ("top_right_corner",),
+        )
     with pytest.raises(IncompatibleError, match="DQN"):
         weights(source, **{"algorithm.name": "dqn"})
     other_world = tmp_path / "other-world"

@@ -226,7 +226,7 @@ def train(
     fresh = _make_model(config, env, tensorboard_log=tensorboard) if not resume else None
     initial = None
     if fresh is not None and config.algorithm.init_from is not None:
-        initial = read_initial_weights(config)
+        initial = read_initial_weights(config, setup.fluents)
         apply_initial_weights(fresh, initial)
     log(describe_scheme(config))  # once every check has passed
     if initial is not None:

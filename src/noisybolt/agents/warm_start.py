@@ -13,12 +13,23 @@ and reward normaliser cost some play at first: a Breakout RAM agent scoring 10 d
 The source is a run directory (its final ``model.zip``, or its latest checkpoint's while
 it trains), a checkpoint folder (``checkpoints/step_N``, ``best/step_N``) or a
 ``model.zip``. Its weights load as the run's own models do: the JSON entry and torch's
-``weights_only`` state dict, nothing unpickled. They must fit the new network tensor for
-tensor; where the source's run directory tells (its ``config.json``), its world and its
-specs must also be the new run's, since the agent's observation holds the world's view and
-the specs' DFA states: a network trained on other specs would read the states of these as
-those of its own. PPO and A2C share their policy, so one may start the other; DQN's
-Q-network starts DQN only.
+``weights_only`` state dict, nothing unpickled. Where the source's run directory tells (its
+``config.json``), its world must be the new run's. PPO and A2C share their policy, so one
+may start the other; DQN's Q-network starts DQN only.
+
+The agent observes the world and its specs' DFA states (one-hot, or beliefs over them),
+joined after the world's features. **Same specs** (same formulas in the same order): the
+network is the source's, tensor for tensor. **Other specs** (a player trained unbolted or
+under other wishes, restrained now by new ones; its run directory must say its specs): the
+world's part of the network is the source's; the layers that read the joined features
+(the first of each of the policy's and value's nets, or their heads where those nets are
+empty; the Q-networks' first layers) keep their columns for the world's features, start
+those for the new DFA states at zero, and take into their biases what the source's own
+DFA states before any letter added to them. So the new run first plays exactly as the
+source did at the start of its specs' episodes, whatever state the new specs are in, and
+learns what their states mean: a network trained on other specs would otherwise read the
+new states as those of its own. A bare ``model.zip`` (no run directory) tells no specs: it
+must fit the new network tensor for tensor.
 
 The new run keeps a copy of the file it started from (``init_model.zip``), so the run
 stays reproducible when the source run trains on or is deleted; a resume continues from
@@ -30,19 +41,29 @@ from __future__ import annotations
 import io
 import pickle
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.dqn.policies import DQNPolicy
+from torch import nn
 
 from noisybolt.agents.checkpoints import MODEL, latest_checkpoint
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.models import ALGO_KEY, read_model_data
-from noisybolt.errors import ConfigError, CorruptFileError, IncompatibleError, NoCheckpointError
+from noisybolt.errors import (
+    ConfigError,
+    CorruptFileError,
+    IncompatibleError,
+    NoCheckpointError,
+    NoisyboltError,
+)
 from noisybolt.io import read_json
+from noisybolt.logic import compile_ltlf
 from noisybolt.rundir import RunDirectory
 
 __all__ = [
@@ -71,6 +92,10 @@ class InitialWeights:
         frames: the frames it had trained (None if the file does not say).
         state_dict: the policy's tensors, on the CPU.
         content: the file's bytes (what the new run keeps as :data:`INIT_MODEL`).
+        source_specs: the source's spec formulas where they are not the new run's (None:
+            the same specs, or a bare file that does not say).
+        source_starts: per source spec where they differ, ``(states, state before any
+            letter)`` of its DFA: where its one-hot block lies in the source's features.
     """
 
     path: Path
@@ -78,12 +103,20 @@ class InitialWeights:
     frames: int | None
     state_dict: Mapping[str, torch.Tensor]
     content: bytes
+    source_specs: tuple[str, ...] | None = None
+    source_starts: tuple[tuple[int, int], ...] = ()
 
     def describe(self) -> str:
         """One line for the training's log."""
         trained = f" trained {self.frames:,} frames" if self.frames is not None else ""
         algo = f"{self.algo.upper()} agent" if self.algo else "agent"
-        return f"the agent's network starts from {self.path} (a {algo}{trained})"
+        line = f"the agent's network starts from {self.path} (a {algo}{trained})"
+        if self.source_specs is not None:
+            line += (
+                f"; it was trained with the specs {list(self.source_specs)}: it plays as it "
+                "did at their start, and this run's DFA states start with zero weight"
+            )
+        return line
 
 
 def find_initial_model(path: str | Path) -> Path:
@@ -127,15 +160,22 @@ def _source_config(model: Path) -> dict[str, Any] | None:
     return None
 
 
-def read_initial_weights(config: TrainConfig) -> InitialWeights:
+def read_initial_weights(
+    config: TrainConfig, fluents: Sequence[str] | None = None
+) -> InitialWeights:
     """Reads the saved agent ``config.algorithm.init_from`` names, checked against the
-    new run's algorithm, world and specs (where its run directory says them).
+    new run's algorithm and world (where its run directory says it).
+
+    ``fluents``: the world's fluents, over which a source of other specs has its specs
+    compiled (their DFAs' sizes and first states); :func:`~noisybolt.agents.training.train`
+    gives them. Without them a source must have the new run's specs.
 
     Raises:
         ConfigError, NoCheckpointError: as :func:`find_initial_model`.
         CorruptFileError: the file is not an SB3 model archive with a policy.
-        IncompatibleError: saved by an algorithm whose policy differs, or in a run of
-            another world or other specs.
+        IncompatibleError: saved by an algorithm whose policy differs, in a run of
+            another world, or of other specs that do not compile over ``fluents`` (or
+            with no ``fluents`` given).
     """
     assert config.algorithm.init_from is not None
     path = find_initial_model(config.algorithm.init_from)
@@ -172,46 +212,163 @@ def read_initial_weights(config: TrainConfig) -> InitialWeights:
             f"{algo.upper()} run from it, or give a {new.upper()} agent"
         )
     source = _source_config(path)
+    source_specs: tuple[str, ...] | None = None
+    starts: tuple[tuple[int, int], ...] = ()
     if source is not None:
-        _check_same_observation(path, source, config.to_dict())
+        new_config = config.to_dict()
+        if source["world"]["name"] != new_config["world"]["name"]:
+            raise IncompatibleError(
+                f"algorithm.init_from: {path} was trained on the world "
+                f"{source['world']['name']!r}, this run plays {new_config['world']['name']!r}; "
+                "start from an agent of this world"
+            )
+        if _formulas(source) != _formulas(new_config):
+            source_specs = _formulas(source)
+            starts = _dfa_starts(path, source_specs, _formulas(new_config), fluents)
     return InitialWeights(
-        path=path, algo=algo, frames=frames, state_dict=state_dict, content=content
+        path=path,
+        algo=algo,
+        frames=frames,
+        state_dict=state_dict,
+        content=content,
+        source_specs=source_specs,
+        source_starts=starts,
     )
 
 
-def _check_same_observation(path: Path, source: Mapping[str, Any], new: Mapping[str, Any]) -> None:
-    """Refuses a source run of another world or other specs (what the agent observes)."""
-    if source["world"]["name"] != new["world"]["name"]:
-        raise IncompatibleError(
-            f"algorithm.init_from: {path} was trained on the world {source['world']['name']!r}, "
-            f"this run plays {new['world']['name']!r}; start from an agent of this world"
-        )
+def _formulas(config: Mapping[str, Any]) -> tuple[str, ...]:
+    return tuple(str(spec.get("formula")) for spec in config["bolt"]["specs"])
 
-    def formulas(config: Mapping[str, Any]) -> list[str]:
-        return [str(spec.get("formula")) for spec in config["bolt"]["specs"]]
 
-    if formulas(source) != formulas(new):
+def _dfa_starts(
+    path: Path,
+    source_specs: Sequence[str],
+    new_specs: Sequence[str],
+    fluents: Sequence[str] | None,
+) -> tuple[tuple[int, int], ...]:
+    """``(states, state before any letter)`` of each of the source's specs' DFAs, compiled
+    over the world's ``fluents`` as its run compiled them."""
+    if fluents is None:
         raise IncompatibleError(
-            f"algorithm.init_from: {path} was trained with the specs {formulas(source)} and "
-            f"this run has {formulas(new)}; the agent observes its specs' DFA states, so it "
-            "must start from an agent of the same specs in the same order (bolted or not)"
+            f"algorithm.init_from: {path} was trained with the specs {list(source_specs)} and "
+            f"this run has {list(new_specs)}; to start from an agent of other specs give the "
+            "world's fluents (read_initial_weights(config, fluents); train() does)"
         )
+    starts = []
+    for formula in source_specs:
+        try:
+            dfa = compile_ltlf(formula, tuple(fluents))
+        except (NoisyboltError, RecursionError) as error:
+            raise IncompatibleError(
+                f"algorithm.init_from: {path} was trained with the spec {formula!r}, which "
+                f"does not compile over this world's fluents {list(fluents)} "
+                f"({type(error).__name__}: {str(error)[:200]}); start from an agent of this "
+                "world"
+            ) from None
+        starts.append((int(dfa.n_states), int(dfa.initial_state)))
+    return tuple(starts)
+
+
+def _feature_readers(policy: nn.Module) -> list[tuple[str, Any]]:
+    """The layers that read the policy's joined features (world's, then DFA states'),
+    each with the extractor that makes its input: the first linear layer of the actor's
+    and the critic's nets (their heads where the nets are empty); the first layer of the
+    Q-network and of its target."""
+    names = {id(module): name for name, module in policy.named_modules()}
+
+    def first_linear(net: nn.Module, otherwise: nn.Module | None) -> str | None:
+        layer = next((m for m in net.modules() if isinstance(m, nn.Linear)), otherwise)
+        return None if layer is None else names[id(layer)]
+
+    pairs: list[tuple[str | None, Any]]
+    if isinstance(policy, ActorCriticPolicy):
+        pairs = [
+            (
+                first_linear(policy.mlp_extractor.policy_net, policy.action_net),
+                policy.pi_features_extractor,
+            ),
+            (
+                first_linear(policy.mlp_extractor.value_net, policy.value_net),
+                policy.vf_features_extractor,
+            ),
+        ]
+    elif isinstance(policy, DQNPolicy):
+        pairs = [
+            (first_linear(q.q_net, None), q.features_extractor)
+            for q in (policy.q_net, policy.q_net_target)
+        ]
+    else:
+        pairs = [(None, policy)]
+    if any(name is None or not hasattr(extractor, "n_dfa") for name, extractor in pairs):
+        raise IncompatibleError(
+            f"algorithm.init_from: a source of other specs starts SB3's actor-critic or DQN "
+            f"policy on noisybolt's features extractor, not a {type(policy).__name__}; start "
+            "from an agent of the same specs"
+        )
+    return [(name, extractor) for name, extractor in pairs if name is not None]
+
+
+def _respecified(policy: nn.Module, weights: InitialWeights) -> dict[str, torch.Tensor]:
+    """The source's tensors for a network of other specs (see the module's text): each
+    layer that reads the joined features keeps its world columns, starts its DFA columns
+    at zero and folds the source's first DFA states into its bias.
+
+    Raises:
+        IncompatibleError: the source's layers are not as wide as its world's features
+            and its specs' DFA states (a network of other hyperparameters).
+    """
+    state = dict(weights.state_dict)
+    onehot = torch.zeros(sum(n for n, _ in weights.source_starts))
+    offset = 0
+    for n_states, first in weights.source_starts:
+        onehot[offset + first] = 1.0
+        offset += n_states
+    for name, extractor in _feature_readers(policy):
+        n_world = int(extractor.features_dim) - int(extractor.n_dfa)
+        weight, bias = state.get(f"{name}.weight"), state.get(f"{name}.bias")
+        if (
+            weight is None
+            or bias is None
+            or weight.ndim != 2
+            or weight.shape[1] != n_world + onehot.numel()
+        ):
+            shape = None if weight is None else tuple(weight.shape)
+            raise IncompatibleError(
+                f"algorithm.init_from: the network saved in {weights.path} does not fit this "
+                f"run's: its {name}.weight is {shape}, where the world's {n_world} features "
+                f"and its specs' {onehot.numel()} DFA states make {n_world + onehot.numel()} "
+                "inputs; the world's observation and the network's hyperparameters "
+                "(image_features, cnn, net_arch) must be the saved agent's"
+            )
+        dfa_columns = weight[:, n_world:].to(torch.float64)
+        state[f"{name}.bias"] = (bias.to(torch.float64) + dfa_columns @ onehot.double()).to(
+            bias.dtype
+        )
+        state[f"{name}.weight"] = torch.cat(
+            [weight[:, :n_world], weight.new_zeros(weight.shape[0], int(extractor.n_dfa))], dim=1
+        )
+    return state
 
 
 def apply_initial_weights(model: BaseAlgorithm, weights: InitialWeights) -> None:
-    """Loads ``weights`` into ``model``'s policy, every tensor of the same name and shape.
+    """Loads ``weights`` into ``model``'s policy, every tensor of the same name and shape
+    (for a source of other specs, the layers that read the DFA states as the module's text
+    says).
 
     Raises:
         IncompatibleError: naming the tensors that are missing, extra or shaped otherwise
             (another network, observation or action space).
     """
     target = model.policy.state_dict()
-    missing = sorted(set(target) - set(weights.state_dict))
-    extra = sorted(set(weights.state_dict) - set(target))
+    source = (
+        weights.state_dict if weights.source_specs is None else _respecified(model.policy, weights)
+    )
+    missing = sorted(set(target) - set(source))
+    extra = sorted(set(source) - set(target))
     shapes = [
-        f"{key} {tuple(weights.state_dict[key].shape)} vs {tuple(tensor.shape)}"
+        f"{key} {tuple(source[key].shape)} vs {tuple(tensor.shape)}"
         for key, tensor in target.items()
-        if key in weights.state_dict and weights.state_dict[key].shape != tensor.shape
+        if key in source and source[key].shape != tensor.shape
     ]
     if missing or extra or shapes:
         detail = "; ".join(
@@ -229,4 +386,4 @@ def apply_initial_weights(model: BaseAlgorithm, weights: InitialWeights) -> None
             "actions and the network's hyperparameters (image_features, cnn, net_arch) must "
             "be the saved agent's"
         )
-    model.policy.load_state_dict(dict(weights.state_dict))
+    model.policy.load_state_dict(dict(source))

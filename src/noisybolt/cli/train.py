@@ -176,8 +176,9 @@ def register(subparsers: Any) -> None:
         "--init-from",
         metavar="PATH",
         help="start the agent's network from a saved agent (a run directory, a checkpoint "
-        "folder or a model.zip of the same world and specs, bolted or not) instead of random "
-        "weights: a bolt put on an agent that already plays; the run keeps a copy",
+        "folder or a model.zip of the same world, bolted or not; a run directory of other "
+        "specs starts this run's DFA states at zero weight) instead of random weights: a "
+        "bolt put on an agent that already plays; the run keeps a copy",
     )
     train.add_argument(
         "--hp-file",
