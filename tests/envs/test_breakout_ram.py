@@ -73,8 +73,38 @@ def test_ram_world_plays_the_image_worlds_game_and_shows_the_bolt_the_same():
     assert rewards.dtype == np.float64
 
 
+def test_ram_bits_are_the_bytes_bits_most_significant_first():
+    bytes_world = make_world("breakout-ram", **SETTINGS)
+    bits_world = make_world("breakout-ram", **SETTINGS, obs_mode="ram_bits")
+    assert bits_world.single_observation_space == gym.spaces.Box(0, 1, (1024,), np.uint8)
+    obs, _ = bytes_world.reset(seed=11)
+    bits, _ = bits_world.reset(seed=11)
+    rng = np.random.default_rng(1)
+    ended = 0
+    for _ in range(150):
+        assert bits.dtype == np.uint8 and bits_world.observation_space.contains(bits)
+        rams = np.rint(obs * 255).astype(np.uint8)
+        # the left column's bricks are the top two bits of bytes 30-35 (the module's map):
+        # one input each, bits 8 * byte and 8 * byte + 1
+        for byte in range(30, 36):
+            np.testing.assert_array_equal(bits[:, 8 * byte], rams[:, byte] >> 7)
+            np.testing.assert_array_equal(bits[:, 8 * byte + 1], (rams[:, byte] >> 6) & 1)
+        for j in range(8):
+            np.testing.assert_array_equal(bits[:, j::8], (rams >> (7 - j)) & 1)
+        actions = rng.integers(0, 4, size=3)
+        obs, rewards, terminated, truncated, info = bytes_world.step(actions)
+        bits, bits_rewards, bits_terminated, _, bits_info = bits_world.step(actions)
+        np.testing.assert_array_equal(rewards, bits_rewards)
+        np.testing.assert_array_equal(terminated, bits_terminated)
+        for i in np.flatnonzero(terminated | truncated):
+            ended += 1
+            last = np.rint(info["final_obs"][i] * 255).astype(np.uint8)
+            np.testing.assert_array_equal(bits_info["final_obs"][i], np.unpackbits(last))
+    assert ended >= 3
+
+
 def test_obs_mode_is_a_setting_of_both_factories():
-    assert OBS_MODES == ("stack", "ram")
+    assert OBS_MODES == ("stack", "ram", "ram_bits")
     via_setting = make_world("breakout", num_envs=1, seed=0, obs_mode="ram")
     assert via_setting.single_observation_space == gym.spaces.Box(0.0, 1.0, (128,), np.float32)
     stack = make_world("breakout-ram", num_envs=1, seed=0, obs_mode="stack")

@@ -107,9 +107,11 @@ LEFT_ROW_FLUENTS: tuple[str, ...] = tuple(f"left_gone_row{r}" for r in range(BRI
 #: Every Breakout fluent, in the column order of :func:`breakout_fluents`.
 FLUENT_NAMES: tuple[str, ...] = ("brick_clear_left", *LEFT_ROW_FLUENTS)
 BRICK_COLUMNS = 18
-#: The agent's observations: ``stack`` (the preprocessed grey frames, for the convolutions)
-#: or ``ram`` (the console's 128 RAM bytes scaled to [0, 1], for a dense network).
-OBS_MODES: tuple[str, ...] = ("stack", "ram")
+#: The agent's observations: ``stack`` (the preprocessed grey frames, for the convolutions),
+#: ``ram`` (the console's 128 RAM bytes scaled to [0, 1], for a dense network) or
+#: ``ram_bits`` (the same bytes as their 1,024 bits, 0 or 1: Breakout keeps its wall as bit
+#: fields, one brick per bit, which a byte scaled to [0, 1] blurs into one number).
+OBS_MODES: tuple[str, ...] = ("stack", "ram", "ram_bits")
 RAM_SIZE = 128
 
 #: ``(byte group base, bit mask)`` of each brick column, left to right; a brick of row
@@ -250,8 +252,9 @@ class BreakoutWorld(gym.vector.VectorEnv):
     Observations (``obs_mode="stack"``): uint8
     ``[num_envs, frame_stack, 84, 84]``; with ``obs_mode="ram"``: float32 ``[num_envs,
     128]``, the RAM bytes divided by 255 (SB3 scales only images, and raw bytes up to 255
-    would swamp a dense layer's initial weights). Actions: ``Discrete(4)`` per game (NOOP,
-    FIRE, RIGHT, LEFT); rewards: the game score gained.
+    would swamp a dense layer's initial weights); with ``obs_mode="ram_bits"``: uint8
+    ``[num_envs, 1024]``, each byte's bits (most significant first), 0 or 1. Actions:
+    ``Discrete(4)`` per game (NOOP, FIRE, RIGHT, LEFT); rewards: the game score gained.
 
     Args:
         num_envs: number of games.
@@ -274,10 +277,11 @@ class BreakoutWorld(gym.vector.VectorEnv):
             for FIRE to serve the ball, and an agent that has not learnt to press it
             wastes its episode until truncation. Off by default (plain ALE v5); the
             Breakout training settings turn it on (``configs/hyperparams/breakout.yaml``).
-        obs_mode: the agent's observation, one of :data:`OBS_MODES`. ``ram`` skips the
-            grey frames altogether (``frame_stack`` and ``screen_size`` are then unused);
-            the bolt's camera, fluents and everything else are the same in both, so a RAM
-            agent is watched by the same noisy camera and classifier as an image agent.
+        obs_mode: the agent's observation, one of :data:`OBS_MODES`. ``ram`` and
+            ``ram_bits`` skip the grey frames altogether (``frame_stack`` and
+            ``screen_size`` are then unused); the bolt's camera, fluents and everything
+            else are the same in all, so a RAM agent is watched by the same noisy camera
+            and classifier as an image agent.
         shard: ``(first, total)``: these ``num_envs`` games are games ``first`` ..
             ``first + num_envs - 1`` of a world of ``total`` games with this ``seed``, and
             play exactly as those do there (each game's ALE, no-ops and camera noise are
@@ -352,7 +356,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self.max_episode_frames = max_episode_frames
         self.fire_on_reset = bool(fire_on_reset)
         self.obs_mode = obs_mode
-        self._ram_obs = obs_mode == "ram"
+        self._ram_obs = obs_mode in ("ram", "ram_bits")
         self._noise = noise_fn
         self._seed = seed
 
@@ -367,11 +371,15 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self._seed_all(seed)
         self._actions = self._ales[0].getMinimalActionSet()
 
-        self.single_observation_space: spaces.Box = (
-            spaces.Box(0.0, 1.0, (RAM_SIZE,), np.float32)
-            if self._ram_obs
-            else spaces.Box(0, 255, (frame_stack, screen_size, screen_size), np.uint8)
-        )
+        self.single_observation_space: spaces.Box
+        if obs_mode == "ram_bits":
+            self.single_observation_space = spaces.Box(0, 1, (8 * RAM_SIZE,), np.uint8)
+        elif self._ram_obs:
+            self.single_observation_space = spaces.Box(0.0, 1.0, (RAM_SIZE,), np.float32)
+        else:
+            self.single_observation_space = spaces.Box(
+                0, 255, (frame_stack, screen_size, screen_size), np.uint8
+            )
         self.single_action_space = spaces.Discrete(len(self._actions))
         self.observation_space = gym.vector.utils.batch_space(
             self.single_observation_space, num_envs
@@ -495,8 +503,14 @@ class BreakoutWorld(gym.vector.VectorEnv):
     def _observations(self) -> np.ndarray:
         """The agent's observations of every game now."""
         if self._ram_obs:
-            return self.rams().astype(np.float32) / np.float32(255)
+            return self._ram_view(self.rams())
         return self._stack.copy()
+
+    def _ram_view(self, rams: np.ndarray) -> np.ndarray:
+        """The agent's observation of RAM bytes ``[..., 128]`` (``ram``, ``ram_bits``)."""
+        if self.obs_mode == "ram_bits":
+            return np.unpackbits(rams, axis=-1)
+        return rams.astype(np.float32) / np.float32(255)
 
     def _info(self) -> dict[str, Any]:
         """The info of a reset or step: lives, and the bolt's labels of the states it
@@ -588,7 +602,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 self._final_rgb[i] = ale.getScreenRGB()
                 self._final_ram[i] = ale.getRAM().copy()
                 final_obs[i] = (
-                    self._final_ram[i].astype(np.float32) / np.float32(255)
+                    self._ram_view(self._final_ram[i])
                     if self._ram_obs
                     else self._stack[i].copy()
                 )
@@ -879,8 +893,8 @@ def make_breakout_world(
         seed: seeds the games and the camera noise.
         noise: the bolt camera's noise (see :func:`resolve_noise`).
         obs_mode: the agent's observation: None or ``"stack"`` (the standard preprocessed
-            grayscale frame stack) or ``"ram"`` (the 128 RAM bytes; see
-            :func:`make_breakout_ram_world`).
+            grayscale frame stack), ``"ram"`` (the 128 RAM bytes) or ``"ram_bits"`` (their
+            1,024 bits); see :func:`make_breakout_ram_world`.
         left_columns: brick columns covered by ``brick_clear_left``.
         fluents: the bolt's fluents, in order (default: all of :data:`FLUENT_NAMES`).
         camera_size: side of the bolt's square colour image.
@@ -930,7 +944,7 @@ def make_breakout_ram_world(*, obs_mode: str | None = "ram", **settings: Any) ->
     hyperparameters (``configs/hyperparams/breakout-ram.yaml``).
 
     Args:
-        obs_mode: ``"ram"`` (default) or ``"stack"``.
+        obs_mode: ``"ram"`` (default), ``"ram_bits"`` or ``"stack"``.
         **settings: every other keyword of :func:`make_breakout_world`.
 
     Raises:
