@@ -162,8 +162,7 @@ def register(subparsers: Any) -> None:
     flag("--noise", help="the bolt camera's noise (world default if unset)")
     flag(
         "--obs-mode",
-        help="the agent's observation (gridworld: grid, view, rgb; breakout: stack, ram, "
-        "ram_bits)",
+        help="the agent's observation (gridworld: grid, view, rgb; breakout: stack, ram, ram_bits)",
     )
     flag("--frames", type=parse_frames, help="e.g. 100k (default)")
     flag("--seed", type=int, help="seeds the run and its detector (detector.seed); default 0")

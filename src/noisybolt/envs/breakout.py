@@ -602,9 +602,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 self._final_rgb[i] = ale.getScreenRGB()
                 self._final_ram[i] = ale.getRAM().copy()
                 final_obs[i] = (
-                    self._ram_view(self._final_ram[i])
-                    if self._ram_obs
-                    else self._stack[i].copy()
+                    self._ram_view(self._final_ram[i]) if self._ram_obs else self._stack[i].copy()
                 )
                 self._reset_one(i)
             self._lives[i] = ale.lives()
