@@ -286,21 +286,27 @@ def test_a_worker_world_can_be_a_shard_and_step_in_two_halves() -> None:
         WorkerWorld("breakout-ram", num_envs=3, workers=1, shard=(3, 5))
 
 
+def _loud_classifier() -> ClassifierDetector:
+    """An untrained classifier of the Breakout camera whose probabilities move with the
+    images, its columns in another order than the world's (the workers must reorder)."""
+    camera = make_breakout_world(num_envs=1, seed=0, obs_mode="ram", **SETTINGS).camera_spec
+    torch.manual_seed(0)
+    detector = ClassifierDetector.untrained(
+        fluent_names=tuple(reversed(FLUENT_NAMES)), camera_spec=camera
+    )
+    with torch.no_grad():
+        for parameter in detector.model.parameters():
+            parameter.mul_(3)
+    return detector
+
+
 def test_a_classifier_runs_in_the_workers_with_the_bolts_own_results() -> None:
     """A classifier detector goes to the workers with the world: each runs it on its own
     images, and the bolted run is the one in process — the same probabilities in every
     step's records (the ended games' last views and the new games' first ones included),
     the same DFA states in the observations, the same rewards."""
 
-    camera = make_breakout_world(num_envs=1, seed=0, obs_mode="ram", **SETTINGS).camera_spec
-    torch.manual_seed(0)
-    # its columns in another order than the world's: the workers must reorder them too
-    detector = ClassifierDetector.untrained(
-        fluent_names=tuple(reversed(FLUENT_NAMES)), camera_spec=camera
-    )
-    with torch.no_grad():  # louder weights: probabilities that move with the images
-        for parameter in detector.model.parameters():
-            parameter.mul_(3)
+    detector = _loud_classifier()
     inside = make_env(_run_config(0), detector, training=False, n_envs=3)
     outside = make_env(_run_config(2), detector, training=False, n_envs=3)
     try:
@@ -334,3 +340,46 @@ def test_only_a_classifier_goes_to_the_workers() -> None:
     with pytest.raises(ConfigError, match="only a classifier"):
         oracle: Any = OracleDetector(FLUENT_NAMES)
         WorkerWorld("breakout-ram", num_envs=2, workers=2, detector=oracle)
+
+
+def test_a_learners_images_stay_in_the_workers() -> None:
+    """Training: the classifier's probabilities come back, the images do not (they keep
+    their shape, and reading them is refused by name); the learner's run is the same as in
+    process, ended games included."""
+    detector = _loud_classifier()
+    inside = make_env(_run_config(0), detector, training=True, n_envs=3)
+    outside = make_env(_run_config(2), detector, training=True, n_envs=3)
+    try:
+        bolted = outside
+        while not isinstance(bolted, BoltVecEnv):
+            bolted = bolted.venv  # type: ignore[attr-defined]
+        world = bolted.world
+        assert isinstance(world, WorkerWorld) and world.detector is detector
+        assert not world.images
+        ended = 0  # games that ended (not lives lost, which end the learner's episodes)
+        for _ in _lockstep(inside, outside, steps=200):
+            info = bolted.venv.batched_info  # type: ignore[attr-defined]
+            assert info["bolt_image"].shape == (3, 84, 84, 3)
+            assert info["bolt_probs"].shape == (3, len(FLUENT_NAMES))
+            if "final_info" in info:
+                ended += 1
+                final = info["final_info"]
+                assert final["bolt_image"].shape == (3, 84, 84, 3)
+                with pytest.raises(ConfigError, match="images=True"):
+                    np.asarray(final["bolt_image"])
+        assert ended >= 2
+        with pytest.raises(ConfigError, match=r"stayed in the world's worker.*images=True"):
+            np.asarray(info["bolt_image"])
+    finally:
+        outside.close()
+        inside.close()
+    with pytest.raises(ConfigError, match="give the detector"):
+        WorkerWorld("breakout-ram", num_envs=2, workers=2, images=False)
+    # an evaluation's world sends them (its records and recordings may read them)
+    evaluated = make_run_world(_run_config(2), n_envs=2, seed=0, detector=detector)
+    try:
+        assert evaluated.images
+        _, info = evaluated.reset(seed=0)
+        assert np.asarray(info["bolt_image"]).shape == (2, 84, 84, 3)
+    finally:
+        evaluated.close()

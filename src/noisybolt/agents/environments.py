@@ -234,7 +234,13 @@ def build_bolted_env(
     :func:`make_run_world`.
     """
     world = make_run_world(
-        config, n_envs=n_envs, seed=seed, shard=shard, workers=workers, detector=detector
+        config,
+        n_envs=n_envs,
+        seed=seed,
+        shard=shard,
+        workers=workers,
+        detector=detector,
+        images=not training,  # a learner's bolt reads the probabilities only
     )
     venv: VecEnv = VecMonitor(SB3VecEnv(world))
     if training and config.world_config.clip_reward:
@@ -265,6 +271,7 @@ def make_run_world(
     shard: tuple[int, int] | None = None,
     workers: int | None = None,
     detector: FluentDetector | None = None,
+    images: bool = True,
 ) -> Any:
     """The run's vectorised world: in this process, or with ``world.workers`` N >= 1 its
     games split over N worker processes (at most one per game; a
@@ -274,7 +281,9 @@ def make_run_world(
 
     ``shard=(first, total)``: these ``n_envs`` games are games ``first`` .. of the world
     of ``total`` games with this seed (a group of ``world.overlap``), in ``workers``
-    processes (default: ``world.workers``).
+    processes (default: ``world.workers``). ``images=False``: where a classifier runs in
+    the workers, the camera's images stay there (only its probabilities come back; no
+    one here may read ``info["bolt_image"]``).
 
     Raises:
         ConfigError: a world that cannot be split into worker processes (its factory
@@ -287,13 +296,15 @@ def make_run_world(
         return make_world(
             config.world, num_envs=n_envs, seed=seed, **place, **config.world_settings
         )
+    classifier = detector if isinstance(detector, ClassifierDetector) else None
     return WorkerWorld(
         config.world,
         num_envs=n_envs,
         workers=min(workers, n_envs),
         seed=seed,
         shard=shard,
-        detector=detector if isinstance(detector, ClassifierDetector) else None,
+        detector=classifier,
+        images=images or classifier is None,
         **config.world_settings,
     )
 
