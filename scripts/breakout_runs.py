@@ -18,9 +18,10 @@ writes ``results/breakout/summary.json`` from every kept run's evaluations.
     .venv/bin/python scripts/breakout_runs.py stop     # SIGTERM them: each saves, exits
 
 ``summary.json`` is a list, one entry per run (sorted by agent, algo, bolted, seed):
-``run``, ``agent`` (``image`` or ``ram``), ``algo``, ``seed``, ``bolted``, ``frames`` (of
-its last evaluation), ``column_cleared_share`` (share of that evaluation's episodes that
-cleared the left column, ground truth), ``left_bricks_gone`` (mean bricks of the left
+``run``, ``agent`` (``image``, ``ram`` or ``ram_bits``), ``algo``, ``seed``, ``bolted``,
+``frames`` (of its last evaluation), ``column_cleared_share`` (share of that
+evaluation's episodes that cleared the left column, ground truth), ``left_bricks_gone``
+(mean bricks of the left
 column gone at an episode's end; null for a run without the per-brick specs), ``score``
 (mean game score), ``bolt_false_acceptance`` (largest share of episodes over the specs whose
 DFA, run on what the bolt perceived, ended
@@ -206,7 +207,9 @@ def _agent(config: dict[str, Any]) -> str:
     config = nested_config(config)  # the flat configs of older runs too
     world = str(config["world"].get("name", ""))
     obs_mode = (config["world"].get("kwargs") or {}).get("obs_mode")
-    return "ram" if obs_mode == "ram" or (world.endswith("-ram") and obs_mode is None) else "image"
+    if obs_mode is None:
+        return "ram" if world.endswith("-ram") else "image"
+    return {"ram": "ram", "ram_bits": "ram_bits"}.get(obs_mode, "image")
 
 
 def summary_entry(run: Path) -> dict[str, Any] | None:

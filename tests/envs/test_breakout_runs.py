@@ -106,6 +106,8 @@ def test_agent_is_read_from_the_world_and_its_obs_mode(script: ModuleType) -> No
     assert script._agent({"world": "breakout"}) == "image"
     assert script._agent({"world": "breakout", "world_kwargs": {"obs_mode": "ram"}}) == "ram"
     assert script._agent({"world": "breakout-ram"}) == "ram"
+    bits = {"world": "breakout-ram", "world_kwargs": {"obs_mode": "ram_bits"}}
+    assert script._agent(bits) == "ram_bits"
     assert script._agent({"world": "breakout-ram", "world_kwargs": {"obs_mode": "stack"}}) == (
         "image"
     )
