@@ -235,6 +235,13 @@ def _lockstep(inside: Any, outside: Any, *, steps: int) -> Any:
         yield step, da, ia, ib
 
 
+def _bolt_of(env: Any) -> BoltVecEnv:
+    """The bolt under a run's wrappers."""
+    while not isinstance(env, BoltVecEnv):
+        env = env.venv
+    return env
+
+
 def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
     """``world.workers`` through the run's whole stack (SB3VecEnv, the bolt, the Atari
     conventions): the same observations, rewards and ends as in process."""
@@ -244,10 +251,7 @@ def test_the_run_setting_puts_the_same_bolted_world_in_workers() -> None:
     inside = make_env(_run_config(0), detector, training=True, n_envs=3)
     outside = make_env(_run_config(2), detector, training=True, n_envs=3)
     try:
-        bolted = outside
-        while not isinstance(bolted, BoltVecEnv):
-            bolted = bolted.venv  # type: ignore[attr-defined]
-        assert isinstance(bolted.world, WorkerWorld)
+        assert isinstance(_bolt_of(outside).world, WorkerWorld)
         for _ in _lockstep(inside, outside, steps=200):
             pass
     finally:
@@ -350,9 +354,7 @@ def test_a_learners_images_stay_in_the_workers() -> None:
     inside = make_env(_run_config(0), detector, training=True, n_envs=3)
     outside = make_env(_run_config(2), detector, training=True, n_envs=3)
     try:
-        bolted = outside
-        while not isinstance(bolted, BoltVecEnv):
-            bolted = bolted.venv  # type: ignore[attr-defined]
+        bolted = _bolt_of(outside)
         world = bolted.world
         assert isinstance(world, WorkerWorld) and world.detector is detector
         assert not world.images
