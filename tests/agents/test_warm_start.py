@@ -11,6 +11,7 @@ import json
 import shutil
 import zipfile
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,13 @@ import torch
 from noisybolt.agents import training
 from noisybolt.agents.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
 from noisybolt.agents.training import train
-from noisybolt.agents.warm_start import INIT_MODEL, find_initial_model, read_initial_weights
+from noisybolt.agents.warm_start import (
+    INIT_MODEL,
+    InitialWeights,
+    apply_initial_weights,
+    find_initial_model,
+    read_initial_weights,
+)
 from noisybolt.errors import ConfigError, CorruptFileError, IncompatibleError, NoCheckpointError
 
 
@@ -190,6 +197,27 @@ def test_a_running_source_gives_its_latest_checkpoint_and_a2c_starts_from_ppo(
     assert not _same(checkpoint, _policy(source / "model.zip"))
 
 
+def test_the_source_is_read_before_the_minutes_of_checks(
+    source: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    started: list[dict[str, torch.Tensor]],
+) -> None:
+    """A checkpoint its run rotates away while the new run checks its bolt (the set-up
+    plays the world, may train a classifier) still starts the new run."""
+    copy = tmp_path / "source"
+    shutil.copytree(source, copy)
+    prepare = training.prepare_bolt
+
+    def rotated(*args: Any, **kwargs: Any) -> Any:
+        shutil.rmtree(copy)
+        return prepare(*args, **kwargs)
+
+    monkeypatch.setattr(training, "prepare_bolt", rotated)
+    train(_config(**{"algorithm.init_from": str(copy)}), tmp_path / "run", log=lambda _: None)
+    assert _same(started[-1], _policy(source / "model.zip"))
+
+
 def test_a_resume_never_reads_the_source_again(source: Path, tmp_path: Path) -> None:
     copy = tmp_path / "source"
     shutil.copytree(source, copy)
@@ -228,13 +256,13 @@ def test_sources_that_do_not_fit_are_refused_by_name(source: Path, tmp_path: Pat
     with pytest.raises(CorruptFileError, match="is not a readable saved agent"):
         weights(tmp_path / "junk.zip")
     # its run directory says other specs: their DFAs need the world's fluents
+    other = weights(source, **{"bolt.specs": ["avoid_top_right"]})
+    assert isinstance(other, InitialWeights) and other.source_specs == ("G(on_edge)",)
+    model: Any = SimpleNamespace(policy=torch.nn.Linear(1, 1))
     with pytest.raises(IncompatibleError, match=r"specs \['G\(on_edge\)'\].*world's fluents"):
-        weights(source, **{"bolt.specs": ["avoid_top_right"]})
+        apply_initial_weights(model, other)
     with pytest.raises(IncompatibleError, match=r"'G\(on_edge\)', which does not compile"):
-        read_initial_weights(
-            _config(**{"algorithm.init_from": str(source), "bolt.specs": ["avoid_top_right"]}),
-            ("top_right_corner",),
-        )
+        apply_initial_weights(model, other, ("top_right_corner",))
     with pytest.raises(IncompatibleError, match="DQN"):
         weights(source, **{"algorithm.name": "dqn"})
     other_world = tmp_path / "other-world"

@@ -202,6 +202,11 @@ def train(
         check_same_config(run, config)
         check_frames_left(run, config)
 
+    # The saved agent a new run starts from is read first: a checkpoint can be rotated
+    # away by its run while the checks below take their minutes.
+    initial = None
+    if not resume and config.algorithm.init_from is not None:
+        initial = read_initial_weights(config)
     # Everything that can be checked is checked before anything is written: the specs
     # against the world, the detector, the environments, and the model on their spaces.
     setup = prepare_bolt(
@@ -224,10 +229,8 @@ def train(
     )
     tensorboard = str(run.file("tensorboard"))
     fresh = _make_model(config, env, tensorboard_log=tensorboard) if not resume else None
-    initial = None
-    if fresh is not None and config.algorithm.init_from is not None:
-        initial = read_initial_weights(config, setup.fluents)
-        apply_initial_weights(fresh, initial)
+    if fresh is not None and initial is not None:
+        apply_initial_weights(fresh, initial, setup.fluents)
     log(describe_scheme(config))  # once every check has passed
     if initial is not None:
         log(initial.describe())

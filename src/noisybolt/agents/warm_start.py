@@ -94,8 +94,6 @@ class InitialWeights:
         content: the file's bytes (what the new run keeps as :data:`INIT_MODEL`).
         source_specs: the source's spec formulas where they are not the new run's (None:
             the same specs, or a bare file that does not say).
-        source_starts: per source spec where they differ, ``(states, state before any
-            letter)`` of its DFA: where its one-hot block lies in the source's features.
     """
 
     path: Path
@@ -104,7 +102,6 @@ class InitialWeights:
     state_dict: Mapping[str, torch.Tensor]
     content: bytes
     source_specs: tuple[str, ...] | None = None
-    source_starts: tuple[tuple[int, int], ...] = ()
 
     def describe(self) -> str:
         """One line for the training's log."""
@@ -160,22 +157,17 @@ def _source_config(model: Path) -> dict[str, Any] | None:
     return None
 
 
-def read_initial_weights(
-    config: TrainConfig, fluents: Sequence[str] | None = None
-) -> InitialWeights:
+def read_initial_weights(config: TrainConfig) -> InitialWeights:
     """Reads the saved agent ``config.algorithm.init_from`` names, checked against the
-    new run's algorithm and world (where its run directory says it).
-
-    ``fluents``: the world's fluents, over which a source of other specs has its specs
-    compiled (their DFAs' sizes and first states); :func:`~noisybolt.agents.training.train`
-    gives them. Without them a source must have the new run's specs.
+    new run's algorithm and world (where its run directory says it), with its specs where
+    they differ from the new run's (:func:`apply_initial_weights` then needs the world's
+    fluents).
 
     Raises:
         ConfigError, NoCheckpointError: as :func:`find_initial_model`.
         CorruptFileError: the file is not an SB3 model archive with a policy.
-        IncompatibleError: saved by an algorithm whose policy differs, in a run of
-            another world, or of other specs that do not compile over ``fluents`` (or
-            with no ``fluents`` given).
+        IncompatibleError: saved by an algorithm whose policy differs, or in a run of
+            another world.
     """
     assert config.algorithm.init_from is not None
     path = find_initial_model(config.algorithm.init_from)
@@ -213,7 +205,6 @@ def read_initial_weights(
         )
     source = _source_config(path)
     source_specs: tuple[str, ...] | None = None
-    starts: tuple[tuple[int, int], ...] = ()
     if source is not None:
         new_config = config.to_dict()
         if source["world"]["name"] != new_config["world"]["name"]:
@@ -224,7 +215,6 @@ def read_initial_weights(
             )
         if _formulas(source) != _formulas(new_config):
             source_specs = _formulas(source)
-            starts = _dfa_starts(path, source_specs, _formulas(new_config), fluents)
     return InitialWeights(
         path=path,
         algo=algo,
@@ -232,7 +222,6 @@ def read_initial_weights(
         state_dict=state_dict,
         content=content,
         source_specs=source_specs,
-        source_starts=starts,
     )
 
 
@@ -241,18 +230,16 @@ def _formulas(config: Mapping[str, Any]) -> tuple[str, ...]:
 
 
 def _dfa_starts(
-    path: Path,
-    source_specs: Sequence[str],
-    new_specs: Sequence[str],
-    fluents: Sequence[str] | None,
+    path: Path, source_specs: Sequence[str], fluents: Sequence[str] | None
 ) -> tuple[tuple[int, int], ...]:
     """``(states, state before any letter)`` of each of the source's specs' DFAs, compiled
-    over the world's ``fluents`` as its run compiled them."""
+    over the world's ``fluents`` as its run compiled them: where each one-hot block lies
+    in the source's features, and which of its states starts an episode."""
     if fluents is None:
         raise IncompatibleError(
-            f"algorithm.init_from: {path} was trained with the specs {list(source_specs)} and "
-            f"this run has {list(new_specs)}; to start from an agent of other specs give the "
-            "world's fluents (read_initial_weights(config, fluents); train() does)"
+            f"algorithm.init_from: {path} was trained with the specs {list(source_specs)}, "
+            "not this run's; to start from an agent of other specs give the world's fluents "
+            "(apply_initial_weights(model, weights, fluents); train() does)"
         )
     starts = []
     for formula in source_specs:
@@ -308,7 +295,9 @@ def _feature_readers(policy: nn.Module) -> list[tuple[str, Any]]:
     return [(name, extractor) for name, extractor in pairs if name is not None]
 
 
-def _respecified(policy: nn.Module, weights: InitialWeights) -> dict[str, torch.Tensor]:
+def _respecified(
+    policy: nn.Module, weights: InitialWeights, fluents: Sequence[str] | None
+) -> dict[str, torch.Tensor]:
     """The source's tensors for a network of other specs (see the module's text): each
     layer that reads the joined features keeps its world columns, starts its DFA columns
     at zero and folds the source's first DFA states into its bias.
@@ -317,10 +306,12 @@ def _respecified(policy: nn.Module, weights: InitialWeights) -> dict[str, torch.
         IncompatibleError: the source's layers are not as wide as its world's features
             and its specs' DFA states (a network of other hyperparameters).
     """
+    assert weights.source_specs is not None
+    starts = _dfa_starts(weights.path, weights.source_specs, fluents)
     state = dict(weights.state_dict)
-    onehot = torch.zeros(sum(n for n, _ in weights.source_starts))
+    onehot = torch.zeros(sum(n for n, _ in starts))
     offset = 0
-    for n_states, first in weights.source_starts:
+    for n_states, first in starts:
         onehot[offset + first] = 1.0
         offset += n_states
     for name, extractor in _feature_readers(policy):
@@ -350,18 +341,23 @@ def _respecified(policy: nn.Module, weights: InitialWeights) -> dict[str, torch.
     return state
 
 
-def apply_initial_weights(model: BaseAlgorithm, weights: InitialWeights) -> None:
+def apply_initial_weights(
+    model: BaseAlgorithm, weights: InitialWeights, fluents: Sequence[str] | None = None
+) -> None:
     """Loads ``weights`` into ``model``'s policy, every tensor of the same name and shape
     (for a source of other specs, the layers that read the DFA states as the module's text
-    says).
+    says: its specs are compiled over the world's ``fluents``).
 
     Raises:
         IncompatibleError: naming the tensors that are missing, extra or shaped otherwise
-            (another network, observation or action space).
+            (another network, observation or action space); a source of other specs
+            without ``fluents``, or whose specs do not compile over them.
     """
     target = model.policy.state_dict()
     source = (
-        weights.state_dict if weights.source_specs is None else _respecified(model.policy, weights)
+        weights.state_dict
+        if weights.source_specs is None
+        else _respecified(model.policy, weights, fluents)
     )
     missing = sorted(set(target) - set(source))
     extra = sorted(set(source) - set(target))
