@@ -408,16 +408,18 @@ def test_the_best_model_survives_a_resume(
     assert [f.name for f in (tmp_path / "run" / "best").iterdir()] == [f"step_{best_at:012d}"]
 
 
-def test_entropy_schedule_moves_linearly_and_stops_at_its_end() -> None:
-    from noisybolt.agents.training import EntropySchedule
+def test_a_linear_schedule_moves_linearly_and_stops_at_its_end() -> None:
+    from noisybolt.agents.training import LinearSchedule
 
-    schedule = EntropySchedule(0.05, 0.01, 1000)
+    schedule = LinearSchedule("ent_coef", 0.05, 0.01, 1000)
     assert schedule.value(0) == pytest.approx(0.05)
     assert schedule.value(500) == pytest.approx(0.03)
     assert schedule.value(1000) == pytest.approx(0.01)
     assert schedule.value(5000) == pytest.approx(0.01)
-    with pytest.raises(ConfigError, match="coefficients must be >= 0"):
-        EntropySchedule(-0.1, 0.0, 10)
+    with pytest.raises(ConfigError, match="values must be >= 0"):
+        LinearSchedule("ent_coef", -0.1, 0.0, 10)
+    with pytest.raises(ConfigError, match="no schedule for 'gamma'"):
+        LinearSchedule("gamma", 0.9, 0.99, 10)
 
 
 def test_entropy_schedule_reaches_the_model_before_each_rollout(tmp_path: Path) -> None:

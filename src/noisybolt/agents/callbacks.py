@@ -8,31 +8,37 @@
 * :class:`SaveBestModel`: the new-best child that keeps that model (``keep_best``).
 * :class:`CheckpointCallback` writes a complete checkpoint every ``checkpoint_freq``
   frames with the evaluation callback's bookkeeping.
-* :class:`EntropySchedule` moves PPO's and A2C's entropy coefficient over the run.
+* :class:`LinearSchedule` moves the entropy coefficient, the learning rate or PPO's clip
+  range over the run's frames (:func:`linear_schedules` reads them from the run's
+  hyperparameters).
 """
 
 from __future__ import annotations
 
+import inspect
 import shutil
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.utils import ConstantSchedule
 from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.checkpoints import BEST_DIR, best_folder, save_checkpoint, save_model_files
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
+from noisybolt.agents.hyperparams import SCHEDULED, algorithm_class
 from noisybolt.errors import ConfigError
 from noisybolt.rundir import RunDirectory
 
 __all__ = [
     "CheckpointCallback",
-    "EntropySchedule",
     "EvaluationCallback",
+    "LinearSchedule",
     "SaveBestModel",
+    "linear_schedules",
     "shaped_return",
 ]
 
@@ -244,39 +250,85 @@ class CheckpointCallback(BaseCallback):
         return True
 
 
-class EntropySchedule(BaseCallback):
-    """PPO's and A2C's entropy coefficient moved linearly from ``start`` to ``end``.
+class LinearSchedule(BaseCallback):
+    """A hyperparameter of :data:`~noisybolt.agents.hyperparams.SCHEDULED` moved linearly
+    from ``start`` to ``end`` over a run's frames.
 
-    SB3 reads ``model.ent_coef`` at every update but offers schedules only for the learning
-    rate and PPO's clip range. A high bonus early keeps the policy trying routes that pay a
-    little more (A2C settled on ``!F(t)``'s shortcut through the corner at 0.01); a low one
-    late lets it act as surely as it has learnt (at 0.05 throughout, sampled ``G(on_edge)``
-    episodes stepped off the edge in up to 6 %). The value is set before each rollout from
-    the frames done, so a resumed run continues the same schedule.
+    SB3 reads ``model.ent_coef`` at every update but schedules only the learning rate and
+    PPO's clip range, and those over the fraction of one ``learn()`` call done, which a
+    resumed run or one given more frames restarts or stretches. Here the value is set
+    before each rollout from the run's own frames done (``model.num_timesteps``), so a
+    resumed run continues the same schedule, and ``<name>_frames`` fixes it in frames
+    whatever the budget. Why each: a high entropy bonus early keeps the policy trying
+    routes that pay a little more (A2C settled on ``!F(t)``'s shortcut through the corner
+    at 0.01), a low one late lets it act as surely as it has learnt (at 0.05 throughout,
+    sampled ``G(on_edge)`` episodes stepped off the edge in up to 6 %); the RL Zoo's Atari
+    settings anneal PPO's learning rate and clip range to zero (the Breakout players of
+    results/breakout stalled at a constant 2.5e-4 and moved again at 1e-4).
 
     Args:
-        start: coefficient at frame 0.
-        end: coefficient from ``frames`` on.
-        frames: frames over which it moves (the hyperparameter ``ent_coef_frames``, or
-            the run's budget without it).
+        name: ``ent_coef`` (PPO, A2C), ``learning_rate`` (any) or ``clip_range`` (PPO).
+        start: value at frame 0.
+        end: value from ``frames`` on.
+        frames: frames over which it moves (the hyperparameter ``<name>_frames``, or the
+            run's budget without it).
     """
 
-    def __init__(self, start: float, end: float, frames: int) -> None:
+    def __init__(self, name: str, start: float, end: float, frames: int) -> None:
         super().__init__(verbose=0)
+        if name not in SCHEDULED:
+            raise ConfigError(f"no schedule for {name!r}; scheduled: {list(SCHEDULED)}")
         if start < 0 or end < 0 or frames < 1:
             raise ConfigError(
-                f"entropy schedule: coefficients must be >= 0 and frames >= 1, got {start}, "
-                f"{end}, {frames}"
+                f"{name} schedule: values must be >= 0 and frames >= 1, got {start}, {end}, "
+                f"{frames}"
             )
+        self.name = name
         self.start, self.end, self.frames = float(start), float(end), int(frames)
 
     def value(self, frames_done: int) -> float:
-        """The coefficient after ``frames_done`` frames."""
+        """The value after ``frames_done`` frames."""
         progress = min(1.0, max(0, frames_done) / self.frames)
         return self.start + (self.end - self.start) * progress
 
     def _on_rollout_start(self) -> None:
-        self.model.ent_coef = self.value(self.model.num_timesteps)  # type: ignore[attr-defined]
+        value = self.value(self.model.num_timesteps)
+        model: Any = self.model
+        if self.name == "ent_coef":
+            model.ent_coef = value
+        elif self.name == "learning_rate":
+            # SB3 sets the optimiser's rate from lr_schedule at each update (and logs it);
+            # learning_rate is what model.zip shows.
+            model.learning_rate = value
+            model.lr_schedule = ConstantSchedule(value)
+        else:
+            model.clip_range = ConstantSchedule(value)
 
     def _on_step(self) -> bool:
         return True
+
+
+def linear_schedules(
+    hyperparams: Mapping[str, Any], *, algo: str, frames: int
+) -> list[LinearSchedule]:
+    """The schedules a run's hyperparameters ask for: one per ``<name>_final`` given, from
+    ``<name>`` (SB3's default where unset) over ``<name>_frames`` or the run's ``frames``.
+
+    Example:
+        >>> [s.value(500) for s in linear_schedules(
+        ...     {"learning_rate": 1e-3, "learning_rate_final": 0.0}, algo="ppo", frames=1000)]
+        [0.0005]
+    """
+    defaults = {
+        name: p.default
+        for name, p in inspect.signature(algorithm_class(algo).__init__).parameters.items()
+    }
+    out = []
+    for name in SCHEDULED:
+        end = hyperparams.get(f"{name}_final")
+        if end is None:
+            continue
+        start = hyperparams.get(name, defaults.get(name, 0.0))
+        span = hyperparams.get(f"{name}_frames") or frames
+        out.append(LinearSchedule(name, float(start), float(end), int(span)))
+    return out

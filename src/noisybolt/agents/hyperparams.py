@@ -32,6 +32,7 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_HYPERPARAMS",
     "META_KEYS",
+    "SCHEDULED",
     "SPLIT",
     "WORLD_KEYS",
     "algorithm_class",
@@ -41,6 +42,7 @@ __all__ = [
     "known_hyperparameters",
     "load_hyperparams",
     "parse_overrides",
+    "zoo_schedules",
 ]
 
 ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN}
@@ -49,20 +51,23 @@ ALGORITHMS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C, "dqn": DQN
 #: where the values come from).
 DEFAULT_HYPERPARAMS = "_default"
 
+#: Hyperparameters a run may move linearly over its frames (callbacks.LinearSchedule):
+#: ``<name>_final`` is the value reached, ``<name>_frames`` the frames it takes (the run's
+#: budget without it). ``ent_coef``: PPO and A2C; ``clip_range``: PPO.
+SCHEDULED: tuple[str, ...] = ("ent_coef", "learning_rate", "clip_range")
+
 #: noisybolt's own settings of the agent, consumed before the rest reaches the SB3
 #: constructor (a run's config holds them in ``algorithm.hyperparams``).
 META_KEYS: frozenset[str] = frozenset(
     {
+        *(f"{name}_final" for name in SCHEDULED),
+        *(f"{name}_frames" for name in SCHEDULED),
         "normalize_reward",
         # normalize_reward split: the bolt's normalised stream is multiplied by this
         "bolt_weight",
         "image_features",
         # the agent's convolutions (extractor.conv_stack): auto, nature, atari2013, grid
         "cnn",
-        # PPO/A2C: ent_coef moves linearly to this over the run (training.EntropySchedule)
-        "ent_coef_final",
-        # ... over this many frames instead of the run's budget (schedules in frames)
-        "ent_coef_frames",
         # DQN: epsilon falls over this many frames, whatever the budget
         # (sets SB3's exploration_fraction; see frame_schedules)
         "exploration_frames",
@@ -134,9 +139,17 @@ def frame_schedules(params: Mapping[str, Any], *, frames: int) -> dict[str, Any]
         if isinstance(given, bool) or not isinstance(given, int) or given < 1:
             raise ConfigError(f"exploration_frames must be an integer >= 1, got {given!r}")
         out["exploration_fraction"] = min(1.0, given / max(1, int(frames)))
-    span = params.get("ent_coef_frames")
-    if span is not None and (isinstance(span, bool) or not isinstance(span, int) or span < 1):
-        raise ConfigError(f"ent_coef_frames must be an integer >= 1, got {span!r}")
+    for name in SCHEDULED:
+        span = params.get(f"{name}_frames")
+        if span is None:
+            continue
+        if isinstance(span, bool) or not isinstance(span, int) or span < 1:
+            raise ConfigError(f"{name}_frames must be an integer >= 1, got {span!r}")
+        if params.get(f"{name}_final") is None:
+            raise ConfigError(
+                f"{name}_frames={span} without {name}_final: give the value {name} moves "
+                f"to (e.g. {name}_final=0), or drop {name}_frames"
+            )
     return out
 
 
@@ -250,7 +263,50 @@ def load_hyperparams(
     if unknown:
         source = hp_file if hp_file is not None else f"built-in hyperparameters for {world}"
         raise ConfigError(f"{source}/{algo} has unknown keys {unknown}")
-    return params
+    return zoo_schedules(params)
+
+
+#: The RL Zoo's spelling of a schedule: ``lin_<start>`` moves linearly to zero over the run.
+_ZOO_LINEAR = "lin_"
+
+
+def zoo_schedules(params: Mapping[str, Any]) -> dict[str, Any]:
+    """``params`` with the RL Zoo's ``lin_<start>`` schedules written as noisybolt's:
+    ``<name>: <start>`` and ``<name>_final: 0.0`` (over the run's budget, as the Zoo's over
+    its ``n_timesteps``), so that a Zoo file reads the same here and the resolved config
+    holds numbers.
+
+    Raises:
+        ConfigError: the start is not a number, the key is not one SB3 schedules
+            (``learning_rate``, ``clip_range``), or ``<name>_final`` is given as well.
+
+    Example:
+        >>> zoo_schedules({"learning_rate": "lin_2.5e-4", "n_steps": 128})
+        {'learning_rate': 0.00025, 'n_steps': 128, 'learning_rate_final': 0.0}
+    """
+    out = dict(params)
+    for name, value in params.items():
+        if not (isinstance(value, str) and value.startswith(_ZOO_LINEAR)):
+            continue
+        if name not in SCHEDULED or name == "ent_coef":
+            raise ConfigError(
+                f"{name}={value!r}: only learning_rate and clip_range take the RL Zoo's "
+                f"lin_<start> schedules (ent_coef moves with ent_coef_final)"
+            )
+        try:
+            start = float(value.removeprefix(_ZOO_LINEAR))
+        except ValueError:
+            raise ConfigError(
+                f"{name}={value!r}: a linear schedule is lin_<start>, e.g. lin_2.5e-4"
+            ) from None
+        if out.get(f"{name}_final") is not None:
+            raise ConfigError(
+                f"{name}={value!r} and {name}_final both set: lin_ already moves {name} to 0; "
+                f"give {name}=<start> with {name}_final, or lin_ alone"
+            )
+        out[name] = start
+        out[f"{name}_final"] = 0.0
+    return out
 
 
 #: Ranges of the SB3 hyperparameters whose bad values would otherwise pass construction
@@ -271,6 +327,10 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "ent_coef_final": (0.0, float("inf"), False, True),
     "bolt_weight": (0.0, float("inf"), True, True),
     "ent_coef_frames": (1, float("inf"), False, True),
+    "learning_rate_final": (0.0, float("inf"), False, True),
+    "learning_rate_frames": (1, float("inf"), False, True),
+    "clip_range_final": (0.0, float("inf"), False, True),
+    "clip_range_frames": (1, float("inf"), False, True),
     "exploration_frames": (1, float("inf"), False, True),
     "vf_coef": (0.0, float("inf"), False, True),
     "max_grad_norm": (0.0, float("inf"), True, True),
@@ -281,7 +341,9 @@ _RANGES: dict[str, tuple[float, float, bool, bool]] = {
     "n_envs": (1, float("inf"), False, True),
     "image_features": (1, float("inf"), False, True),
 }
-_INTEGERS = frozenset({"n_envs", "image_features", "ent_coef_frames", "exploration_frames"})
+_INTEGERS = frozenset(
+    {"n_envs", "image_features", "exploration_frames", *(f"{n}_frames" for n in SCHEDULED)}
+)
 
 
 def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
@@ -319,7 +381,13 @@ def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
             number = isinstance(value, (int, float)) and not isinstance(value, bool)
             if not number or (wants_int and not isinstance(value, int)):
                 kind = "an integer" if wants_int else "a number"
-                raise ConfigError(f"hyperparameter {key}={value!r} must be {kind}")
+                hint = (
+                    f" (a schedule here is {key}=<start> with {key}_final=<end>; the RL Zoo's "
+                    "lin_<start> is read from --hp and hyperparameter files)"
+                    if key in SCHEDULED and isinstance(value, str)
+                    else ""
+                )
+                raise ConfigError(f"hyperparameter {key}={value!r} must be {kind}{hint}")
         elif isinstance(default, bool) and not isinstance(value, bool):
             raise ConfigError(f"hyperparameter {key}={value!r} must be true or false")
         if key in _RANGES:

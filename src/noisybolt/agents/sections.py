@@ -267,6 +267,13 @@ class DetectorConfig:
             )
 
 
+#: The schedules only some learners have: (key, those learners, what the others lack).
+_SCHEDULES_OF: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    ("ent_coef_final", ("ppo", "a2c"), "entropy bonus"),
+    ("clip_range_final", ("ppo",), "clip range"),
+)
+
+
 @dataclass(frozen=True, kw_only=True)
 class AlgorithmConfig:
     """The learner (``algorithm`` in ``config.json``).
@@ -327,11 +334,12 @@ class AlgorithmConfig:
                 "drop bolt_weight and change --reward-scale (which weighs them where rewards "
                 "are not normalised apart)"
             )
-        if self.hyperparams.get("ent_coef_final") is not None and self.name not in ("ppo", "a2c"):
-            raise ConfigError(
-                f"ent_coef_final: {self.name.upper()} has no entropy bonus (only PPO and A2C); "
-                "remove the hyperparameter"
-            )
+        for key, algos, what in _SCHEDULES_OF:
+            if self.hyperparams.get(key) is not None and self.name not in algos:
+                raise ConfigError(
+                    f"{key}: {self.name.upper()} has no {what} (only "
+                    f"{' and '.join(a.upper() for a in algos)}); remove the hyperparameter"
+                )
 
 
 @dataclass(frozen=True, kw_only=True)

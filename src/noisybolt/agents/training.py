@@ -48,9 +48,10 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 from noisybolt.agents.callbacks import (
     CheckpointCallback,
-    EntropySchedule,
     EvaluationCallback,
+    LinearSchedule,
     SaveBestModel,
+    linear_schedules,
     shaped_return,
 )
 from noisybolt.agents.checkpoints import (
@@ -99,7 +100,7 @@ __all__ = [
     "RESUMABLE_KEYS",
     "BoltSetup",
     "DetectorConfig",
-    "EntropySchedule",
+    "LinearSchedule",
     "TrainConfig",
     "TrainResult",
     "build_bolted_env",
@@ -409,15 +410,7 @@ def _learn(
     )
     checkpoints = CheckpointCallback(config=config, run=run, evaluation=evaluation)
     callbacks: list[BaseCallback] = [evaluation, checkpoints]
-    if config.hyperparams.get("ent_coef_final") is not None:
-        callbacks.append(
-            EntropySchedule(
-                float(config.hyperparams.get("ent_coef", 0.0)),
-                float(config.hyperparams["ent_coef_final"]),
-                # Fixed in frames (ent_coef_frames) or over the whole budget.
-                int(config.hyperparams.get("ent_coef_frames") or config.frames),
-            )
-        )
+    callbacks += linear_schedules(config.hyperparams, algo=config.algo, frames=config.frames)
     remaining = config.frames - model.num_timesteps
     if remaining > 0 and not (stop is not None and stop.solved):
         try:
