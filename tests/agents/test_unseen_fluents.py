@@ -181,6 +181,9 @@ def test_a_detector_reading_the_truth_warns_of_a_spec_fluent_random_play_never_s
         return [str(w.message) for w in caught if w.category is UnseenFluentWarning]
 
     [message] = warned("F(off_lake) | G(top)")
-    assert message.startswith("the specs' fluent off_lake was never true in 2,048 steps")
+    assert message.startswith(
+        "the specs' fluent off_lake was never true in 16 games of random play, in the first "
+        "128 steps of each (2,048 steps)"
+    )
     assert "always false" in message
     assert warned("F(!top)") == []  # seen both ways

@@ -140,7 +140,8 @@ def test_run_report_shows_the_evaluations_under_other_settings(
 def test_sweep_report_links_every_trial_and_lists_failures(sweep_dir: Path) -> None:
     files = write_report(sweep_dir)
     markdown = files.markdown.read_text()
-    assert "2 trials: 1 done, 1 failed, 0 pending." in markdown
+    assert "2 trials: 1 done, 1 failed, 0 interrupted (the sweep's command resumes" in markdown
+    assert "0 not started." in markdown
     assert "| ppo | ppo | edge | 1/1 | 0 |" in markdown
     assert "| a2c | a2c | edge | 0/1 | 1 |" in markdown
     assert "![learning curves of ppo](curves/ppo.png)" in markdown

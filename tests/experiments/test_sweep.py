@@ -362,9 +362,16 @@ def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
     train(dataclasses.replace(trial.config, frames=512), run_dir, log=_quiet)
     (run_dir / "summary.json").unlink()
     first = json.loads((run_dir / "metrics.json").read_text())
+    # Told apart from a trial not started: how far it got, and that it will resume.
+    (tmp_path / "out" / "sweep.json").write_text(json.dumps(sweep.to_dict()))
+    (record,) = collect_sweep(tmp_path / "out", write=False).records
+    assert (record.status, record.checkpoint_frames) == ("interrupted", 512)
 
-    result = run_sweep(sweep, tmp_path / "out", log=_quiet)
+    lines: list[str] = []
+    result = run_sweep(sweep, tmp_path / "out", log=lines.append)
+    assert "1 to run (here; 1 from their checkpoints)" in lines[0]
     assert result.n_done == 1 and result.records[0].frames == 1024
+    assert result.records[0].checkpoint_frames is None
     assert "resuming" in (run_dir / "log.txt").read_text()
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert metrics[: len(first)] == first and metrics[-1]["frames"] == 1024

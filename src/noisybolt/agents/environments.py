@@ -376,7 +376,7 @@ def prepare_bolt(
     if letters is not None and not isinstance(detector, ClassifierDetector):
         # What the compliance scheme's random play showed (a classifier's images are
         # checked by make_detector); the paper scheme plays none, and is not checked here.
-        warn_of_unseen_fluents(letters, fluents, spec_fluents, steps=RANDOM_PLAY_STEPS)
+        warn_of_unseen_fluents(letters, fluents, spec_fluents, play=RANDOM_PLAY)
     belief = None
     if config.belief_settings is not None:
         if isinstance(detector, ClassifierDetector) and detector.training_prior is None:
@@ -614,27 +614,33 @@ def _rate_of(settings: BeliefSettings, fluents: Sequence[str], fluent: str) -> s
 
 #: Random play that the letters a world shows are read from: envs x steps frames.
 RANDOM_PLAY = (16, 128)
-RANDOM_PLAY_STEPS = RANDOM_PLAY[0] * RANDOM_PLAY[1]
 
 
 def warn_of_unseen_fluents(
-    letters: np.ndarray, fluents: Sequence[str], spec_fluents: Sequence[str], *, steps: int
+    letters: np.ndarray,
+    fluents: Sequence[str],
+    spec_fluents: Sequence[str],
+    *,
+    play: tuple[int, int],
 ) -> None:
     """Warns (:class:`~noisybolt.errors.UnseenFluentWarning`) of each fluent of
     ``spec_fluents`` that is true in none, or in all, of ``letters`` (bool ``[n,
-    n_fluents]``, the assignments ``steps`` steps of random play showed): a fluent function
-    that never holds (a typo, a state never reached) leaves a spec the bolt can never
-    credit, which training would only show as 0 % compliance.
+    n_fluents]``, the assignments random play showed: ``play`` = (games, steps each), so
+    only the first steps of a long episode): a fluent function that never holds (a typo,
+    a state never reached) leaves a spec the bolt can never credit, which training would
+    only show as 0 % compliance; one that holds only late in an episode is reported too,
+    and the message says how far the play went.
 
     Example:
         >>> import warnings
         >>> seen = np.array([[True, False], [True, False]])
         >>> with warnings.catch_warnings(record=True) as caught:
         ...     warnings.simplefilter("always")
-        ...     warn_of_unseen_fluents(seen, ["a", "won"], ["won"], steps=2048)
+        ...     warn_of_unseen_fluents(seen, ["a", "won"], ["won"], play=(16, 128))
         >>> print(caught[0].message)  # doctest: +ELLIPSIS
-        the specs' fluent won was never true in 2,048 steps of random play: ...
+        the specs' fluent won was never true in 16 games of random play, in the first 128 ...
     """
+    games, steps = play
     never: dict[str, list[str]] = {"true": [], "false": []}
     for fluent in spec_fluents:
         column = letters[:, list(fluents).index(fluent)]
@@ -647,10 +653,12 @@ def warn_of_unseen_fluents(
         warnings.warn(
             UnseenFluentWarning(
                 f"the specs' fluent{'s' if len(names) > 1 else ''} {', '.join(names)} "
-                f"{'were' if len(names) > 1 else 'was'} never {value} in {steps:,} steps of "
-                f"random play: a spec that needs {'them' if len(names) > 1 else 'it'} "
-                f"{value} is met only if a trained agent makes it so, and can never be if "
-                f"a fluent's function is always {other} (check it in the world's definition)"
+                f"{'were' if len(names) > 1 else 'was'} never {value} in {games} games of "
+                f"random play, in the first {steps} steps of each ({games * steps:,} "
+                f"steps): a spec that needs {'them' if len(names) > 1 else 'it'} {value} "
+                f"is met only if a trained agent makes it so (or only later in an episode), "
+                f"and can never be if a fluent's function is always {other} (check it in "
+                "the world's definition)"
             ),
             stacklevel=2,
         )

@@ -325,13 +325,18 @@ def sweep_report(
     """
     root = Path(sweep_dir)
     result = collect_sweep(root)
-    counts = {s: sum(r.status == s for r in result.records) for s in ("done", "failed", "pending")}
+    counts = {
+        s: sum(r.status == s for r in result.records)
+        for s in ("done", "failed", "interrupted", "pending")
+    }
     sections, references = _sections(root)
     blocks: list[Block] = [
         *result.blocks(),
         Text(
             f"{len(result.records)} trials: {counts['done']} done, {counts['failed']} failed, "
-            f"{counts['pending']} pending. Tables: `results.md`, `results.csv`, `results.json`."
+            f"{counts['interrupted']} interrupted (the sweep's command resumes them from "
+            f"their checkpoints), {counts['pending']} not started. Tables: `results.md`, "
+            "`results.csv`, `results.json`."
         ),
         *sections,
     ]
@@ -353,7 +358,11 @@ def sweep_report(
         rows.append(
             (
                 link,
-                record.status,
+                (
+                    f"interrupted at {record.checkpoint_frames:,} frames"
+                    if record.status == "interrupted"
+                    else record.status
+                ),
                 f"{final['env_return_mean']:.2f}" if final else "—",
                 ", ".join(f"{k} {v:.0%}" for k, v in final.get("compliance", {}).items()) or "—",
                 format_frames(record.frames_to_comply) if record.status == "done" else "—",

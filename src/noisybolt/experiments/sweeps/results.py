@@ -27,10 +27,12 @@ __all__ = ["GroupSummary", "SweepResult", "TrialRecord"]
 
 @dataclass(frozen=True)
 class TrialRecord:
-    """A trial's state and results. ``status``: ``done``, ``failed`` or ``pending`` (not
-    run, or interrupted); ``final``: the evaluation the tables report (None unless done);
-    ``frames_to_comply``: N_frames; ``failed_attempts``: attempts that raised, over every
-    run of the sweep, ``error`` the last one's message; ``seconds``: the finishing attempt's.
+    """A trial's state and results. ``status``: ``done``, ``failed``, ``interrupted``
+    (stopped mid-run with a checkpoint at ``checkpoint_frames``: the sweep's command
+    resumes it) or ``pending`` (not started, or stopped before its first checkpoint);
+    ``final``: the evaluation the tables report (None unless done); ``frames_to_comply``:
+    N_frames; ``failed_attempts``: attempts that raised, over every run of the sweep,
+    ``error`` the last one's message; ``seconds``: the finishing attempt's.
     """
 
     trial_id: str
@@ -48,6 +50,7 @@ class TrialRecord:
     failed_attempts: int = 0
     error: str | None = None
     seconds: float | None = None
+    checkpoint_frames: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form."""

@@ -15,7 +15,7 @@ from typing import Any
 from noisybolt.errors import ConfigError
 from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord
-from noisybolt.experiments.sweeps.trials import TrialTask, attempt, run_trial
+from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, attempt, run_trial
 from noisybolt.io import atomic_write_json, read_json
 from noisybolt.rundir import RunDirectory
 
@@ -75,10 +75,12 @@ def run_sweep(
     atomic_write_json(sweep_dir / SWEEP_FILE, sweep.to_dict())
     RunDirectory(sweep_dir).write_command(argv)
     pending = [t for t in tasks if not t.finished()]
+    resumed = sum(TrialDirectory(t.run_dir).checkpoint_frames() is not None for t in pending)
     where = f"Ray Tune, {workers or 'as many as the CPUs allow'} at once" if on_ray else "here"
     log(
         f"sweep {sweep.name}: {len(tasks)} trials, {len(tasks) - len(pending)} already "
-        f"finished, {len(pending)} to run ({where}) in {sweep_dir}"
+        f"finished, {len(pending)} to run ({where}"
+        f"{f'; {resumed} from their checkpoints' if resumed else ''}) in {sweep_dir}"
     )
     start, ran = time.perf_counter(), []
     if not on_ray:

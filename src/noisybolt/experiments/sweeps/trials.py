@@ -53,6 +53,13 @@ class TrialDirectory(RunDirectory):
         evaluated = episodes <= 0 or evaluation.get("episodes") == episodes
         return trained and self.file("summary.json").exists() and evaluated
 
+    def checkpoint_frames(self) -> int | None:
+        """The frames of the run's latest checkpoint (None: it has none): a trial stopped
+        mid-run (a signal, a lost machine) resumes from there when the sweep runs again."""
+        latest = read_json(self.file("checkpoints/latest.json"), default={}, kind=dict)
+        frames = latest.get("frames")
+        return frames if isinstance(frames, int) and not isinstance(frames, bool) else None
+
 
 @dataclass(frozen=True)
 class TrialTask:
@@ -91,14 +98,19 @@ class TrialTask:
         if finished and self.final_eval_episodes:  # the final evaluation, not the last periodic
             summary["final"] = read_json(folder.file("evaluation.json"))
         failed = outcome.get("status") == "failed"
+        checkpoint = None if finished or failed else folder.checkpoint_frames()
+        status = (
+            "done" if finished else "failed" if failed
+            else "pending" if checkpoint is None else "interrupted"
+        )  # fmt: skip
         return TrialRecord(
             trial_id=self.trial_id, group=trial["group"], row=trial["row"], seed=trial["seed"],
             settings=dict(trial.get("settings") or {}), run_dir=folder.path,
-            status="done" if finished else "failed" if failed else "pending",
-            algo=self.config.algo,
+            status=status, algo=self.config.algo,
             spec_names=tuple(str(s.get("name") or s.get("formula")) for s in self.config.specs),
             final=summary.get("final"), frames=summary.get("frames"),
             frames_to_comply=summary.get("frames_to_comply"), failed_attempts=len(attempts),
+            checkpoint_frames=checkpoint,
             error=attempts[-1]["message"] if attempts else None,
             seconds=outcome.get("seconds") if finished else None,
         )  # fmt: skip
