@@ -2,7 +2,9 @@
 
 The gridworld suite (``benchmarks/spec_suite.py``) measures specs nobody tuned for on our
 own world. This measures them on Gymnasium's CartPole, labelled as a user would
-(``examples/cartpole.py``: the cart far left or right, the pole leaning left or right),
+(``examples/cartpole.py``: the cart far left or right, the pole leaning left or right), or
+on any other labelled world (``--world examples.acrobot:make_acrobot``: specs drawn over
+its own fluents),
 with the noisy ``synthetic`` detector: Dwyer et al.'s patterns and scopes
 (:func:`noisybolt.experiments.spec_families.pattern_formula`) over those fluents, a third
 of them conjunctions of two, drawn by ``--suite-seed``; a spec its DFA accepts from the
@@ -46,8 +48,21 @@ WORLD = "examples.cartpole:make_cart"  # importable from the repository's root
 FLUENTS = ("far_left", "far_right", "leaning_left", "leaning_right")
 
 
-def draw_specs(n_specs: int, seed: int, *, conjunction_share: float = 0.34) -> list[dict]:
-    """``n_specs`` distinct specs (``name``, ``formula``, ``family``) over :data:`FLUENTS`."""
+def world_fluents(world: str) -> tuple[str, ...]:
+    """The fluents ``world`` (a factory path) labels, in its order."""
+    from noisybolt.envs import make_single_world
+
+    env = make_single_world(world)
+    try:
+        return tuple(env.get_wrapper_attr("fluent_names"))
+    finally:
+        env.close()
+
+
+def draw_specs(
+    n_specs: int, seed: int, *, conjunction_share: float = 0.34, fluents: Sequence[str] = FLUENTS
+) -> list[dict]:
+    """``n_specs`` distinct specs (``name``, ``formula``, ``family``) over ``fluents``."""
     from noisybolt.experiments.spec_families import PATTERNS, SCOPES, pattern_formula
     from noisybolt.logic import compile_ltlf
 
@@ -55,7 +70,7 @@ def draw_specs(n_specs: int, seed: int, *, conjunction_share: float = 0.34) -> l
 
     def one() -> tuple[str, str]:
         pattern, scope = str(rng.choice(PATTERNS)), str(rng.choice(SCOPES))
-        p, s, r = (str(f) for f in rng.choice(FLUENTS, size=3, replace=False))
+        p, s, r = (str(f) for f in rng.choice(list(fluents), size=3, replace=False))
         return f"{pattern}-{scope}", pattern_formula(pattern, scope, p, s, r)
 
     specs: list[dict] = []
@@ -70,7 +85,7 @@ def draw_specs(n_specs: int, seed: int, *, conjunction_share: float = 0.34) -> l
         if formula in seen:
             continue
         seen.add(formula)
-        dfa = compile_ltlf(formula, list(FLUENTS))
+        dfa = compile_ltlf(formula, list(fluents))
         start = dfa.initial_state
         if dfa.accepting_sinks[start] or not _can_accept(dfa):
             continue
@@ -93,11 +108,12 @@ def trial_config(
     frames: int | None = None,
     init_from: Path | None = None,
 ) -> Any:
+    from noisybolt.agents.config import value_from_text
     from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.agents.training import DetectorConfig, TrainConfig
 
     config = TrainConfig.create(
-        world=WORLD,
+        world=args.world,
         specs=[{"formula": s["formula"], "name": s["name"]} for s in specs],
         algo="ppo",
         detector=DetectorConfig(kind=args.detector),
@@ -110,7 +126,13 @@ def trial_config(
         progress_bar=False,
         overrides=parse_overrides(args.hp),
     )
-    return config.override({"algorithm.init_from": str(init_from)}) if init_from else config
+    changes = {}
+    for item in args.set:
+        path, _, text = item.partition("=")
+        changes[path.strip()] = value_from_text(path.strip(), text)
+    if init_from:
+        changes["algorithm.init_from"] = str(init_from)
+    return config.override(changes) if changes else config
 
 
 def run_trial(
@@ -144,6 +166,7 @@ def run_trial(
         "compliance": {k: float(v) for k, v in final["compliance"].items()},
         "false_acceptance": {k: float(v) for k, v in (final.get("false_acceptance") or {}).items()},
         "env_return": float(final["env_return_mean"]),
+        "goal_rate": final.get("goal_rate"),  # None: a world without a goal (CartPole)
     }
 
 
@@ -178,6 +201,10 @@ def summarise(specs: Sequence[dict], records: dict[str, Any], seeds: int) -> lis
             free_followed += [bolted["env_return"] for _, bolted in rows]
         pct = lambda xs: ", ".join(f"{x:.0%}" for x in xs)  # noqa: E731
         bolted_returns = ", ".join(f"{bolted['env_return']:.0f}" for _, bolted in rows)
+        if rows[0][1].get("goal_rate") is not None:  # a world with a goal: how often reached
+            bolted_returns += (
+                " (goal " + ", ".join(f"{bolted['goal_rate']:.0%}" for _, bolted in rows) + ")"
+            )
         free_returns = ", ".join(f"{base['env_return']:.0f}" for base, _ in rows)
         lines.append(
             f"| {name} | `{spec['formula']}` | {pct(free)} | {pct(held)} | {bolted_returns} | "
@@ -188,7 +215,7 @@ def summarise(specs: Sequence[dict], records: dict[str, Any], seeds: int) -> lis
         f"constraining specs (unbolted compliance < 95 % in some seed): {constraining} of "
         f"{shown}; followed by the bolted agent (>= 95 % in every seed): "
         f"{followed}/{constraining}; mean return bolted {np.mean(returns):.0f}, unbolted "
-        f"{np.mean(base_returns):.0f} (of 500)"
+        f"{np.mean(base_returns):.0f}"
     )
     if free_followed:
         lines.append(
@@ -202,6 +229,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--specs", type=int, default=12, help="specs to draw")
     parser.add_argument("--suite-seed", type=int, default=0)
+    parser.add_argument(
+        "--world",
+        default=WORLD,
+        help="the world, a factory path importable from the repository's root (default: "
+        "CartPole, examples/cartpole.py); specs are drawn over its fluents",
+    )
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--frames", type=int, default=100_000)
     parser.add_argument("--eval-freq", type=int, default=25_000)
@@ -222,6 +255,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="KEY=VALUE",
         help="a hyperparameter for every run, as noisybolt train --hp (repeatable)",
     )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PATH=VALUE",
+        help="a setting of every run's config, as noisybolt train --set (repeatable), e.g. "
+        "bolt.reward_scale=110",
+    )
     parser.add_argument("--out", default="runs/cartpole_specs")
     args = parser.parse_args(argv)
     if not 0 <= args.warm_start < args.frames:
@@ -229,7 +270,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     sys.path.insert(0, str(ROOT))
     started = time.perf_counter()
-    specs = draw_specs(args.specs, args.suite_seed)
+    fluents = FLUENTS if args.world == WORLD else world_fluents(args.world)
+    specs = draw_specs(args.specs, args.suite_seed, fluents=fluents)
     root = Path(args.out)
     root.mkdir(parents=True, exist_ok=True)
     (root / "suite.json").write_text(json.dumps(specs, indent=1) + "\n", encoding="utf-8")

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
 import pytest
 
 import noisybolt
@@ -67,3 +68,34 @@ def test_minigrid_room_is_bolted_with_fluents_of_the_agents_cell(
     assert terminated and info["is_success"] is True
     assert info["true_accepting"].tolist() == [False]
     assert total == pytest.approx(1 - 0.9 * 5 / 100)
+
+
+@pytest.mark.parametrize(
+    ("state", "expected", "done"),
+    [
+        # (theta1, theta2, dtheta1, dtheta2) set, then one step: the fluents of the state
+        # reached (0.2 s on). Both links up: the tip 2 above the pivot, the goal.
+        ((np.pi, 0.0, 0.0, 0.0), {"tip_high"}, True),
+        ((-np.pi / 2, 0.0, 0.0, 0.0), {"left"}, False),  # still ~80 degrees to the left
+        ((np.pi / 2, 0.0, 0.0, 0.0), {"right"}, False),
+        # Hanging, turning at 6 rad/s: past the 5 rad/s limit, and ~1 rad on, to the right.
+        ((0.0, 0.0, 6.0, 0.0), {"fast", "right"}, False),
+    ],
+)
+def test_acrobot_fluents_read_the_state_reached(
+    load_script: Callable[..., ModuleType],
+    state: tuple[float, ...],
+    expected: set[str],
+    done: bool,
+) -> None:
+    acrobot = load_script("examples/acrobot.py", "example_acrobot")
+    env = acrobot.make_acrobot()
+    env.reset(seed=0)
+    env.unwrapped.state = np.array(state)
+    _, reward, terminated, _, info = env.step(1)
+    true = {name for name, on in zip(env.fluent_names, info["true_fluents"], strict=True) if on}
+    assert true == expected
+    assert (terminated, reward) == (done, 0.0 if done else -1.0)
+    assert info.get("is_success", False) is done
+    bounds = env.episode_return_bounds
+    assert (bounds.low, bounds.high) == (-500.0, 0.0)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import given
@@ -47,24 +48,29 @@ def test_the_frame_keys_are_known_hyperparameters() -> None:
     assert params["ent_coef_frames"] == 40_000
 
 
-def _train(
-    tmp_path: Path, algo: str, frames: int, overrides: dict[str, object], name: str = ""
-) -> Path:
-    from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+def _config(algo: str, frames: int, overrides: dict[str, object], checkpoint_freq: int = 0) -> Any:
+    from noisybolt.agents.training import DetectorConfig, TrainConfig
 
-    config = TrainConfig.create(
+    return TrainConfig.create(
         specs=["edge"],
         algo=algo,
         detector=DetectorConfig(kind="oracle"),
         frames=frames,
         eval_freq=0,
         eval_episodes=2,
-        checkpoint_freq=0,
+        checkpoint_freq=checkpoint_freq,
         progress_bar=False,
         overrides=overrides,
     )
+
+
+def _train(
+    tmp_path: Path, algo: str, frames: int, overrides: dict[str, object], name: str = ""
+) -> Path:
+    from noisybolt.agents.training import train
+
     run = tmp_path / f"{algo}-{frames}{name}"
-    train(config, run, log=lambda _: None)
+    train(_config(algo, frames, overrides), run, log=lambda _: None)
     return run / "model.zip"
 
 
@@ -176,7 +182,7 @@ def test_dqn_learning_rate_moves_every_train_freq(tmp_path: Path) -> None:
 def test_a_resumed_run_continues_the_schedule_in_frames(tmp_path: Path) -> None:
     from stable_baselines3 import PPO
 
-    from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+    from noisybolt.agents.training import train
 
     overrides = {
         "n_steps": 64,
@@ -184,16 +190,7 @@ def test_a_resumed_run_continues_the_schedule_in_frames(tmp_path: Path) -> None:
         "learning_rate_final": 0.0,
         "learning_rate_frames": 2048,
     }
-    config = TrainConfig.create(
-        specs=["edge"],
-        detector=DetectorConfig(kind="oracle"),
-        frames=1024,
-        eval_freq=0,
-        eval_episodes=2,
-        checkpoint_freq=512,
-        progress_bar=False,
-        overrides=overrides,
-    )
+    config = _config("ppo", 1024, overrides, checkpoint_freq=512)
     run = tmp_path / "run"
     train(config, run, log=lambda _: None)
     first = PPO.load(run / "model.zip", device="cpu").learning_rate  # rollout at 512
