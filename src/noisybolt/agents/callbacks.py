@@ -15,7 +15,6 @@
 
 from __future__ import annotations
 
-import inspect
 import shutil
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -29,7 +28,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from noisybolt.agents.checkpoints import BEST_DIR, best_folder, save_checkpoint, save_model_files
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
-from noisybolt.agents.hyperparams import SCHEDULED, algorithm_class
+from noisybolt.agents.hyperparams import SCHEDULED, constructor_defaults
 from noisybolt.errors import ConfigError
 from noisybolt.rundir import RunDirectory
 
@@ -319,10 +318,7 @@ def linear_schedules(
         ...     {"learning_rate": 1e-3, "learning_rate_final": 0.0}, algo="ppo", frames=1000)]
         [0.0005]
     """
-    defaults = {
-        name: p.default
-        for name, p in inspect.signature(algorithm_class(algo).__init__).parameters.items()
-    }
+    defaults = constructor_defaults(algo)
     out = []
     for name in SCHEDULED:
         end = hyperparams.get(f"{name}_final")

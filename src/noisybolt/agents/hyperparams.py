@@ -38,6 +38,7 @@ __all__ = [
     "algorithm_class",
     "check_action_space",
     "check_hyperparameter_values",
+    "constructor_defaults",
     "frame_schedules",
     "known_hyperparameters",
     "load_hyperparams",
@@ -104,11 +105,17 @@ def algorithm_class(algo: str) -> type[BaseAlgorithm]:
         ) from None
 
 
+def constructor_defaults(algo: str) -> dict[str, Any]:
+    """The default of each argument of ``algo``'s SB3 constructor (``inspect.Parameter.
+    empty`` where it has none), e.g. PPO's ``learning_rate`` 3e-4."""
+    params = inspect.signature(algorithm_class(algo).__init__).parameters
+    return {name: p.default for name, p in params.items()}
+
+
 def known_hyperparameters(algo: str) -> frozenset[str]:
     """Keys accepted for ``algo`` in a hyperparameter file or override: its SB3
     constructor's arguments plus :data:`META_KEYS` and :data:`WORLD_KEYS`."""
-    params = inspect.signature(algorithm_class(algo).__init__).parameters
-    return frozenset(params) - _RESERVED | META_KEYS | WORLD_KEYS
+    return frozenset(constructor_defaults(algo)) - _RESERVED | META_KEYS | WORLD_KEYS
 
 
 def frame_schedules(params: Mapping[str, Any], *, frames: int) -> dict[str, Any]:
@@ -362,10 +369,7 @@ def check_hyperparameter_values(algo: str, params: Mapping[str, Any]) -> None:
         ...
         noisybolt.errors.ConfigError: hyperparameter gamma=2 is out of range: it must be in (0, 1]
     """
-    defaults = {
-        name: p.default
-        for name, p in inspect.signature(algorithm_class(algo).__init__).parameters.items()
-    }
+    defaults = constructor_defaults(algo)
     for key, value in params.items():
         default = defaults.get(key, inspect.Parameter.empty)
         numeric_default = isinstance(default, (int, float)) and not isinstance(default, bool)

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from noisybolt.errors import CorruptFileError, NoCheckpointError
 from noisybolt.experiments.sweeps.results import TrialRecord
 from noisybolt.io import atomic_write_json, read_json
 from noisybolt.rundir import RunDirectory
@@ -56,9 +57,12 @@ class TrialDirectory(RunDirectory):
     def checkpoint_frames(self) -> int | None:
         """The frames of the run's latest checkpoint (None: it has none): a trial stopped
         mid-run (a signal, a lost machine) resumes from there when the sweep runs again."""
-        latest = read_json(self.file("checkpoints/latest.json"), default={}, kind=dict)
-        frames = latest.get("frames")
-        return frames if isinstance(frames, int) and not isinstance(frames, bool) else None
+        from noisybolt.agents.checkpoints import latest_checkpoint
+
+        try:
+            return latest_checkpoint(self).frames
+        except (NoCheckpointError, CorruptFileError):  # nothing a resume could start from
+            return None
 
 
 @dataclass(frozen=True)
