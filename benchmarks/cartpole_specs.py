@@ -108,9 +108,9 @@ def trial_config(
     frames: int | None = None,
     init_from: Path | None = None,
 ) -> Any:
-    from noisybolt.agents.config import value_from_text
     from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.agents.training import DetectorConfig, TrainConfig
+    from noisybolt.cli.train import config_assignments
 
     config = TrainConfig.create(
         world=args.world,
@@ -126,10 +126,7 @@ def trial_config(
         progress_bar=False,
         overrides=parse_overrides(args.hp),
     )
-    changes = {}
-    for item in args.set:
-        path, _, text = item.partition("=")
-        changes[path.strip()] = value_from_text(path.strip(), text)
+    changes = config_assignments(("--set", item) for item in args.set)
     if init_from:
         changes["algorithm.init_from"] = str(init_from)
     return config.override(changes) if changes else config

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +13,7 @@ from noisybolt.errors import ConfigError
 
 __all__ = [
     "FLAG_PATHS",
+    "config_assignments",
     "format_eval_table",
     "parse_frames",
     "register",
@@ -343,7 +344,6 @@ def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
     Raises:
         ConfigError: an unknown path, or a ``--hp``/``--set`` not of the form KEY=VALUE.
     """
-    from noisybolt.agents.config import value_from_text
     from noisybolt.agents.specs import load_specs_file
 
     paths = set(FLAG_PATHS.values())
@@ -357,12 +357,27 @@ def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
         overrides["detector.seed"] = overrides["seed"]
     assignments = [("--hp", f"algorithm.hyperparams.{item}") for item in args.hp]
     assignments += [("--set", item) for item in args.set]
+    overrides.update(config_assignments(assignments))
+    return overrides
+
+
+def config_assignments(assignments: Iterable[tuple[str, str]]) -> dict[str, Any]:
+    """``{schema path: value}`` of ``(option, "PATH=VALUE")`` pairs, each value read as
+    the path's setting (:func:`~noisybolt.agents.config.value_from_text`), later pairs
+    winning; ``option`` names the flag in errors.
+
+    Raises:
+        ConfigError: an item not of the form KEY=VALUE, or a value the path refuses.
+    """
+    from noisybolt.agents.config import value_from_text
+
+    out: dict[str, Any] = {}
     for option, item in assignments:
         path, sep, text = item.partition("=")
         if not sep or not path.strip():
             raise ConfigError(f"{option} {item!r} is not of the form KEY=VALUE")
-        overrides[path.strip()] = value_from_text(path.strip(), text)
-    return overrides
+        out[path.strip()] = value_from_text(path.strip(), text)
+    return out
 
 
 def _default_out(overrides: dict[str, Any]) -> Path:
