@@ -11,10 +11,13 @@
 * :class:`LinearSchedule` moves the entropy coefficient, the learning rate or PPO's clip
   range over the run's frames (:func:`linear_schedules` reads them from the run's
   hyperparameters).
+* :class:`UpdateThreads` gives an on-policy update the cores a world in worker processes
+  leaves idle while it waits for the next rollout.
 """
 
 from __future__ import annotations
 
+import os
 import shutil
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -37,6 +40,7 @@ __all__ = [
     "EvaluationCallback",
     "LinearSchedule",
     "SaveBestModel",
+    "UpdateThreads",
     "linear_schedules",
     "shaped_return",
 ]
@@ -328,3 +332,49 @@ def linear_schedules(
         span = hyperparams.get(f"{name}_frames") or frames
         out.append(LinearSchedule(name, float(start), float(end), int(span)))
     return out
+
+
+class UpdateThreads(BaseCallback):
+    """More torch threads for an on-policy update, one for the rollouts.
+
+    A run computes on one torch thread (``torch.set_num_threads(1)``: with the world in
+    the same process, a second thread only fights the emulator for the cores; PPO ran at
+    71 frames/s on two threads against 620 on one). With the world in worker processes
+    (``world.workers``) the workers wait, blocked on their pipes, while PPO or A2C
+    updates, so for that stretch the other cores are idle: this callback gives the update
+    ``threads`` threads (set as the rollout ends, just before SB3's ``train()``) and takes
+    them back as the next rollout starts. Measured on the 2-core machine (Breakout RAM
+    PPO, 1,024 frames a rollout, 16 minibatches of 256): 113 ms an update on one thread,
+    90 on two.
+
+    Args:
+        threads: torch threads for the update (the rollouts always get 1).
+    """
+
+    def __init__(self, threads: int) -> None:
+        super().__init__(verbose=0)
+        if threads < 1:
+            raise ConfigError(f"update threads must be >= 1, got {threads}")
+        self.threads = int(threads)
+
+    @staticmethod
+    def for_this_machine() -> UpdateThreads:
+        """As many threads as this process may run on, at most 4 (a 256-unit network's
+        products gain little past that)."""
+        try:
+            cores = len(os.sched_getaffinity(0))
+        except AttributeError:  # not Linux
+            cores = os.cpu_count() or 1
+        return UpdateThreads(min(cores, 4))
+
+    def _on_rollout_end(self) -> None:
+        torch.set_num_threads(self.threads)
+
+    def _on_rollout_start(self) -> None:
+        torch.set_num_threads(1)
+
+    def _on_training_end(self) -> None:
+        torch.set_num_threads(1)
+
+    def _on_step(self) -> bool:
+        return True

@@ -34,15 +34,17 @@ callbacks (:mod:`~noisybolt.agents.callbacks`).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import torch
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.utils import configure_logger
 from stable_baselines3.common.vec_env import VecNormalize
 
@@ -51,6 +53,7 @@ from noisybolt.agents.callbacks import (
     EvaluationCallback,
     LinearSchedule,
     SaveBestModel,
+    UpdateThreads,
     linear_schedules,
     shaped_return,
 )
@@ -373,6 +376,27 @@ def _clear_run(run: RunDirectory) -> None:
         path.unlink()
 
 
+@contextlib.contextmanager
+def _unchecked_distributions() -> Iterator[None]:
+    """torch's distributions without their argument checks, for the length of a
+    ``learn()``.
+
+    SB3 builds a ``Categorical`` (or ``Normal``) from the policy's own outputs at every
+    step and every minibatch, and by default torch checks each one's parameters and each
+    sampled action against its support: a fifth of a 4-game policy call on Breakout's
+    RAM network (0.53 -> 0.43 ms measured). What it checks is what SB3 itself produced,
+    so nothing a user gives goes unchecked. The previous default comes back afterwards
+    (``train()`` is also a library call).
+    """
+    distribution = torch.distributions.Distribution
+    before = distribution._validate_args
+    distribution.set_default_validate_args(False)
+    try:
+        yield
+    finally:
+        distribution.set_default_validate_args(before)
+
+
 def _learn(
     config: TrainConfig,
     run: RunDirectory,
@@ -411,16 +435,19 @@ def _learn(
     checkpoints = CheckpointCallback(config=config, run=run, evaluation=evaluation)
     callbacks: list[BaseCallback] = [evaluation, checkpoints]
     callbacks += linear_schedules(config.hyperparams, algo=config.algo, frames=config.frames)
+    if config.world_config.workers and isinstance(model, OnPolicyAlgorithm):
+        callbacks.append(UpdateThreads.for_this_machine())
     remaining = config.frames - model.num_timesteps
     if remaining > 0 and not (stop is not None and stop.solved):
         try:
-            model.learn(
-                total_timesteps=remaining,
-                callback=CallbackList(callbacks),
-                reset_num_timesteps=fresh,
-                progress_bar=config.progress_bar,
-                tb_log_name="run",
-            )
+            with _unchecked_distributions():
+                model.learn(
+                    total_timesteps=remaining,
+                    callback=CallbackList(callbacks),
+                    reset_num_timesteps=fresh,
+                    progress_bar=config.progress_bar,
+                    tb_log_name="run",
+                )
         except KeyboardInterrupt:
             # Ctrl-C (or the CLI's SIGTERM): keep every frame trained so far, not only
             # those up to the last periodic checkpoint. Mid-rollout is fine: the model,
