@@ -41,7 +41,7 @@ def test_config_json_is_nested_with_its_schema_version(config: TrainConfig) -> N
         "world", "bolt", "detector", "algorithm", "evaluation",
     }  # fmt: skip
     assert data["world"] == {
-        "name": "gridworld", "kwargs": {}, "n_envs": 8,
+        "name": "gridworld", "kwargs": {}, "train_kwargs": {}, "n_envs": 8,
         "fire_on_reset": False, "clip_reward": False, "life_loss_terminal": False, "workers": 0,
         "overlap": False,
     }  # fmt: skip

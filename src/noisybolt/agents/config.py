@@ -155,6 +155,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "world.workers": 0,
     # before world.overlap existed every rollout stepped all games at once
     "world.overlap": False,
+    # before world.train_kwargs existed the learner's games were the evaluation's
+    "world.train_kwargs": {},
     # before algorithm.device existed every agent trained on the CPU
     "algorithm.device": "cpu",
     # before algorithm.init_from existed every agent started from random weights
@@ -447,6 +449,12 @@ class TrainConfig:
         if self.world_config.fire_on_reset:
             settings["fire_on_reset"] = True
         return settings
+
+    @property
+    def learner_world_settings(self) -> dict[str, Any]:
+        """:attr:`world_settings` with ``world.train_kwargs`` over them: what the
+        learner's games are built with."""
+        return {**self.world_settings, **self.world_config.train_kwargs}
 
     @property
     def scheme(self) -> RewardScheme:

@@ -241,6 +241,7 @@ def build_bolted_env(
         workers=workers,
         detector=detector,
         images=not training,  # a learner's bolt reads the probabilities only
+        training=training,
     )
     venv: VecEnv = VecMonitor(SB3VecEnv(world))
     if training and config.world_config.clip_reward:
@@ -272,6 +273,7 @@ def make_run_world(
     workers: int | None = None,
     detector: FluentDetector | None = None,
     images: bool = True,
+    training: bool = False,
 ) -> Any:
     """The run's vectorised world: in this process, or with ``world.workers`` N >= 1 its
     games split over N worker processes (at most one per game; a
@@ -283,7 +285,8 @@ def make_run_world(
     of ``total`` games with this seed (a group of ``world.overlap``), in ``workers``
     processes (default: ``world.workers``). ``images=False``: where a classifier runs in
     the workers, the camera's images stay there (only its probabilities come back; no
-    one here may read ``info["bolt_image"]``).
+    one here may read ``info["bolt_image"]``). ``training``: the learner's games, built
+    with ``world.train_kwargs`` over ``world.kwargs``.
 
     Raises:
         ConfigError: a world that cannot be split into worker processes (its factory
@@ -291,11 +294,10 @@ def make_run_world(
     """
     if workers is None:
         workers = config.world_config.workers
+    settings = config.learner_world_settings if training else config.world_settings
     if not workers:
         place: dict[str, Any] = {} if shard is None else {"shard": shard}
-        return make_world(
-            config.world, num_envs=n_envs, seed=seed, **place, **config.world_settings
-        )
+        return make_world(config.world, num_envs=n_envs, seed=seed, **place, **settings)
     classifier = detector if isinstance(detector, ClassifierDetector) else None
     return WorkerWorld(
         config.world,
@@ -305,7 +307,7 @@ def make_run_world(
         shard=shard,
         detector=classifier,
         images=images or classifier is None,
-        **config.world_settings,
+        **settings,
     )
 
 

@@ -82,6 +82,11 @@ class WorldConfig:
             ``package.module:factory`` returning a labelled env
             (:mod:`noisybolt.envs.registry`).
         kwargs: passed to :func:`noisybolt.envs.make_world` (e.g. ``noise``, ``obs_mode``).
+        train_kwargs: more world settings for the learner's games only, over ``kwargs``
+            (e.g. Breakout's ``left_head_start``, a start-state curriculum): evaluation,
+            the classifier's images, random play for the bolt's set-up and the compliance
+            scale all use ``kwargs`` alone, so what a run reports is measured on the world
+            as given.
         n_envs: training environments (the world's hyperparameter file gives it).
         fire_on_reset: Atari: the world serves the ball after every reset and lost life.
         clip_reward: Atari: the learner sees the game's score clipped to its sign, below
@@ -102,6 +107,7 @@ class WorldConfig:
 
     name: str = DEFAULT_WORLD
     kwargs: dict[str, Any] = field(default_factory=dict)
+    train_kwargs: dict[str, Any] = field(default_factory=dict)
     n_envs: int = 1
     fire_on_reset: bool = False
     clip_reward: bool = False
@@ -112,6 +118,7 @@ class WorldConfig:
     def __post_init__(self) -> None:
         check_world(self.name)  # a registered name or an importable factory path
         object.__setattr__(self, "kwargs", freeze(dict(self.kwargs)))
+        object.__setattr__(self, "train_kwargs", freeze(dict(self.train_kwargs)))
         check_count("world.n_envs", self.n_envs, 1)
         check_count("world.workers", self.workers, 0)
         if not isinstance(self.overlap, bool):

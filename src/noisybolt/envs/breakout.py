@@ -282,6 +282,16 @@ class BreakoutWorld(gym.vector.VectorEnv):
             ``screen_size`` are then unused); the bolt's camera, fluents and everything
             else are the same in all, so a RAM agent is watched by the same noisy camera
             and classifier as an image agent.
+        left_head_start: the probability that a game starts with the bottom ``k`` bricks
+            of the leftmost ``left_columns`` column(s) already gone, ``k`` uniform in
+            1..5 (never the whole column), the rest of the wall as the game sets it up:
+            a start-state curriculum for a learner (``world.train_kwargs``), so that
+            the column's top bricks, which a player reaches only after the bottom ones,
+            are met early and often. 0 (default): every game as the ALE starts it (and
+            no random draw is spent on it). A missing brick scores nothing; the bolt's
+            fluents see it gone from the first frame, so a spec it satisfies is paid
+            nothing for it (the compliance scheme pays no acceptance the first
+            observation gives).
         shard: ``(first, total)``: these ``num_envs`` games are games ``first`` ..
             ``first + num_envs - 1`` of a world of ``total`` games with this ``seed``, and
             play exactly as those do there (each game's ALE, no-ops and camera noise are
@@ -309,6 +319,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         max_episode_frames: int = 108_000,
         fire_on_reset: bool = False,
         obs_mode: str = "stack",
+        left_head_start: float = 0.0,
         shard: tuple[int, int] | None = None,
     ) -> None:
         if obs_mode not in OBS_MODES:
@@ -332,6 +343,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
             raise ConfigError(
                 f"repeat_action_probability must be in [0, 1], got {repeat_action_probability}"
             )
+        if not 0.0 <= left_head_start <= 1.0:
+            raise ConfigError(f"left_head_start must be in [0, 1], got {left_head_start}")
         if shard is None:
             shard = (0, num_envs)
         first, total = (int(v) for v in shard)
@@ -356,6 +369,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self.max_episode_frames = max_episode_frames
         self.fire_on_reset = bool(fire_on_reset)
         self.obs_mode = obs_mode
+        self.left_head_start = float(left_head_start)
         self._ram_obs = obs_mode in ("ram", "ram_bits")
         self._noise = noise_fn
         self._seed = seed
@@ -448,6 +462,8 @@ class BreakoutWorld(gym.vector.VectorEnv):
                 ale.act(self._actions[0])
                 if ale.game_over():
                     ale.reset_game()
+        if self.left_head_start and self._np_rngs[i].random() < self.left_head_start:
+            self._remove_bottom_left(i, int(self._np_rngs[i].integers(1, BRICK_ROWS)))
         if not self._ram_obs:
             ale.getScreenGrayscale(self._grey[i, 0])
             self._grey[i, 1].fill(0)
@@ -456,6 +472,19 @@ class BreakoutWorld(gym.vector.VectorEnv):
         if not self._ram_obs:
             self._stack[i] = self._processed(i)
         self._lives[i] = ale.lives()
+
+    def _remove_bottom_left(self, i: int, bricks: int) -> None:
+        """Game ``i`` (just reset): the bottom ``bricks`` bricks of the leftmost
+        ``left_columns`` column(s) taken out of the wall (``left_head_start``). NOOPs
+        until the game has set up its own wall, which would overwrite them, then one
+        more so that the frame shows the new wall."""
+        ale = self._ales[i]
+        while ale.getEpisodeFrameNumber() < _WALL_SETTLE_FRAMES and not ale.game_over():
+            ale.act(self._actions[0])
+        wall = bricks_present(ale.getRAM())
+        wall[BRICK_ROWS - bricks :, : self.left_columns] = False
+        set_bricks(ale, wall)
+        ale.act(self._actions[0])
 
     def _act(self, i: int, action: int) -> int:
         """One agent step of game ``i`` (``frame_skip`` frames of minimal action index
@@ -882,6 +911,7 @@ def make_breakout_world(
     screen_size: int = 84,
     max_episode_frames: int = 108_000,
     fire_on_reset: bool = False,
+    left_head_start: float = 0.0,
     shard: tuple[int, int] | None = None,
 ) -> BreakoutWorld:
     """The registry's factory for ``"breakout"`` (``make_world("breakout", ...)``).
@@ -903,6 +933,8 @@ def make_breakout_world(
         screen_size: side of the agent's frames.
         max_episode_frames: truncation limit in emulator frames.
         fire_on_reset: press FIRE after every reset and lost life.
+        left_head_start: the share of games that start with the leftmost column's bottom
+            bricks gone (a learner's curriculum; see :class:`BreakoutWorld`).
         shard: these games' place in a larger world (see :class:`BreakoutWorld`).
 
     Raises:
@@ -928,6 +960,7 @@ def make_breakout_world(
         screen_size=screen_size,
         max_episode_frames=max_episode_frames,
         fire_on_reset=fire_on_reset,
+        left_head_start=left_head_start,
         shard=shard,
     )
 
