@@ -7,6 +7,7 @@ an image world from the same seed, step for step.
 
 from __future__ import annotations
 
+import cv2
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from noisybolt.agents.hyperparams import load_hyperparams
 from noisybolt.envs.breakout import (
     OBS_MODES,
     BreakoutWorld,
+    area_resize_84,
     breakout_fluents,
     make_breakout_ram_world,
     make_breakout_world,
@@ -155,3 +157,24 @@ def test_ram_agent_network_is_a_dense_layer_beside_the_dfa_states():
     assert body.features_dim == 256 + 14
     features = body({"image": torch.ones(5, 128), "dfa": torch.zeros(5, 14)})
     assert features.shape == (5, 270)
+
+
+def test_the_cameras_area_resize_is_opencvs_on_the_games_frames() -> None:
+    world = make_world("breakout-ram", num_envs=4, seed=0)
+    world.reset(seed=0)
+    rng = np.random.default_rng(0)
+    frames = []
+    for _ in range(150):
+        world.step(rng.integers(0, 4, size=4))
+        frames.append(world.frames())
+    world.close()
+    frames_ = np.concatenate(frames)
+    theirs = np.stack([cv2.resize(f, (84, 84), interpolation=cv2.INTER_AREA) for f in frames_])
+    assert np.array_equal(area_resize_84(frames_), theirs)
+    # Random pixels: an exact half may round the other way, one level apart at most.
+    noise = rng.integers(0, 256, (64, 210, 160, 3), dtype=np.uint8)
+    theirs = np.stack([cv2.resize(f, (84, 84), interpolation=cv2.INTER_AREA) for f in noise])
+    diff = np.abs(area_resize_84(noise).astype(int) - theirs)
+    assert diff.max() <= 1 and (diff > 0).mean() < 2e-3
+    with pytest.raises(ValueError, match="210, 160, 3"):
+        area_resize_84(noise[:, :200])

@@ -90,6 +90,7 @@ __all__ = [
     "BreakoutEnv",
     "BreakoutWorld",
     "NoiseFn",
+    "area_resize_84",
     "breakout_fluents",
     "brick_box",
     "bricks_present",
@@ -205,6 +206,46 @@ def set_bricks(ale: ale_py.ALEInterface, present: np.ndarray) -> None:
     for byte, value in values.items():
         if value != ram[byte]:
             ale.setRAM(byte, value)
+
+
+_AREA_84_SIZE = 84
+
+
+def area_resize_84(frames: np.ndarray) -> np.ndarray:
+    """ALE frames uint8 ``[n, 210, 160, 3]`` resized to ``[n, 84, 84, 3]`` by area
+    averaging: ``cv2.INTER_AREA``'s pixels, in half its time for a batch of 4.
+
+    OpenCV's area resize takes its general path for factors that are not integers (2.5
+    down, 40/21 across: 0.16 ms a frame here, a tenth of a Breakout training frame's CPU).
+    Down, every 5 rows make 2, the averages (r0 + r1 + r2/2) / 2.5 and (r2/2 + r3 + r4)
+    / 2.5, kept as the exact sums 2r0 + 2r1 + r2 and r2 + 2r3 + 2r4 (5 times the average,
+    in float32); across, OpenCV's own area resize of those sums (the frames stacked, one
+    call, factor 1 down), then a fifth of it, rounded. The same pixels as
+    ``cv2.resize(frame, (84, 84), interpolation=cv2.INTER_AREA)`` on every frame of
+    Breakout play tested; on random images a value on an exact half may round the other
+    way (under 0.1 % of values, one level apart).
+
+    Example:
+        >>> frame = np.random.default_rng(0).integers(0, 256, (1, 210, 160, 3), np.uint8)
+        >>> ours = area_resize_84(frame)[0].astype(int)
+        >>> theirs = cv2.resize(frame[0], (84, 84), interpolation=cv2.INTER_AREA).astype(int)
+        >>> ours.shape, int(abs(ours - theirs).max()) <= 1
+        ((84, 84, 3), True)
+    """
+    n = frames.shape[0]
+    if frames.shape[1:] != (210, 160, 3) or frames.dtype != np.uint8:
+        raise ValueError(f"expected uint8 ALE frames [n, 210, 160, 3], got {frames.shape}")
+    rows = frames.reshape(n, 42, 5, 160 * 3)
+    sums = np.empty((n, 42, 2, 160 * 3), np.float32)  # 2x(row0 + row1) + row2, row2 + 2x(...)
+    np.add(rows[:, :, 0], rows[:, :, 1], out=sums[:, :, 0], dtype=np.float32)
+    np.add(rows[:, :, 3], rows[:, :, 4], out=sums[:, :, 1], dtype=np.float32)
+    sums *= 2
+    sums += rows[:, :, 2, None]
+    tall = sums.reshape(n * 84, 160, 3)  # the frames one above the other: factor 1 down
+    out = np.asarray(cv2.resize(tall, (84, n * 84), interpolation=cv2.INTER_AREA), np.float32)
+    out *= np.float32(0.2)
+    np.rint(out, out=out)
+    return out.astype(np.uint8).reshape(n, 84, 84, 3)
 
 
 def resolve_noise(noise: Any) -> tuple[NoiseFn | None, dict[str, Any]]:
@@ -716,7 +757,10 @@ class BreakoutWorld(gym.vector.VectorEnv):
         """The camera's images of ``frames``, those of ``games``: each game's noise comes
         from its own generator, so a game looks the same in any shard of the world."""
         size = (self.camera_size, self.camera_size)
-        images = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
+        if self.camera_size == _AREA_84_SIZE:
+            images = area_resize_84(np.stack(frames))
+        else:
+            images = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
         if self._noise is not None:
             images = np.concatenate(
                 [
