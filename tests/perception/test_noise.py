@@ -52,6 +52,17 @@ def test_every_model_is_seeded_shape_preserving_and_leaves_its_input(model) -> N
     assert np.array_equal(images, before)
 
 
+@pytest.mark.parametrize("model", ALL_MODELS, ids=lambda m: m.name)
+def test_each_image_with_its_own_generator_is_each_applied_alone(model) -> None:
+    images = np.random.default_rng(3).integers(0, 256, (5, 24, 24, 3), dtype=np.uint8)
+    alone = [model.apply(images[i : i + 1], np.random.default_rng(i)) for i in range(5)]
+    each = model.apply_each(images, [np.random.default_rng(i) for i in range(5)])
+    assert np.array_equal(each, np.concatenate(alone))
+    assert model.apply_each(images[:0], []).shape == (0, 24, 24, 3)
+    with pytest.raises(ValueError, match="5 images need as many generators, got 4"):
+        model.apply_each(images, [np.random.default_rng(i) for i in range(4)])
+
+
 @pytest.mark.parametrize(
     "model",
     [m for m in ALL_MODELS if not isinstance(m, NoNoise | Blur)],

@@ -67,7 +67,7 @@ from noisybolt.bolt.schemes import ReturnBounds
 from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.fluents import select_fluents
 from noisybolt.errors import ConfigError
-from noisybolt.perception.noise import make_noise
+from noisybolt.perception.noise import NoiseModel, make_noise
 from noisybolt.perception.protocols import (
     BOLT_IMAGE_KEY,
     FINAL_INFO_KEY,
@@ -413,6 +413,9 @@ class BreakoutWorld(gym.vector.VectorEnv):
         self.left_head_start = float(left_head_start)
         self._ram_obs = obs_mode in ("ram", "ram_bits")
         self._noise = noise_fn
+        # A noise model's own apply_each draws each game's noise alike, in one batch.
+        owner = getattr(noise_fn, "__self__", None)
+        self._noise_model = owner if isinstance(owner, NoiseModel) else None
         self._seed = seed
 
         ale_py.ALEInterface.setLoggerMode(ale_py.LoggerMode.Error)
@@ -762,12 +765,13 @@ class BreakoutWorld(gym.vector.VectorEnv):
         else:
             images = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
         if self._noise is not None:
-            images = np.concatenate(
-                [
-                    np.asarray(self._noise(images[j : j + 1], self._camera_rngs[g]))
-                    for j, g in enumerate(games)
-                ]
-            )
+            rngs = [self._camera_rngs[g] for g in games]
+            if self._noise_model is not None:
+                images = np.asarray(self._noise_model.apply_each(images, rngs))
+            else:
+                images = np.concatenate(
+                    [np.asarray(self._noise(images[j : j + 1], rng)) for j, rng in enumerate(rngs)]
+                )
             if images.dtype != np.uint8 or images.shape != (len(frames), *size, 3):
                 raise ValueError(
                     f"the camera noise returned {images.dtype} {images.shape}; it must "

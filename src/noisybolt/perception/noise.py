@@ -81,6 +81,23 @@ class NoiseModel(ABC):
             A new uint8 ``[n, H, W, C]`` array (``images`` itself only for no-op models).
         """
 
+    def apply_each(self, images: np.ndarray, rngs: Sequence[np.random.Generator]) -> np.ndarray:
+        """Corrupt each image with its own generator: the same values as
+        ``apply(images[i : i + 1], rngs[i])`` for every ``i``, joined (a camera whose
+        games each keep their own noise stream, as Breakout's do, calls it once a step).
+
+        Raises:
+            ValueError: ``rngs`` and ``images`` of different lengths.
+        """
+        _check_images(images)
+        if len(rngs) != len(images):
+            raise ValueError(f"{len(images)} images need as many generators, got {len(rngs)}")
+        if not len(images):
+            return images.copy()
+        return np.concatenate(
+            [np.asarray(self.apply(images[i : i + 1], rng)) for i, rng in enumerate(rngs)]
+        )
+
     def describe(self) -> dict[str, Any]:
         """A JSON-able mapping that :func:`make_noise` turns back into this model."""
         out: dict[str, Any] = {"name": self.name}
@@ -197,6 +214,20 @@ class GaussianNoise(NoiseModel):
         _check_images(images)
         # round(x + sigma*z) == x + round(sigma*z) for integer x: integer arithmetic is exact.
         values = np.take(_rounded_quantiles(self.sigma), _uniform16(rng, images.shape))
+        values += images
+        np.clip(values, 0, 255, out=values)
+        return values.astype(np.uint8)
+
+    def apply_each(self, images: np.ndarray, rngs: Sequence[np.random.Generator]) -> np.ndarray:
+        """As :meth:`NoiseModel.apply_each` (the same values), each image's draws from its
+        own generator and the arithmetic once for the batch."""
+        _check_images(images)
+        if len(rngs) != len(images):
+            raise ValueError(f"{len(images)} images need as many generators, got {len(rngs)}")
+        draws = np.empty(images.shape, np.uint16)
+        for i, rng in enumerate(rngs):
+            draws[i] = _uniform16(rng, (1, *images.shape[1:]))[0]
+        values = np.take(_rounded_quantiles(self.sigma), draws)
         values += images
         np.clip(values, 0, 255, out=values)
         return values.astype(np.uint8)
