@@ -329,10 +329,13 @@ class BreakoutWorld(gym.vector.VectorEnv):
             a start-state curriculum for a learner (``world.train_kwargs``), so that
             the column's top bricks, which a player reaches only after the bottom ones,
             are met early and often. 0 (default): every game as the ALE starts it (and
-            no random draw is spent on it). A missing brick scores nothing; the bolt's
-            fluents see it gone from the first frame, so a spec it satisfies is paid
-            nothing for it (the compliance scheme pays no acceptance the first
-            observation gives).
+            no random draw is spent on it). A missing brick scores nothing, and the
+            bolt's fluents see it gone from the first frame: under threshold tracking a
+            spec it satisfies is paid nothing for it (the compliance scheme pays no
+            acceptance the first observation gives); belief tracking, which believes a
+            fluent that comes on only after ``min_dwell`` frames and treats the first
+            frame as such an onset, pays for it over the first steps, whatever the
+            agent does (an offset to the return, not a gradient).
         shard: ``(first, total)``: these ``num_envs`` games are games ``first`` ..
             ``first + num_envs - 1`` of a world of ``total`` games with this ``seed``, and
             play exactly as those do there (each game's ALE, no-ops and camera noise are
