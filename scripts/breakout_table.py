@@ -15,10 +15,11 @@ bolt perceived, ended accepting while the true trace did not (the largest over t
 ``--pool K`` prints one row per run instead, over its last K evaluations together (one
 evaluation's 8 episodes read a 50 % share to within about ±18 points; K of them pooled
 narrow that by sqrt(K)): the frames they span, the episodes, the share that cleared the
-column with its 95 % Wilson interval, and the mean score and left bricks gone with the
+column with its 95 % Wilson interval, the mean score and left bricks gone with the
 standard error of the evaluations' means (the records keep each evaluation's means, not
-its episodes). A learning run still improves across those evaluations: keep K small
-against the run's length.
+its episodes), and the share of episodes that took each of the column's bricks, top row
+first (where a player stops on the way up). A learning run still improves across those
+evaluations: keep K small against the run's length.
 """
 
 from __future__ import annotations
@@ -96,6 +97,12 @@ def pooled(records: dict[int, dict], last: int, upto: int | None = None) -> dict
         sum(v for k, v in r["compliance"].items() if k.startswith("left_row")) for r in chosen
     ]
 
+    rows = sorted(k for k in chosen[0]["compliance"] if k.startswith("left_row"))
+    by_row = [
+        sum(r["compliance"].get(k, 0.0) * e for r, e in zip(chosen, episodes, strict=True)) / n
+        for k in rows
+    ]
+
     def se(values: list[float]) -> float:
         return statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else 0.0
 
@@ -111,6 +118,7 @@ def pooled(records: dict[int, dict], last: int, upto: int | None = None) -> dict
         "score_se": se(scores),
         "bricks": statistics.fmean(bricks),
         "bricks_se": se(bricks),
+        "rows": by_row,  # left_row0 (top) .. left_row5: the share of episodes it went
     }
 
 
@@ -131,18 +139,23 @@ def main(argv: list[str] | None = None) -> None:
     runs: list[Path] = args.runs
     records = [_records(r) for r in runs]
     if args.pool:
-        print("| run | frames | episodes | column cleared (95 % CI) | score | left bricks gone |")
-        print("|---|---|---:|---|---:|---:|")
+        print(
+            "| run | frames | episodes | column cleared (95 % CI) | score | left bricks gone "
+            "| each brick gone, top row first |"
+        )
+        print("|---|---|---:|---|---:|---:|---|")
         for run, rec in zip(runs, records, strict=True):
             if not rec or (args.upto is not None and min(rec) > args.upto):
-                print(f"| {run.name} | no evaluation yet | | | | |")
+                print(f"| {run.name} | no evaluation yet | | | | | |")
                 continue
             p = pooled(rec, args.pool, args.upto)
             print(
                 f"| {run.name} | {p['first'] // 1000}k–{p['last'] // 1000}k | {p['episodes']} | "
                 f"{p['cleared']:.0%} ({p['cleared_low']:.0%}–{p['cleared_high']:.0%}) | "
                 f"{p['score']:.1f} ± {p['score_se']:.1f} | "
-                f"{p['bricks']:.2f} ± {p['bricks_se']:.2f} |"
+                f"{p['bricks']:.2f} ± {p['bricks_se']:.2f} | "
+                + " ".join(f"{share:.0%}" for share in p["rows"])
+                + " |"
             )
         return
     header = ["frames"]

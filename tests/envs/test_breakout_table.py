@@ -60,6 +60,8 @@ def test_pooled_weighs_shares_by_episodes_and_takes_only_the_last_k(
     assert (p["cleared_low"], p["cleared_high"]) == pytest.approx(script.wilson_interval(5, 12))
     assert p["score"] == pytest.approx(12.0) and p["score_se"] == pytest.approx(2.0)  # sd 2.83/√2
     assert p["bricks"] == pytest.approx(1.75) and p["bricks_se"] == pytest.approx(0.25)
+    # Per brick, episode-weighted: row 1 went in 4 of 8 episodes, then in all 4.
+    assert p["rows"] == pytest.approx([1.0, (0.5 * 8 + 1.0 * 4) / 12, 0, 0, 0, 0])
     assert script.pooled(records, 1)["score_se"] == 0.0
     with pytest.raises(ValueError, match=">= 1"):
         script.pooled(records, 0)
@@ -76,6 +78,7 @@ def test_pool_prints_a_row_per_run_and_says_which_have_no_evaluation(
     script.main(["--pool", "3", str(done), str(fresh)])
     rows = capsys.readouterr().out.splitlines()
     assert rows[2].startswith("| done | 100k–100k | 8 | 0% (0%–")
-    assert rows[3] == "| fresh | no evaluation yet | | | | |"
+    assert rows[2].endswith("| 0% 0% 0% 0% 0% 0% |")
+    assert rows[3] == "| fresh | no evaluation yet | | | | | |"
     with pytest.raises(SystemExit, match="holds no run"):
         script.main([str(tmp_path / "missing")])
