@@ -89,9 +89,7 @@ class NoiseModel(ABC):
         Raises:
             ValueError: ``rngs`` and ``images`` of different lengths.
         """
-        _check_images(images)
-        if len(rngs) != len(images):
-            raise ValueError(f"{len(images)} images need as many generators, got {len(rngs)}")
+        _check_generators(images, rngs)
         if not len(images):
             return images.copy()
         return np.concatenate(
@@ -129,6 +127,14 @@ def _integer(model: str, name: str, value: Any, low: int, high: int) -> int:
     if not low <= int(value) <= high:
         raise ConfigError(f"{model}: {name} must be in [{low}, {high}], got {value!r}")
     return int(value)
+
+
+def _check_generators(images: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
+    """:meth:`NoiseModel.apply_each`'s input: images as :func:`_check_images` wants them,
+    one generator each."""
+    _check_images(images)
+    if len(rngs) != len(images):
+        raise ValueError(f"{len(images)} images need as many generators, got {len(rngs)}")
 
 
 def _check_images(images: np.ndarray) -> None:
@@ -212,21 +218,20 @@ class GaussianNoise(NoiseModel):
     def apply(self, images: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Add ``N(0, sigma^2)`` per value (see :func:`standard_normal`), round, saturate."""
         _check_images(images)
-        # round(x + sigma*z) == x + round(sigma*z) for integer x: integer arithmetic is exact.
-        values = np.take(_rounded_quantiles(self.sigma), _uniform16(rng, images.shape))
-        values += images
-        np.clip(values, 0, 255, out=values)
-        return values.astype(np.uint8)
+        return self._grain(images, _uniform16(rng, images.shape))
 
     def apply_each(self, images: np.ndarray, rngs: Sequence[np.random.Generator]) -> np.ndarray:
         """As :meth:`NoiseModel.apply_each` (the same values), each image's draws from its
         own generator and the arithmetic once for the batch."""
-        _check_images(images)
-        if len(rngs) != len(images):
-            raise ValueError(f"{len(images)} images need as many generators, got {len(rngs)}")
+        _check_generators(images, rngs)
         draws = np.empty(images.shape, np.uint16)
         for i, rng in enumerate(rngs):
             draws[i] = _uniform16(rng, (1, *images.shape[1:]))[0]
+        return self._grain(images, draws)
+
+    def _grain(self, images: np.ndarray, draws: np.ndarray) -> np.ndarray:
+        """``images`` plus the grain of uniform 16-bit ``draws`` (one per value)."""
+        # round(x + sigma*z) == x + round(sigma*z) for integer x: integer arithmetic is exact.
         values = np.take(_rounded_quantiles(self.sigma), draws)
         values += images
         np.clip(values, 0, 255, out=values)
