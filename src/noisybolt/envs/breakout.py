@@ -522,16 +522,20 @@ class BreakoutWorld(gym.vector.VectorEnv):
 
     def _remove_bottom_left(self, i: int, bricks: int) -> None:
         """Game ``i`` (just reset): the bottom ``bricks`` bricks of the leftmost
-        ``left_columns`` column(s) taken out of the wall (``left_head_start``). NOOPs
-        until the game has set up its own wall, which would overwrite them, then one
-        more so that the frame shows the new wall."""
+        ``left_columns`` column(s) taken out of the wall (``left_head_start``), once the
+        game has set up its own, then one NOOP so that the frame shows the new wall."""
         ale = self._ales[i]
-        while ale.getEpisodeFrameNumber() < _WALL_SETTLE_FRAMES and not ale.game_over():
-            ale.act(self._actions[0])
+        self._settle_wall(ale)
         wall = bricks_present(ale.getRAM())
         wall[BRICK_ROWS - bricks :, : self.left_columns] = False
         set_bricks(ale, wall)
         ale.act(self._actions[0])
+
+    def _settle_wall(self, ale: ale_py.ALEInterface) -> None:
+        """NOOPs until the game has set up its wall (a wall written into RAM before then
+        is overwritten), or is over."""
+        while ale.getEpisodeFrameNumber() < _WALL_SETTLE_FRAMES and not ale.game_over():
+            ale.act(self._actions[0])
 
     def _act(self, i: int, action: int) -> int:
         """One agent step of game ``i`` (``frame_skip`` frames of minimal action index
@@ -811,8 +815,7 @@ class BreakoutWorld(gym.vector.VectorEnv):
         """
         self._clear_step_state()
         for i, ale in enumerate(self._ales):
-            while ale.getEpisodeFrameNumber() < _WALL_SETTLE_FRAMES and not ale.game_over():
-                ale.act(self._actions[0])
+            self._settle_wall(ale)
             if ale.game_over():
                 self._reset_one(i)
                 for _ in range(_WALL_SETTLE_FRAMES):
