@@ -267,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     sys.path.insert(0, str(ROOT))
     started = time.perf_counter()
-    fluents = FLUENTS if args.world == WORLD else world_fluents(args.world)
+    fluents = world_fluents(args.world)  # CartPole: FLUENTS, in that order
     specs = draw_specs(args.specs, args.suite_seed, fluents=fluents)
     root = Path(args.out)
     root.mkdir(parents=True, exist_ok=True)
