@@ -16,11 +16,12 @@ import pytest
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.utils import obs_as_tensor
+from stable_baselines3.common.vec_env import VecNormalize
 
 from noisybolt.agents.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
 from noisybolt.agents.environments import make_env
 from noisybolt.agents.models import make_model
-from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
+from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds, grouped_below
 from noisybolt.envs.breakout import FLUENT_NAMES
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
@@ -102,6 +103,48 @@ def test_a_deterministic_policy_gets_the_same_rollouts_and_weights() -> None:
         overlapped.env.close()
 
 
+@pytest.mark.parametrize("normalize", [True, "split"])
+def test_a_reward_normaliser_sees_the_same_steps_as_over_the_world_in_process(
+    normalize: bool | str,
+) -> None:
+    """``normalize_reward`` on top of the groups: the same normalised rewards in the buffer
+    and the same running statistics as the normaliser over the world stepped whole."""
+    more = {"algorithm.hyperparams.normalize_reward": normalize, "bolt.reward": "compliance"}
+    if normalize == "split":
+        more["algorithm.hyperparams.bolt_weight"] = 2.0
+    inside = _model(_config(overlap=False, **more), deterministic=True)
+    overlapped = _model(_config(overlap=True, **more), deterministic=True)
+    try:
+        assert isinstance(overlapped.env, VecNormalize)
+        assert isinstance(overlapped.env.venv, GroupedVecEnv)
+        assert type(overlapped.env) is type(inside.env)
+        theirs, ours = _collect(inside), _collect(overlapped)
+        _assert_same_buffers(ours, theirs)
+        names = ["ret_rms", "bolt_ret_rms"] if normalize == "split" else ["ret_rms"]
+        for name in names:
+            a, b = getattr(inside.env, name), getattr(overlapped.env, name)
+            # one update a step, with every game's running return (count starts at 1e-4)
+            assert a.count == pytest.approx(1e-4 + N_ENVS * N_STEPS) == b.count
+            assert a.var != 1.0  # moved from its start: the rewards were normalised
+            np.testing.assert_allclose([a.mean, a.var], [b.mean, b.var], rtol=1e-9)
+        np.testing.assert_allclose(inside.env.returns, overlapped.env.returns, rtol=1e-9)
+    finally:
+        inside.env.close()
+        overlapped.env.close()
+
+
+def test_a_normaliser_of_observations_over_the_groups_is_refused() -> None:
+    model = _model(_config(overlap=True), deterministic=False)
+    try:
+        assert grouped_below(model.env) is model.env
+        assert grouped_below(VecNormalize(model.env, norm_obs=False)) is model.env
+        with pytest.raises(ConfigError, match="norm_obs"):
+            grouped_below(VecNormalize(model.env, norm_obs=True, norm_obs_keys=["image"]))
+        assert grouped_below(model.env.groups[0]) is None
+    finally:
+        model.env.close()
+
+
 def test_sampled_rollouts_are_the_worlds_transitions_under_the_current_policy() -> None:
     """Sampled actions differ from the synchronous collector's (each group draws its
     own), but every transition is one the world makes for the recorded action, and every
@@ -156,12 +199,6 @@ def test_the_setting_is_checked_and_old_runs_load_without_it() -> None:
     with pytest.raises(ConfigError, match="not on-policy"):
         config = _config(overlap=True, **{"algorithm.name": "dqn"})
         make_model(config, make_env(config, OracleDetector(FLUENT_NAMES), training=True))
-    with pytest.raises(ConfigError, match="normalize_reward"):
-        make_env(
-            _config(overlap=True, **{"algorithm.hyperparams.normalize_reward": True}),
-            OracleDetector(FLUENT_NAMES),
-            training=True,
-        )
     assert LEGACY_DEFAULTS["world.overlap"] is False and "world.overlap" in RESUMABLE_KEYS
     saved = _config(overlap=False).to_dict()
     del saved["world"]["overlap"]  # a run saved before the setting existed

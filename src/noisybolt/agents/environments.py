@@ -19,7 +19,8 @@ games in worker processes (:func:`make_run_world`); everything above it stays he
 ``world.overlap`` the training games are two groups, each this stack up to
 ``LifeLossTerminal`` (and ``VecTransposeImage``) over its share of the games and workers,
 side by side in a :class:`~noisybolt.agents.pipeline.GroupedVecEnv`, whose rollouts the
-learner collects overlapped (:mod:`noisybolt.agents.pipeline`).
+learner collects overlapped (:mod:`noisybolt.agents.pipeline`); a normaliser sits on top
+of the groups.
 """
 
 from __future__ import annotations
@@ -136,9 +137,12 @@ def make_env(
     }
     if not training:
         return build_bolted_env(config, detector, n_envs=n_envs, **settings)
+    env: VecEnv
     if config.world_config.overlap:
-        return _overlapped_groups(config, detector, n_envs=n_envs, **settings)
-    env = _learner_wrappers(config, build_bolted_env(config, detector, n_envs=n_envs, **settings))
+        env = _overlapped_groups(config, detector, n_envs=n_envs, **settings)
+    else:
+        bolted = build_bolted_env(config, detector, n_envs=n_envs, **settings)
+        env = _learner_wrappers(config, bolted)
     if config.hyperparams.get("normalize_reward"):
         # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
         # top, and off-policy replay buffers, which store VecNormalize's original (here:
@@ -163,15 +167,12 @@ def _overlapped_groups(
     """``world.overlap``: the training games as two groups, each its own bolted stack over
     its share of the world's games (``shard``) and of its workers.
 
+    A reward normaliser goes on top of the groups, as on top of the world in process
+    (:func:`make_env`; the collector hands it the groups' joined steps).
+
     Raises:
-        ConfigError: fewer than 2 games, or ``normalize_reward`` (the overlapped collector
-            steps the groups below a normaliser, which would see none of it).
+        ConfigError: fewer than 2 games.
     """
-    if config.hyperparams.get("normalize_reward"):
-        raise ConfigError(
-            "world.overlap collects each group's steps itself, below where normalize_reward's "
-            "VecNormalize would sit: set normalize_reward false or drop world.overlap"
-        )
     if n_envs < 2:
         raise ConfigError(f"world.overlap splits the games into two groups: n_envs is {n_envs}")
     workers = config.world_config.workers

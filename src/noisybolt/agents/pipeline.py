@@ -15,6 +15,16 @@ games and workers), and :class:`OverlappedRollouts` collects a rollout in turns:
 so one group's world steps while the learner runs the policy, the classifier and the bolt
 of the other.
 
+A reward normaliser (``normalize_reward``: SB3's ``VecNormalize`` or
+:class:`~noisybolt.wrappers.SplitRewardNormalize`) sits on top of the groups, as it sits on
+top of the world in process, and sees the same steps: the collector joins the groups' steps
+of one time step and hands them to the :class:`GroupedVecEnv` below the normaliser
+(:meth:`GroupedVecEnv.hand_over`), whose next ``step_wait`` returns them, so the normaliser
+updates its running returns on all games at once, in the games' order, as it would on the
+world stepped whole. Normalised *observations* it cannot see in time (the next action of a
+group is chosen before the other group's step is in), so a normaliser of observations is
+refused.
+
 What stays as SB3's collector has it: every action comes from the current policy (the
 rollout's, never an older one: no game is sent a step of the next rollout before the
 update), the games are the same ones (each group plays its games of the whole world, as
@@ -51,12 +61,18 @@ from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.utils import obs_as_tensor
-from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["GroupedVecEnv", "OverlappedRollouts", "group_bounds", "overlapped_class"]
+__all__ = [
+    "GroupedVecEnv",
+    "OverlappedRollouts",
+    "group_bounds",
+    "grouped_below",
+    "overlapped_class",
+]
 
 
 def group_bounds(num_envs: int, groups: int) -> tuple[tuple[int, int], ...]:
@@ -103,6 +119,7 @@ class GroupedVecEnv(VecEnv):
                     f"{group.observation_space}, {group.action_space}"
                 )
         self.groups: tuple[VecEnv, ...] = tuple(groups)
+        self._handed: VecEnvStepReturn | None = None
         edges = np.cumsum([0, *(group.num_envs for group in groups)])
         #: Group ``g``'s games in the whole.
         self.slices: tuple[slice, ...] = tuple(
@@ -126,8 +143,18 @@ class GroupedVecEnv(VecEnv):
             group.step_async(actions[rows])
 
     def step_wait(self) -> VecEnvStepReturn:
-        """Every group's step, joined in the games' order."""
+        """Every group's step, joined in the games' order (or the step handed over)."""
+        if self._handed is not None:
+            step, self._handed = self._handed, None
+            return step
         return join_steps([group.step_wait() for group in self.groups])
+
+    def hand_over(self, step: VecEnvStepReturn) -> None:
+        """The groups' steps of one time step, joined, collected by whoever stepped the
+        groups one by one (:class:`OverlappedRollouts`): the next :meth:`step_wait`
+        returns them, so that the wrappers on top (a reward normaliser) see them as a step
+        of the whole."""
+        self._handed = step
 
     def seed(self, seed: int | None = None) -> Sequence[int | None]:
         """Seeds every group with the whole world's ``seed`` (see the class docstring)."""
@@ -213,8 +240,9 @@ def join_steps(parts: Sequence[VecEnvStepReturn]) -> VecEnvStepReturn:
 
 class OverlappedRollouts(OnPolicyAlgorithm):
     """An on-policy algorithm (PPO, A2C) whose rollouts on a :class:`GroupedVecEnv` are
-    collected overlapped (see the module docstring); on any other env, as SB3 collects
-    them. Mixed in before the algorithm by :func:`overlapped_class`."""
+    collected overlapped (see the module docstring), also through reward normalisers on
+    top of it (:func:`grouped_below`); on any other env, as SB3 collects them. Mixed in
+    before the algorithm by :func:`overlapped_class`."""
 
     def collect_rollouts(
         self,
@@ -226,7 +254,8 @@ class OverlappedRollouts(OnPolicyAlgorithm):
         """Fills ``rollout_buffer`` with ``n_rollout_steps`` steps of every game, as SB3's
         ``OnPolicyAlgorithm.collect_rollouts`` does (same buffer, callbacks and
         bootstrapping), the groups stepped in turns."""
-        if not isinstance(env, GroupedVecEnv):
+        grouped = grouped_below(env)
+        if grouped is None:
             return super().collect_rollouts(env, callback, rollout_buffer, n_rollout_steps)
         if self.use_sde:
             raise ConfigError("world.overlap does not support gSDE (use_sde); turn one off")
@@ -234,7 +263,7 @@ class OverlappedRollouts(OnPolicyAlgorithm):
         self.policy.set_training_mode(False)
         rollout_buffer.reset()
         callback.on_rollout_start()
-        groups, slices = env.groups, env.slices
+        groups, slices = grouped.groups, grouped.slices
         # What the policy sees of each group now, and what it chose at this step.
         seen = [rows_of(self._last_obs, rows) for rows in slices]
         chosen: list[tuple[np.ndarray, th.Tensor, th.Tensor]] = [self._send(groups[0], seen[0])]
@@ -253,7 +282,8 @@ class OverlappedRollouts(OnPolicyAlgorithm):
                     ahead = self._send(groups[0], seen[0])
             if len(groups) == 1 and n_steps + 1 < n_rollout_steps:
                 ahead = self._send(groups[0], seen[0])
-            new_obs, rewards, dones, infos = join_steps(steps)
+            grouped.hand_over(join_steps(steps))
+            new_obs, rewards, dones, infos = env.step_wait()  # through the normaliser, if any
             actions = np.concatenate([c[0] for c in chosen])
             values = th.cat([c[1] for c in chosen])
             log_probs = th.cat([c[2] for c in chosen])
@@ -313,6 +343,29 @@ class OverlappedRollouts(OnPolicyAlgorithm):
                 sent = np.clip(sent, self.action_space.low, self.action_space.high)
         group.step_async(sent)
         return chosen, values, log_probs
+
+
+def grouped_below(env: VecEnv) -> GroupedVecEnv | None:
+    """The :class:`GroupedVecEnv` that ``env`` is, or that reward normalisers
+    (``VecNormalize``) on top of it wrap; None for any other env.
+
+    Raises:
+        ConfigError: a normaliser of observations over the groups (the collector chooses a
+            group's next action before the normaliser has seen the other group's step).
+    """
+    normalisers = []
+    while isinstance(env, VecNormalize):
+        normalisers.append(env)
+        env = env.venv
+    if not isinstance(env, GroupedVecEnv):
+        return None
+    if any(normaliser.norm_obs for normaliser in normalisers):
+        raise ConfigError(
+            "world.overlap cannot normalise observations (VecNormalize norm_obs): a group's "
+            "next action is chosen before the other group's step is in; drop world.overlap "
+            "or norm_obs"
+        )
+    return env
 
 
 @cache
