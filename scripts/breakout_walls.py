@@ -1,0 +1,132 @@
+"""Where a Breakout RAM player's games leave the wall: each row's bricks gone, all columns.
+
+    .venv/bin/python scripts/breakout_walls.py runs/breakout-ram-ppo-...-seed0 --episodes 64
+
+The periodic evaluations record the left column only (the bolt's fluents). Whether a
+player misses the column's top bricks because it never reaches the top rows at all, or
+because it reaches them elsewhere but not on the left, is read off the whole wall at the
+end of each game: this plays the run's final model (or its latest checkpoint), greedy
+unless ``--stochastic``, on evaluation games of the run's own world and bolt (the world in
+this process), and prints, over the games: the mean score, the share of each row's bricks
+gone (all 18 columns) beside the share of games that took that row's left brick, the
+share of games that took any brick of the top two rows, the share that cleared the
+column, and one line per game (``--games``): its score, the top two rows (``#`` gone) and
+the left column, top row first.
+
+The wall is read from the episode's last observation (the agent's RAM, as
+``terminal_observation``), so only RAM runs (``breakout-ram``, ``ram`` or ``ram_bits``)
+can be read.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.environments import make_env, prepare_bolt
+from noisybolt.agents.run_evaluation import load_run_model
+from noisybolt.envs.breakout import BRICK_ROWS, RAM_SIZE, bricks_present
+from noisybolt.rundir import RunDirectory
+
+
+def ram_of(observation: np.ndarray) -> np.ndarray:
+    """The console's RAM (uint8 ``[128]``) from a RAM agent's observation: bytes scaled to
+    [0, 1] (``ram``) or the 1,024 bits (``ram_bits``)."""
+    observation = np.asarray(observation)
+    if observation.shape == (RAM_SIZE * 8,):
+        return np.packbits(observation.astype(np.uint8))
+    if observation.shape == (RAM_SIZE,):
+        return np.rint(observation * 255).astype(np.uint8)
+    raise SystemExit(
+        f"an observation of shape {observation.shape} is not a RAM agent's: only "
+        "breakout-ram runs can be read"
+    )
+
+
+def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) -> list[Any]:
+    """``(score, gone)`` per game: ``gone`` bool ``[rows, columns]``, True where the brick
+    is gone at the game's end."""
+    torch.set_num_threads(1)
+    run = RunDirectory(run_dir)
+    config = TrainConfig.from_dict(run.read_config()).override(
+        {"world.workers": 0, "world.overlap": False}
+    )
+    if not config.world.startswith("breakout-ram"):
+        raise SystemExit(f"{run_dir} is a {config.world!r} run: only breakout-ram runs can be read")
+    setup = prepare_bolt(config, seed=seed)
+    model = load_run_model(run, config)
+    n_envs = min(8, episodes)
+    env = make_env(
+        config,
+        setup.detector,
+        training=False,
+        n_envs=n_envs,
+        seed=seed,
+        dfas=setup.dfas,
+        letters=setup.letters,
+        belief=setup.belief,
+    )
+    games: list[Any] = []
+    try:
+        obs = env.reset()
+        while len(games) < episodes:
+            actions = model.predict(obs, deterministic=not stochastic)[0]
+            obs, _, dones, infos = env.step(actions)
+            for i in np.flatnonzero(dones):
+                last = infos[i]["terminal_observation"]
+                ram = ram_of(last["image"] if isinstance(last, dict) else last)
+                games.append((float(infos[i]["episode"]["r"]), ~bricks_present(ram)))
+    finally:
+        env.close()
+    return games[:episodes]
+
+
+def report(games: list[Any], *, lines: bool) -> str:
+    """The summary (and one line per game) as text."""
+    walls = np.array([gone for _, gone in games])
+    scores = np.array([score for score, _ in games])
+    out = [
+        f"{len(games)} games, score {scores.mean():.1f} ± {scores.std():.1f}",
+        "row (top first): bricks gone, all columns | games that took the left brick",
+    ]
+    for row in range(BRICK_ROWS):
+        out.append(f"  {row}: {walls[:, row].mean():.0%} | {walls[:, row, 0].mean():.0%}")
+    out.append(
+        f"games that took any brick of row 0: {walls[:, 0].any(axis=1).mean():.0%}, of row 1: "
+        f"{walls[:, 1].any(axis=1).mean():.0%}; cleared the column: "
+        f"{walls[:, :, 0].all(axis=1).mean():.0%}"
+    )
+    if lines:
+        out.append("score | row 0 | row 1 | left column, top first")
+
+        def draw(bits: np.ndarray) -> str:
+            return "".join("#" if gone else "." for gone in bits)
+
+        for score, gone in games:
+            out.append(f"{score:5.0f} | {draw(gone[0])} | {draw(gone[1])} | {draw(gone[:, 0])}")
+    return "\n".join(out)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("run", type=Path)
+    parser.add_argument("--episodes", type=int, default=32)
+    parser.add_argument("--seed", type=int, default=12345, help="seeds the evaluation games")
+    parser.add_argument("--stochastic", action="store_true", help="sample actions")
+    parser.add_argument("--games", action="store_true", help="one line per game")
+    args = parser.parse_args()
+    if args.episodes < 1:
+        parser.error("--episodes must be at least 1")
+    games = final_walls(
+        args.run, episodes=args.episodes, seed=args.seed, stochastic=args.stochastic
+    )
+    print(report(games, lines=args.games))
+
+
+if __name__ == "__main__":
+    main()
