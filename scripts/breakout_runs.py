@@ -14,7 +14,8 @@ writes ``results/breakout/summary.json`` from every kept run's evaluations.
     .venv/bin/python scripts/breakout_runs.py restore breakout-ram-ppo-bolted-seed0 ...
     .venv/bin/python scripts/breakout_runs.py summary
     .venv/bin/python scripts/breakout_runs.py resume breakout-ram-ppo-bolted-seed0 ... \
-        [--tree /tmp/wt]                   # restore where needed, resume at nice 19
+        [--tree /tmp/wt] [--set world.workers=2 --set world.overlap=true]
+                                           # restore where needed, resume at nice 19
     .venv/bin/python scripts/breakout_runs.py stop     # SIGTERM them: each saves, exits
 
 ``summary.json`` is a list, one entry per run (sorted by agent, algo, bolted, seed):
@@ -138,12 +139,22 @@ def restore(name: str, runs: Path) -> None:
     print(f"{source} -> {target}; continue with: noisybolt train --out {target} --resume")
 
 
-def resume(name: str, runs: Path, pids: Path, *, tree: Path | None = None) -> int:
+def resume(
+    name: str,
+    runs: Path,
+    pids: Path,
+    *,
+    tree: Path | None = None,
+    settings: tuple[str, ...] = (),
+) -> int:
     """Restores a kept ``name`` where ``runs/`` lacks it (or holds an older checkpoint) and
     resumes it in the background at nice 19, in a session of its own (so a stopped
     terminal does not stop it), its output appended to ``runs/bk-<name>.log``; its pid is
     appended to ``pids``. ``tree``: a checkout (a git worktree) whose ``src/`` the run
-    imports, so that editing this one does not change a run under way. Returns the pid."""
+    imports, so that editing this one does not change a run under way. ``settings``:
+    ``KEY=VALUE`` given to the resume as ``--set`` (those a resume may change, e.g.
+    ``world.workers=2`` and ``world.overlap=true`` for a run alone on the machine, or
+    ``frames``; the resume refuses any other). Returns the pid."""
     if (RESULTS / name).exists():
         restore(name, runs)
     elif not (runs / name / "config.json").exists():
@@ -153,6 +164,8 @@ def resume(name: str, runs: Path, pids: Path, *, tree: Path | None = None) -> in
         env["PYTHONPATH"] = str(tree.resolve() / "src")
     command = ["nice", "-n", "19", sys.executable, "-m", "noisybolt", "train"]
     command += ["--out", str(runs / name), "--resume", "--no-progress"]
+    for setting in settings:
+        command += ["--set", setting]
     runs.mkdir(parents=True, exist_ok=True)
     with open(runs / f"bk-{name}.log", "a") as log:
         process = subprocess.Popen(
@@ -293,6 +306,14 @@ def main(argv: list[str] | None = None) -> None:
     resume_parser.add_argument("--runs", type=Path, default=Path("runs"))
     resume_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
     resume_parser.add_argument("--tree", type=Path, help="a checkout whose src/ the runs import")
+    resume_parser.add_argument(
+        "--set",
+        dest="settings",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting a resume may change (world.workers, world.overlap, frames), each run",
+    )
     stop_parser = sub.add_parser("stop", help="SIGTERM the resumed runs and wait for them")
     stop_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
     args = parser.parse_args(argv)
@@ -305,7 +326,7 @@ def main(argv: list[str] | None = None) -> None:
             restore(name, args.runs)
     elif args.command == "resume":
         for name in args.names:
-            resume(name, args.runs, args.pids, tree=args.tree)
+            resume(name, args.runs, args.pids, tree=args.tree, settings=tuple(args.settings))
     elif args.command == "stop":
         print(f"stopped {len(stop(args.pids))} runs (each saved a checkpoint)")
     else:

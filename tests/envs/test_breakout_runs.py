@@ -172,7 +172,7 @@ def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
     script.keep(runs / "grid")
     shutil.rmtree(runs)  # a new machine: runs/ is gone
     pids = tmp_path / "breakout.pids"
-    pid = script.resume("grid", runs, pids)
+    pid = script.resume("grid", runs, pids, settings=("frames=1536",))
     assert pids.read_text() == f"{pid} grid\n"
     deadline = time.monotonic() + 300
     while os.waitpid(pid, os.WNOHANG) == (0, 0):  # still going
@@ -180,7 +180,8 @@ def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
         time.sleep(0.5)
     log = (runs / "bk-grid.log").read_text()
     assert "resuming" in log and "from 512 frames" in log
-    assert json.loads((runs / "grid" / "summary.json").read_text())["frames"] == 1024
+    # the setting given to the resume (a longer budget) over the saved 1024
+    assert json.loads((runs / "grid" / "summary.json").read_text())["frames"] == 1536
     with pytest.raises(SystemExit, match="neither kept"):
         script.resume("nothing", runs, pids)
 
