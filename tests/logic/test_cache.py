@@ -150,8 +150,11 @@ def test_processes_compiling_at_once_get_their_own_automata(
     expected = {
         f: arrays_of(compile_ltlf(f, FLUENTS, backend=backend, cache=False)) for f in CONCURRENT
     }
+    # Not "fork": this test runs in a process that other tests may have left with threads
+    # (torch's, a summary writer's), and a child forked from it can die or hang on a lock
+    # held at the fork (seen: two pool workers dead, the map waiting forever).
     methods = multiprocessing.get_all_start_methods()
-    context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
     cache: str | bool = str(tmp_path) if cached else False
     with context.Pool(3) as pool:
         results = pool.map(compile_in_order, [(backend, cache, seed) for seed in range(3)])
