@@ -7,11 +7,13 @@ player misses the column's top bricks because it never reaches the top rows at a
 because it reaches them elsewhere but not on the left, is read off the whole wall at the
 end of each game: this plays the run's final model (or its latest checkpoint), greedy
 unless ``--stochastic``, on evaluation games of the run's own world and bolt (the world in
-this process), and prints, over the games: the mean score, the share of each row's bricks
-gone (all 18 columns) beside the share of games that took that row's left brick, the
-share of games that took any brick of the top two rows, the share that cleared the
-column, and one line per game (``--games``): its score, the top two rows (``#`` gone) and
-the left column, top row first.
+this process; 8 games in play, the episodes spread evenly over them, as the periodic
+evaluations spread theirs, so that short games are not over-represented), and prints,
+over the games: the mean score, the share of each row's bricks gone (all 18 columns)
+beside the share of games that took that row's left brick, the share of games that took
+any brick of the top two rows, the share that cleared the column, and one line per game
+(``--games``): its score, the top two rows (``#`` gone) and the left column, top row
+first.
 
 The wall is read from the episode's last observation (the agent's RAM, as
 ``terminal_observation``), so only RAM runs (``breakout-ram``, ``ram`` or ``ram_bits``)
@@ -71,19 +73,26 @@ def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) ->
         letters=setup.letters,
         belief=setup.belief,
     )
+    # Spread evenly over the games in play (as the periodic evaluations are): the first
+    # ``episodes`` to end would over-represent short, poor games.
+    targets = np.array([(episodes + i) // n_envs for i in range(n_envs)])
+    counts = np.zeros(n_envs, dtype=int)
     games: list[Any] = []
     try:
         obs = env.reset()
-        while len(games) < episodes:
+        while (counts < targets).any():
             actions = model.predict(obs, deterministic=not stochastic)[0]
             obs, _, dones, infos = env.step(actions)
             for i in np.flatnonzero(dones):
+                if counts[i] >= targets[i]:
+                    continue
+                counts[i] += 1
                 last = infos[i]["terminal_observation"]
                 ram = ram_of(last["image"] if isinstance(last, dict) else last)
                 games.append((float(infos[i]["episode"]["r"]), ~bricks_present(ram)))
     finally:
         env.close()
-    return games[:episodes]
+    return games
 
 
 def report(games: list[Any], *, lines: bool) -> str:
