@@ -31,6 +31,7 @@ import torch
 
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.environments import make_env, prepare_bolt
+from noisybolt.agents.evaluation import episode_targets
 from noisybolt.agents.run_evaluation import load_run_model
 from noisybolt.envs.breakout import BRICK_ROWS, RAM_SIZE, bricks_present
 from noisybolt.rundir import RunDirectory
@@ -73,9 +74,8 @@ def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) ->
         letters=setup.letters,
         belief=setup.belief,
     )
-    # Spread evenly over the games in play (as the periodic evaluations are): the first
-    # ``episodes`` to end would over-represent short, poor games.
-    targets = np.array([(episodes + i) // n_envs for i in range(n_envs)])
+    # Spread evenly over the games in play, as the periodic evaluations are.
+    targets = episode_targets(episodes, n_envs)
     counts = np.zeros(n_envs, dtype=int)
     games: list[Any] = []
     try:

@@ -14,7 +14,13 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
-__all__ = ["EpisodeRecord", "EvalResult", "evaluate_bolted_policy", "summarise"]
+__all__ = [
+    "EpisodeRecord",
+    "EvalResult",
+    "episode_targets",
+    "evaluate_bolted_policy",
+    "summarise",
+]
 
 Predict = Callable[[Any], np.ndarray]
 
@@ -141,6 +147,17 @@ def describe_false_acceptance(summary: Mapping[str, Any]) -> str | None:
     return ", ".join(falsely) if falsely else "none"
 
 
+def episode_targets(n_episodes: int, n_envs: int) -> np.ndarray:
+    """How many of ``n_episodes`` each of ``n_envs`` environments records, spread evenly
+    (as SB3's ``evaluate_policy`` spreads them): the first ``n_episodes`` to end would
+    over-represent short episodes.
+
+    >>> episode_targets(10, 4).tolist()
+    [2, 2, 3, 3]
+    """
+    return np.array([(n_episodes + i) // n_envs for i in range(n_envs)], dtype=int)
+
+
 def evaluate_bolted_policy(
     predict: Predict,
     env: VecEnv,
@@ -171,7 +188,7 @@ def evaluate_bolted_policy(
     n_envs = env.num_envs
     # Through the VecEnv wrappers to SB3VecEnv; an env that does not say has a goal.
     has_goal = bool(getattr(env, "declares_goal", True))
-    targets = np.array([(n_episodes + i) // n_envs for i in range(n_envs)], dtype=int)
+    targets = episode_targets(n_episodes, n_envs)
     counts = np.zeros(n_envs, dtype=int)
     env_ret = np.zeros(n_envs)
     bolt_ret = np.zeros(n_envs)
