@@ -28,9 +28,12 @@ variant alike), everything seeded:
 
    each with the oracle detector (the agent's cost alone) and with the bolt's CNN
    classifier on the noisy camera (``+classifier``: untrained weights of the on-the-fly
-   classifier's architecture, which cost what trained ones cost), as a real run pays.
+   classifier's architecture, which cost what trained ones cost), as a real run pays;
+   ``@bfloat16``: the same agent with ``algorithm.precision`` bfloat16 (its features
+   extractor under autocast; measured where this CPU computes bfloat16 natively).
 
-    .venv/bin/python benchmarks/breakout_network.py [--frames 4096] [--steps 2000] [--rounds 3]
+    .venv/bin/python benchmarks/breakout_network.py [--frames 4096] [--steps 2000] \
+        [--rounds 3] [--trainers image+classifier,image+classifier@bfloat16] [--steppers ...]
 
 envpool is not a dependency. envpool 1.2.5 registers every family it ships when imported
 and fails without its MuJoCo assets (hundreds of MB more); this benchmark then imports its
@@ -56,6 +59,7 @@ from stable_baselines3.common.vec_env import VecMonitor
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
+from noisybolt.agents.models import compute_dtype, set_precision
 from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.agents.training import classifier_architecture
 from noisybolt.envs import SB3VecEnv, make_world
@@ -154,6 +158,7 @@ def stepping_fps(kind: str, steps: int, seed: int) -> Rate:
 
 def training_fps(variant: str, frames: int, seed: int) -> Rate:
     """PPO frames per second of ``frames`` frames (model built before the clock starts)."""
+    variant, _, precision = variant.partition("@")
     agent, _, detector_kind = variant.partition("+")
     world_name = "breakout-ram" if agent == "ram" else "breakout"
     params = load_hyperparams(world_name, "ppo")
@@ -187,6 +192,7 @@ def training_fps(variant: str, frames: int, seed: int) -> Rate:
     model = PPO(
         "MultiInputPolicy", env, policy_kwargs=policy_kwargs, seed=seed, device="cpu", **kwargs
     )
+    set_precision(model, compute_dtype(precision or "float32", "cpu"))
     start, cpu = time.perf_counter(), time.process_time()
     model.learn(frames)
     return _rate(model.num_timesteps, time.perf_counter() - start, time.process_time() - cpu)
@@ -197,14 +203,27 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=4096, help="PPO frames per variant")
     parser.add_argument("--steps", type=int, default=2000, help="batched steps per stepper")
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--trainers",
+        default="image,image+classifier,image+classifier@bfloat16,ram,ram+classifier",
+        help="PPO variants, comma-separated (AGENT[+classifier][@bfloat16])",
+    )
+    parser.add_argument(
+        "--steppers",
+        default="world-stack,world-stack+camera,world-ram,envpool",
+        help="stepping variants, comma-separated ('' for none)",
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
-    steppers = ["world-stack", "world-stack+camera", "world-ram"]
-    if _envpool() is not None:
-        steppers += ["envpool-stack-1t", "envpool-stack-2t"]
-    else:
-        print("envpool: not importable here, left out (see the module docstring)")
-    trainers = ["image", "image+classifier", "ram", "ram+classifier"]
+    steppers = [k for k in args.steppers.split(",") if k and k != "envpool"]
+    if "envpool" in args.steppers.split(","):
+        if _envpool() is not None:
+            steppers += ["envpool-stack-1t", "envpool-stack-2t"]
+        else:
+            print("envpool: not importable here, left out (see the module docstring)")
+    trainers = [k for k in args.trainers.split(",") if k]
+    if "image+classifier" not in trainers:
+        trainers.insert(0, "image+classifier")  # the base of the ratios
     stepping: dict[str, list[Rate]] = {k: [] for k in steppers}
     training: dict[str, list[Rate]] = {k: [] for k in trainers}
     for r in range(args.rounds):
@@ -220,13 +239,15 @@ def main() -> None:
         ("stepping", stepping, "world-stack"),
         ("training (PPO)", training, "image+classifier"),
     ):
+        if base not in table:
+            continue
         wall = {k: statistics.median(r.wall for r in v) for k, v in table.items()}
         cpu = {k: statistics.median(r.cpu for r in v) for k, v in table.items()}
         print(f"\n{title:<20} {'frames/s':>9} {'per CPU s':>10}  {'vs ' + base + ' (CPU)':>28}")
         for k in table:
             print(f"{k:<20} {wall[k]:>9,.0f} {cpu[k]:>10,.0f}  {cpu[k] / cpu[base]:>28.2f}")
         print("all rounds (wall):", {k: [round(r.wall) for r in v] for k, v in table.items()})
-    for agent in ("image+classifier", "ram+classifier"):
+    for agent in (a for a in trainers if a.endswith(("+classifier", "@bfloat16"))):
         rate = statistics.median(r.cpu for r in training[agent])
         print(
             f"10M frames of {agent} at {rate:,.0f} frames per CPU second: "

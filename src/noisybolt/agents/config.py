@@ -134,6 +134,7 @@ RESUMABLE_KEYS: tuple[str, ...] = (
     "world.workers",  # where the world runs, not what it plays (the same games either way)
     "world.overlap",  # how rollouts are collected, not which games they play
     "algorithm.device",  # where the network trains, not what it learns
+    "algorithm.precision",  # how the extractor's products are rounded, not its weights
 )
 #: What a config saved before a setting existed meant by it, by schema path (read by
 #: :func:`nested_config`: a saved config that lacks the path gets this value).
@@ -159,6 +160,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "world.train_kwargs": {},
     # before algorithm.device existed every agent trained on the CPU
     "algorithm.device": "cpu",
+    # before algorithm.precision existed every agent computed in float32
+    "algorithm.precision": "float32",
     # before algorithm.init_from existed every agent started from random weights
     "algorithm.init_from": None,
     # before detector.restarts existed one classifier was trained, from detector.seed
@@ -613,7 +616,8 @@ def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
     Example:
         >>> nested = nested_config({"algo": "dqn", "eval_freq": 500, "hyperparams": {"n_envs": 2}})
         >>> nested["algorithm"], nested["evaluation"]["freq"], nested["world"]["n_envs"]
-        ({'name': 'dqn', 'hyperparams': {}, 'device': 'cpu', 'init_from': None}, 500, 2)
+        ({'name': 'dqn', 'hyperparams': {}, 'device': 'cpu', 'precision': 'float32', \
+'init_from': None}, 500, 2)
         >>> nested["bolt"]["tracking"]  # runs saved before belief tracking tracked by threshold
         'threshold'
     """

@@ -182,6 +182,11 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
     #: Where each spec's block of the one-hot DFA states starts (``MultiDiscrete`` only).
     state_offsets: torch.Tensor
 
+    #: The dtype the convolutions and the projection compute in under autocast (None:
+    #: float32, no autocast); set from ``algorithm.precision`` by
+    #: :func:`noisybolt.agents.models.set_precision`, not saved with the model.
+    compute_dtype: torch.dtype | None = None
+
     def __init__(
         self,
         observation_space: gym.spaces.Dict,
@@ -273,7 +278,15 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
         image = observations[self.image_key].float()
         if not (self.channels_first or self.is_vector):
             image = image.permute(0, 3, 1, 2)
-        features = self.projection(self.convs(image))
+        if self.compute_dtype is None:
+            features = self.projection(self.convs(image))
+        else:
+            # Mixed precision where the cost is: the weights stay float32 (autocast rounds
+            # them per product), and what leaves is float32 again, so the DFA states, the
+            # dense layers and the log-probabilities PPO's ratio compares are float32.
+            with torch.autocast(image.device.type, dtype=self.compute_dtype):
+                features = self.projection(self.convs(image))
+            features = features.float()
         if self.dfa_key is None:
             return features
         return torch.cat([features, observations[self.dfa_key].float()], dim=1)

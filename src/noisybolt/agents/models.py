@@ -17,6 +17,7 @@ import zipfile
 from pathlib import Path
 from typing import Any
 
+import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
@@ -34,10 +35,13 @@ from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
 
 __all__ = [
     "ALGO_KEY",
+    "compute_dtype",
     "load_model",
     "make_model",
+    "native_bfloat16",
     "read_model_data",
     "save_model",
+    "set_precision",
     "torch_device",
 ]
 
@@ -69,6 +73,46 @@ def torch_device(requested: str) -> str:
     return requested
 
 
+def compute_dtype(precision: str, device: str) -> torch.dtype | None:
+    """The dtype the agent's features extractor computes in for ``algorithm.precision``
+    on ``device`` (a :func:`torch_device`): None for ``float32`` (no autocast),
+    ``torch.bfloat16`` where the device computes it natively.
+
+    Raises:
+        ConfigError: ``bfloat16`` on a device without native bfloat16 (a CPU without
+            AVX512-BF16 or AMX, an older GPU), where torch would emulate it, slower than
+            float32; say how to train in float32.
+    """
+    if precision == "float32":
+        return None
+    if not native_bfloat16(device):
+        raise ConfigError(
+            f"algorithm.precision is {precision}, but this machine's {device} has no native "
+            "bfloat16 (a CPU needs AVX512-BF16 or AMX): torch would emulate it, slower than "
+            "float32; train with --set algorithm.precision=float32 (a resumed run may change "
+            "it)"
+        )
+    return torch.bfloat16
+
+
+def native_bfloat16(device: str) -> bool:
+    """Whether ``device`` (``cpu``, ``cuda``, ``cuda:N``) computes bfloat16 natively: on the
+    CPU, oneDNN's check for AVX512-BF16 or AMX."""
+    if device == "cpu":
+        return torch.backends.mkldnn.is_available() and bool(
+            torch.ops.mkldnn._is_mkldnn_bf16_supported()
+        )
+    return bool(torch.cuda.is_bf16_supported())
+
+
+def set_precision(model: BaseAlgorithm, dtype: torch.dtype | None) -> None:
+    """Makes every features extractor of ``model``'s policy (PPO's shared one, DQN's
+    online and target networks') compute in ``dtype`` (None: float32)."""
+    for module in model.policy.modules():
+        if isinstance(module, BoltFeaturesExtractor):
+            module.compute_dtype = dtype
+
+
 def make_model(
     config: TrainConfig,
     env: VecEnv,
@@ -80,10 +124,12 @@ def make_model(
 
     ``trial``: a model built only to check the hyperparameters against the env's spaces
     or to rebuild a saved model's objects (a one-transition replay buffer, so a trial of
-    an Atari DQN does not reserve gigabytes).
+    an Atari DQN does not reserve gigabytes); it computes in float32, whatever
+    ``algorithm.precision`` says.
 
     Raises:
-        ConfigError: SB3 or torch refuse the hyperparameters (the message is theirs).
+        ConfigError: SB3 or torch refuse the hyperparameters (the message is theirs), or
+            the machine lacks the run's precision (:func:`compute_dtype`).
     """
     params = {k: v for k, v in config.hyperparams.items() if k not in META_KEYS}
     # Schedules given in frames (DQN's exploration_frames) as SB3's fractions of this run.
@@ -100,6 +146,8 @@ def make_model(
     if trial and "buffer_size" in params:
         params["buffer_size"] = 1
     check_action_space(config.algo, env.action_space, world=config.world)
+    device = "cpu" if trial else torch_device(config.algorithm.device)
+    dtype = None if trial else compute_dtype(config.algorithm.precision, device)
     cls = run_algorithm_class(config)
     try:
         model = cls(
@@ -109,7 +157,7 @@ def make_model(
             seed=config.seed,
             verbose=0,
             # a trial only rebuilds objects: it never needs (or holds) the GPU
-            device="cpu" if trial else torch_device(config.algorithm.device),
+            device=device,
             tensorboard_log=tensorboard_log,
             **params,
         )
@@ -118,6 +166,7 @@ def make_model(
             f"{config.algo.upper()} cannot be built from these hyperparameters "
             f"({type(error).__name__}: {error}); fix them (--hp KEY=VALUE)"
         ) from None
+    set_precision(model, dtype)
     return model
 
 
@@ -161,11 +210,17 @@ def read_model_data(path: Path, content: bytes | None = None) -> dict[str, Any]:
 
 
 def load_model(
-    path: Path, config: TrainConfig, env: VecEnv, *, device: str | None = None
+    path: Path,
+    config: TrainConfig,
+    env: VecEnv,
+    *,
+    device: str | None = None,
+    precision: str | None = None,
 ) -> BaseAlgorithm:
     """Loads a saved model of ``config``'s run onto ``env`` without unpickling anything,
     its network on ``device`` (default: the run's ``algorithm.device``; a model trained
-    on a GPU loads on the CPU and the other way round).
+    on a GPU loads on the CPU and the other way round), computing in ``precision``
+    (default: the run's ``algorithm.precision``; the weights are float32 either way).
 
     Raises:
         UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
@@ -194,8 +249,9 @@ def load_model(
         )
     custom_objects = {key: getattr(trial, key) for key in serialized}
     device = torch_device(device or config.algorithm.device)
+    dtype = compute_dtype(precision or config.algorithm.precision, device)
     try:
-        return run_algorithm_class(config).load(
+        model = run_algorithm_class(config).load(
             path,
             env=env,
             device=device,
@@ -206,3 +262,5 @@ def load_model(
             f"{path} is corrupt or was saved for another world ({type(error).__name__}: "
             f"{str(error)[:300]}); restore it from a copy, or train the run again"
         ) from None
+    set_precision(model, dtype)
+    return model

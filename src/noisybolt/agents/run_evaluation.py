@@ -57,7 +57,7 @@ def load_run_model(
         UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
     """
     from noisybolt.agents.checkpoints import latest_checkpoint
-    from noisybolt.agents.models import load_model, torch_device
+    from noisybolt.agents.models import compute_dtype, load_model, torch_device
 
     path = run.file("model.zip")
     if path.exists() or path.is_symlink():
@@ -89,7 +89,13 @@ def load_run_model(
         device = torch_device(config.algorithm.device)
     except ConfigError:
         device = "cpu"
-    return load_model(path, config, env, device=device)
+    # ... and in float32 where this machine lacks the run's precision (same weights).
+    try:
+        compute_dtype(config.algorithm.precision, device)
+        precision = config.algorithm.precision
+    except ConfigError:
+        precision = "float32"
+    return load_model(path, config, env, device=device, precision=precision)
 
 
 def _single_env(config: TrainConfig) -> Any:
