@@ -312,7 +312,10 @@ def main(argv: list[str] | None = None) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="a setting a resume may change (world.workers, world.overlap, frames), each run",
+        help=(
+            "a setting a resume may change (world.workers, world.overlap, frames, "
+            "algorithm.device, algorithm.precision), each run"
+        ),
     )
     stop_parser = sub.add_parser("stop", help="SIGTERM the resumed runs and wait for them")
     stop_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
