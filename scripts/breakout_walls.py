@@ -1,4 +1,4 @@
-"""Where a Breakout RAM player's games leave the wall: each row's bricks gone, all columns.
+"""Where a Breakout player's games leave the wall: each row's bricks gone, all columns.
 
     .venv/bin/python scripts/breakout_walls.py runs/breakout-ram-ppo-...-seed0 --episodes 64
 
@@ -15,9 +15,9 @@ any brick of the top two rows, the share that cleared the column, and one line p
 (``--games``): its score, the top two rows (``#`` gone) and the left column, top row
 first.
 
-The wall is read from the episode's last observation (the agent's RAM, as
-``terminal_observation``), so only RAM runs (``breakout-ram``, ``ram`` or ``ram_bits``)
-can be read.
+The wall is read from the console's RAM as each game ended
+(:meth:`~noisybolt.envs.breakout.BreakoutWorld.ended_rams`), whatever the agent sees:
+image runs (``breakout``) and RAM runs (``breakout-ram``) alike.
 """
 
 from __future__ import annotations
@@ -33,22 +33,11 @@ from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.environments import make_env, prepare_bolt
 from noisybolt.agents.evaluation import episode_targets
 from noisybolt.agents.run_evaluation import load_run_model
-from noisybolt.envs.breakout import BRICK_ROWS, RAM_SIZE, bricks_present
+from noisybolt.envs.breakout import BRICK_ROWS, bricks_present
 from noisybolt.rundir import RunDirectory
 
-
-def ram_of(observation: np.ndarray) -> np.ndarray:
-    """The console's RAM (uint8 ``[128]``) from a RAM agent's observation: bytes scaled to
-    [0, 1] (``ram``) or the 1,024 bits (``ram_bits``)."""
-    observation = np.asarray(observation)
-    if observation.shape == (RAM_SIZE * 8,):
-        return np.packbits(observation.astype(np.uint8))
-    if observation.shape == (RAM_SIZE,):
-        return np.rint(observation * 255).astype(np.uint8)
-    raise SystemExit(
-        f"an observation of shape {observation.shape} is not a RAM agent's: only "
-        "breakout-ram runs can be read"
-    )
+#: The worlds whose games are Breakout's (the image agent's and the RAM agent's).
+BREAKOUT_WORLDS = ("breakout", "breakout-ram")
 
 
 def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) -> list[Any]:
@@ -59,8 +48,11 @@ def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) ->
     config = TrainConfig.from_dict(run.read_config()).override(
         {"world.workers": 0, "world.overlap": False}
     )
-    if not config.world.startswith("breakout-ram"):
-        raise SystemExit(f"{run_dir} is a {config.world!r} run: only breakout-ram runs can be read")
+    if config.world not in BREAKOUT_WORLDS:
+        raise SystemExit(
+            f"{run_dir} is a {config.world!r} run: only Breakout runs "
+            f"({', '.join(BREAKOUT_WORLDS)}) have a wall to read"
+        )
     setup = prepare_bolt(config, seed=seed)
     model = load_run_model(run, config)
     n_envs = min(8, episodes)
@@ -83,13 +75,15 @@ def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) ->
         while (counts < targets).any():
             actions = model.predict(obs, deterministic=not stochastic)[0]
             obs, _, dones, infos = env.step(actions)
+            if not dones.any():
+                continue
+            # the evaluation world is in this process, whole games: a done is a game's end
+            ended = env.env_method("ended_rams", indices=[0])[0]
             for i in np.flatnonzero(dones):
                 if counts[i] >= targets[i]:
                     continue
                 counts[i] += 1
-                last = infos[i]["terminal_observation"]
-                ram = ram_of(last["image"] if isinstance(last, dict) else last)
-                games.append((float(infos[i]["episode"]["r"]), ~bricks_present(ram)))
+                games.append((float(infos[i]["episode"]["r"]), ~bricks_present(ended[i])))
     finally:
         env.close()
     return games

@@ -741,6 +741,19 @@ class BreakoutWorld(gym.vector.VectorEnv):
         """uint8 ``[num_envs, 128]``: every console's RAM now."""
         return np.stack([ale.getRAM() for ale in self._ales])
 
+    def ended_rams(self) -> dict[int, np.ndarray]:
+        """uint8 ``[128]`` by game index: the RAM each game that ended on the last step
+        had at its end (its whole wall; :meth:`rams` already holds the next game's), none
+        after a reset or a step where no game ended.
+
+        Example:
+            >>> world = BreakoutWorld(num_envs=2, seed=0)
+            >>> _ = world.reset(seed=0)
+            >>> world.ended_rams()
+            {}
+        """
+        return {i: ram.copy() for i, ram in self._final_ram.items()}
+
     def frames(self) -> np.ndarray:
         """uint8 ``[num_envs, 210, 160, 3]``: the raw colour frames now."""
         return np.stack([ale.getScreenRGB() for ale in self._ales])
