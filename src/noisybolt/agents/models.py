@@ -97,12 +97,17 @@ def compute_dtype(precision: str, device: str) -> torch.dtype | None:
 
 def native_bfloat16(device: str) -> bool:
     """Whether ``device`` (``cpu``, ``cuda``, ``cuda:N``) computes bfloat16 natively: on the
-    CPU, oneDNN's check for AVX512-BF16 or AMX."""
+    CPU, oneDNN's check for AVX512-BF16 or AMX; on a GPU, torch's (Ampere or newer), not
+    counting emulation."""
     if device == "cpu":
         return torch.backends.mkldnn.is_available() and bool(
             torch.ops.mkldnn._is_mkldnn_bf16_supported()
         )
-    return bool(torch.cuda.is_bf16_supported())
+    if not torch.cuda.is_available():
+        return False
+    index = int(device.partition(":")[2] or 0)
+    with torch.cuda.device(index):  # the run's GPU, not the current one
+        return bool(torch.cuda.is_bf16_supported(including_emulation=False))
 
 
 def set_precision(model: BaseAlgorithm, dtype: torch.dtype | None) -> None:
