@@ -57,7 +57,7 @@ def load_run_model(
         UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
     """
     from noisybolt.agents.checkpoints import latest_checkpoint
-    from noisybolt.agents.models import compute_dtype, load_model, torch_device
+    from noisybolt.agents.models import load_model, native_bfloat16, torch_device
 
     path = run.file("model.zip")
     if path.exists() or path.is_symlink():
@@ -89,12 +89,8 @@ def load_run_model(
         device = torch_device(config.algorithm.device)
     except ConfigError:
         device = "cpu"
-    # ... and in float32 where this machine lacks the run's precision (same weights).
-    try:
-        compute_dtype(config.algorithm.precision, device)
-        precision = config.algorithm.precision
-    except ConfigError:
-        precision = "float32"
+    # ... and in float32 where this machine lacks the run's bfloat16 (same weights).
+    precision = config.algorithm.precision if native_bfloat16(device) else "float32"
     return load_model(path, config, env, device=device, precision=precision)
 
 
