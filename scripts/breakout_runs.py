@@ -16,6 +16,8 @@ writes ``results/breakout/summary.json`` from every kept run's evaluations.
     .venv/bin/python scripts/breakout_runs.py resume breakout-ram-ppo-bolted-seed0 ... \
         [--tree /tmp/wt] [--set world.workers=2 --set world.overlap=true]
                                            # restore where needed, resume at nice 19
+    .venv/bin/python scripts/breakout_runs.py start [--tree /tmp/wt] NEW-RUN -- \
+        --world breakout ... --init-from runs/<player>   # a new run, in the background
     .venv/bin/python scripts/breakout_runs.py stop     # SIGTERM them: each saves, exits
 
 ``summary.json`` is a list, one entry per run (sorted by agent, algo, bolted, seed):
@@ -159,13 +161,50 @@ def resume(
         restore(name, runs)
     elif not (runs / name / "config.json").exists():
         raise SystemExit(f"{name}: neither kept in {RESULTS} nor a run in {runs}")
+    arguments = ["--out", str(runs / name), "--resume", "--no-progress"]
+    for setting in settings:
+        arguments += ["--set", setting]
+    pid = _launch(name, arguments, runs, pids, tree)
+    print(f"{name}: resumed, pid {pid}, log {runs / f'bk-{name}.log'}")
+    return pid
+
+
+def start(
+    name: str,
+    train_args: list[str],
+    runs: Path,
+    pids: Path,
+    *,
+    tree: Path | None = None,
+) -> int:
+    """Starts a new run ``runs/<name>`` in the background as ``resume`` continues one (nice
+    19, a session of its own, ``runs/bk-<name>.log``, its pid appended to ``pids``):
+    ``noisybolt train`` with ``train_args``, which name everything but the output folder
+    (e.g. a bolted branch of a kept player: ``--init-from runs/<player>`` with the player's
+    command and a learning-rate schedule). Refuses a name that is already a run or kept,
+    and ``--out``/``--resume`` among the arguments (``resume`` continues a run).
+    Returns the pid."""
+    if (runs / name).exists() or (RESULTS / name).exists():
+        raise SystemExit(
+            f"{name}: already a run in {runs} or kept in {RESULTS}; "
+            "continue it with `resume`, or start it under another name"
+        )
+    for flag in ("--out", "--resume"):
+        if any(arg == flag or arg.startswith(flag + "=") for arg in train_args):
+            raise SystemExit(f"start names the run's folder itself: leave {flag} out")
+    pid = _launch(name, [*train_args, "--out", str(runs / name), "--no-progress"], runs, pids, tree)
+    print(f"{name}: started, pid {pid}, log {runs / f'bk-{name}.log'}")
+    return pid
+
+
+def _launch(name: str, train_args: list[str], runs: Path, pids: Path, tree: Path | None) -> int:
+    """``noisybolt train train_args`` at nice 19 in a session of its own, its output
+    appended to ``runs/bk-<name>.log`` and its pid to ``pids``; ``tree``: a checkout whose
+    ``src/`` the run imports."""
     env = dict(os.environ)
     if tree is not None:
         env["PYTHONPATH"] = str(tree.resolve() / "src")
-    command = ["nice", "-n", "19", sys.executable, "-m", "noisybolt", "train"]
-    command += ["--out", str(runs / name), "--resume", "--no-progress"]
-    for setting in settings:
-        command += ["--set", setting]
+    command = ["nice", "-n", "19", sys.executable, "-m", "noisybolt", "train", *train_args]
     runs.mkdir(parents=True, exist_ok=True)
     with open(runs / f"bk-{name}.log", "a") as log:
         process = subprocess.Popen(
@@ -174,7 +213,6 @@ def resume(
     _lower_autogroup(process.pid)
     with open(pids, "a") as out:
         out.write(f"{process.pid} {name}\n")
-    print(f"{name}: resumed, pid {process.pid}, log {runs / f'bk-{name}.log'}")
     return process.pid
 
 
@@ -189,9 +227,9 @@ def _lower_autogroup(pid: int) -> None:
 
 
 def stop(pids: Path, *, wait_s: float = 600.0) -> list[int]:
-    """SIGTERMs every run ``resume`` recorded in ``pids`` that is still going (each saves a
-    checkpoint, then exits), waits for them (at most ``wait_s``), and empties the file.
-    Returns the pids that were still going."""
+    """SIGTERMs every run ``start`` or ``resume`` recorded in ``pids`` that is still going
+    (each saves a checkpoint, then exits), waits for them (at most ``wait_s``), and empties
+    the file. Returns the pids that were still going."""
     going = []
     for line in pids.read_text().splitlines() if pids.exists() else []:
         pid = int(line.split()[0])
@@ -317,7 +355,15 @@ def main(argv: list[str] | None = None) -> None:
             "algorithm.device, algorithm.precision), each run"
         ),
     )
-    stop_parser = sub.add_parser("stop", help="SIGTERM the resumed runs and wait for them")
+    start_parser = sub.add_parser(
+        "start", help="start a new run in the background (noisybolt train's arguments after --)"
+    )
+    start_parser.add_argument("name")
+    start_parser.add_argument("train_args", nargs=argparse.REMAINDER)
+    start_parser.add_argument("--runs", type=Path, default=Path("runs"))
+    start_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
+    start_parser.add_argument("--tree", type=Path, help="a checkout whose src/ the run imports")
+    stop_parser = sub.add_parser("stop", help="SIGTERM the started and resumed runs")
     stop_parser.add_argument("--pids", type=Path, default=Path("runs/breakout.pids"))
     args = parser.parse_args(argv)
     if args.command == "keep":
@@ -330,6 +376,9 @@ def main(argv: list[str] | None = None) -> None:
     elif args.command == "resume":
         for name in args.names:
             resume(name, args.runs, args.pids, tree=args.tree, settings=tuple(args.settings))
+    elif args.command == "start":
+        train_args = args.train_args[1:] if args.train_args[:1] == ["--"] else args.train_args
+        start(args.name, train_args, args.runs, args.pids, tree=args.tree)
     elif args.command == "stop":
         print(f"stopped {len(stop(args.pids))} runs (each saved a checkpoint)")
     else:

@@ -186,6 +186,30 @@ def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
         script.resume("nothing", runs, pids)
 
 
+def test_start_runs_a_new_training_in_the_background_and_refuses_a_taken_name(
+    script: ModuleType, tmp_path: Path
+) -> None:
+    runs, pids = tmp_path / "runs", tmp_path / "breakout.pids"
+    train_args = ["--spec", "edge", "--detector", "oracle", "--frames", "256", "--eval-freq", "0"]
+    train_args += ["--hp", "n_steps=32", "--seed", "3"]
+    pid = script.start("grid", train_args, runs, pids)
+    assert pids.read_text() == f"{pid} grid\n"
+    deadline = time.monotonic() + 300
+    while os.waitpid(pid, os.WNOHANG) == (0, 0):  # still going
+        assert time.monotonic() < deadline, (runs / "bk-grid.log").read_text()
+        time.sleep(0.5)
+    saved = json.loads((runs / "grid" / "config.json").read_text())
+    assert saved["seed"] == 3 and saved["frames"] == 256  # the arguments it was given
+    assert "--out" in (runs / "grid" / "command.txt").read_text()
+    assert json.loads((runs / "grid" / "summary.json").read_text())["frames"] == 256
+    with pytest.raises(SystemExit, match="already a run"):
+        script.start("grid", train_args, runs, pids)  # never over an existing run
+    for flag in (["--out", "elsewhere"], ["--resume"]):
+        with pytest.raises(SystemExit, match=f"leave {flag[0]} out"):
+            script.start("other", [*train_args, *flag], runs, pids)
+    assert not (runs / "other").exists() and pids.read_text() == f"{pid} grid\n"
+
+
 def test_stop_terminates_the_recorded_runs_and_empties_the_file(
     script: ModuleType, tmp_path: Path
 ) -> None:
