@@ -155,6 +155,14 @@ def test_keep_then_restore_gives_back_the_checkpoint(script: ModuleType, tmp_pat
     assert json.loads((restored / "checkpoints" / "latest.json").read_text())["frames"] == 300
 
 
+def _wait_for(pid: int, log: Path, timeout_s: float = 300.0) -> None:
+    """Waits for a background run to exit (its log in the failure message)."""
+    deadline = time.monotonic() + timeout_s
+    while os.waitpid(pid, os.WNOHANG) == (0, 0):  # still going
+        assert time.monotonic() < deadline, log.read_text()
+        time.sleep(0.5)
+
+
 def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
     script: ModuleType, tmp_path: Path
 ) -> None:
@@ -174,10 +182,7 @@ def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
     pids = tmp_path / "breakout.pids"
     pid = script.resume("grid", runs, pids, settings=("frames=1536",))
     assert pids.read_text() == f"{pid} grid\n"
-    deadline = time.monotonic() + 300
-    while os.waitpid(pid, os.WNOHANG) == (0, 0):  # still going
-        assert time.monotonic() < deadline, (runs / "bk-grid.log").read_text()
-        time.sleep(0.5)
+    _wait_for(pid, runs / "bk-grid.log")
     log = (runs / "bk-grid.log").read_text()
     assert "resuming" in log and "from 512 frames" in log
     # the setting given to the resume (a longer budget) over the saved 1024
@@ -194,10 +199,7 @@ def test_start_runs_a_new_training_in_the_background_and_refuses_a_taken_name(
     train_args += ["--hp", "n_steps=32", "--seed", "3"]
     pid = script.start("grid", train_args, runs, pids)
     assert pids.read_text() == f"{pid} grid\n"
-    deadline = time.monotonic() + 300
-    while os.waitpid(pid, os.WNOHANG) == (0, 0):  # still going
-        assert time.monotonic() < deadline, (runs / "bk-grid.log").read_text()
-        time.sleep(0.5)
+    _wait_for(pid, runs / "bk-grid.log")
     saved = json.loads((runs / "grid" / "config.json").read_text())
     assert saved["seed"] == 3 and saved["frames"] == 256  # the arguments it was given
     assert "--out" in (runs / "grid" / "command.txt").read_text()
