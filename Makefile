@@ -8,7 +8,7 @@ STAMP := $(VENV)/.noisybolt-installed
 # PYTEST_ARGS= (empty) runs it in one process.
 PYTEST_ARGS ?= -n 2
 
-.PHONY: all setup mona test test-slow demo walkthrough lint typecheck bench clean
+.PHONY: all setup mona test test-slow demo walkthrough docs lint typecheck bench clean
 
 all: test
 
@@ -36,6 +36,10 @@ demo: setup
 
 walkthrough: setup
 	$(VENV)/bin/noisybolt demo --walkthrough
+
+# The documentation site (docs/, mkdocs.yml) into build/site/, warnings as errors.
+docs: $(STAMP)
+	$(VENV)/bin/mkdocs build --strict
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks
