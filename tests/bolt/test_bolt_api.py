@@ -26,6 +26,7 @@ MODULES = [
 def test_public_names() -> None:
     assert set(bolt.__all__) == {
         "BELIEF_OBSERVATIONS",
+        "CONSTRAINT_KEYS",
         "COST_MODES",
         "DEFAULT_THRESHOLDS",
         "REWARD_SCHEMES",
@@ -40,7 +41,9 @@ def test_public_names() -> None:
         "BeliefSettings",
         "BoltEngine",
         "BoltStep",
+        "CostLimit",
         "CostMode",
+        "LagrangeMultiplier",
         "ProgressShaping",
         "RestrainingBolt",
         "ReturnBounds",
@@ -53,6 +56,7 @@ def test_public_names() -> None:
         "check_probs",
         "compliance_scale",
         "confidence_bands",
+        "episode_costs",
         "high_confidence_mask",
         "low_confidence_mask",
         "progress_potential",

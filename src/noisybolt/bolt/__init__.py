@@ -50,6 +50,7 @@ from noisybolt.bolt.belief import (
     BeliefSettings,
     Tracking,
 )
+from noisybolt.bolt.constraint import CONSTRAINT_KEYS, CostLimit, LagrangeMultiplier, episode_costs
 from noisybolt.bolt.engine import COST_MODES, BoltEngine, BoltStep, CostMode
 from noisybolt.bolt.restraining_bolt import RestrainingBolt
 from noisybolt.bolt.schemes import (
@@ -64,6 +65,7 @@ from noisybolt.bolt.spec import REWARD_TIMINGS, RewardTiming, Spec
 
 __all__ = [
     "BELIEF_OBSERVATIONS",
+    "CONSTRAINT_KEYS",
     "COST_MODES",
     "DEFAULT_THRESHOLDS",
     "REWARD_SCHEMES",
@@ -78,7 +80,9 @@ __all__ = [
     "BeliefSettings",
     "BoltEngine",
     "BoltStep",
+    "CostLimit",
     "CostMode",
+    "LagrangeMultiplier",
     "ProgressShaping",
     "RestrainingBolt",
     "ReturnBounds",
@@ -91,6 +95,7 @@ __all__ = [
     "check_probs",
     "compliance_scale",
     "confidence_bands",
+    "episode_costs",
     "high_confidence_mask",
     "low_confidence_mask",
     "progress_potential",

@@ -54,6 +54,7 @@ is its expected potential).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -176,6 +177,7 @@ class RestrainingBolt:
         self._end_on_violation = bool(end_on_violation)
         self._states = self._engine.initial_states(self._n_envs)
         self._pending = np.zeros(self._n_envs)
+        self._price = 1.0
         self._needs_reset = np.ones(self._n_envs, dtype=bool)
         self._tracking: Tracking = tracking
         self._belief: BeliefEngine | None = None
@@ -272,6 +274,29 @@ class RestrainingBolt:
         )
 
     @property
+    def price(self) -> float:
+        """What the specs' terminal rewards and progress terms are multiplied by (1: as
+        the specs say). The ``constrained`` scheme sets it to its learned multiplier
+        (:mod:`noisybolt.bolt.constraint`) between rollouts; the low-confidence charges are
+        not scaled. A reward already pending from a reset keeps the price it was paid at.
+
+        Raises:
+            ConfigError: (on setting) a price that is negative or not finite.
+        """
+        return self._price
+
+    @price.setter
+    def price(self, value: float) -> None:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float, np.floating))
+            or not math.isfinite(value)
+            or value < 0
+        ):
+            raise ConfigError(f"a bolt's price must be a finite number >= 0, got {value!r}")
+        self._price = float(value)
+
+    @property
     def end_on_violation(self) -> bool:
         """Whether a violated spec sets ``terminate``."""
         return self._end_on_violation
@@ -305,7 +330,7 @@ class RestrainingBolt:
         initial = self._engine.initial_states(n_rows)
         no_end = np.zeros(n_rows, dtype=bool)
         if self._belief is not None:
-            out = self._belief_step(rows, probs[rows], done=no_end, first=True)
+            out = self._priced(self._belief_step(rows, probs[rows], done=no_end, first=True))
             self._pending[rows] = out.total
             self._needs_reset[rows] = False
             return self._expand(out, rows)
@@ -316,7 +341,7 @@ class RestrainingBolt:
             first=np.ones(n_rows, dtype=bool),
             end_on_violation=False,
         )
-        out = self._shaped(out, initial, no_end, first=True)
+        out = self._priced(self._shaped(out, initial, no_end, first=True))
         self._states[rows] = out.next_states
         self._pending[rows] = out.total
         self._needs_reset[rows] = False
@@ -381,7 +406,9 @@ class RestrainingBolt:
             else done & ~env_flags(truncated, self._n_envs, "truncated")
         )
         if self._belief is not None:
-            out = self._belief_step(rows, probs[rows], done=paid_end[rows], first=False)
+            out = self._priced(
+                self._belief_step(rows, probs[rows], done=paid_end[rows], first=False)
+            )
             carried = self._pending[rows].copy()
             out = out._replace(carried=carried, total=out.total + carried)
             self._pending[rows] = 0.0
@@ -394,7 +421,7 @@ class RestrainingBolt:
             first=np.zeros(len(states), dtype=bool),
             end_on_violation=self._end_on_violation,
         )
-        out = self._shaped(out, states, paid_end[rows] | out.terminate)
+        out = self._priced(self._shaped(out, states, paid_end[rows] | out.terminate))
         carried = self._pending[rows].copy()  # a view when rows is a slice
         out = out._replace(carried=carried, total=out.total + carried)
         self._pending[rows] = 0.0
@@ -416,6 +443,17 @@ class RestrainingBolt:
             progress = np.where(self._engine.pays_on_change, 0.0, progress)
         reward = out.reward + progress
         return out._replace(progress=progress, reward=reward, total=reward.sum(axis=1))
+
+    def _priced(self, out: BoltStep) -> BoltStep:
+        """``out`` with its scale-linear terms (terminal rewards and progress terms) at
+        :attr:`price`; the low-confidence charges are Algorithm 1's and keep their size."""
+        if self._price == 1.0:
+            return out
+        terminal, progress = self._price * out.terminal, self._price * out.progress
+        reward = terminal + progress + out.low_confidence
+        return out._replace(
+            terminal=terminal, progress=progress, reward=reward, total=reward.sum(axis=1)
+        )
 
     def _rows(self, env_mask: np.ndarray | None) -> slice | np.ndarray:
         """The selected rows: a full slice, or the indices where ``env_mask`` is set."""

@@ -28,6 +28,12 @@ what a spec pays and when, and whether progress is shaped.
   long the episode lasts. Potential-based progress shaping (:mod:`noisybolt.bolt.shaping`)
   pays progress towards acceptance as it happens, so a detour is rewarded before the spec
   is satisfied, without changing which policy is optimal.
+* ``constrained``: compliance as a constraint with a budget
+  (:mod:`noisybolt.bolt.constraint`). The specs are paid as under ``compliance``, but
+  at a price the learner's run sets between rollouts: a learned Lagrange multiplier
+  ``λ`` in ``[0, 1]`` times ``scale``, which starts at 0 (the task is learned first,
+  as unbolted) and rises only while the episodes' measured cost (the specs they leave
+  unsatisfied) exceeds the budget. At ``λ = 1`` it pays what ``compliance`` pays.
 
 Example:
     >>> scheme = RewardScheme("compliance", scale=compliance_scale(ReturnBounds(-216.0, 98.5)))
@@ -61,7 +67,7 @@ __all__ = [
 ]
 
 #: The reward schemes (see the module docstring).
-RewardSchemeName = Literal["compliance", "paper"]
+RewardSchemeName = Literal["compliance", "constrained", "paper"]
 #: The accepted values of :data:`RewardSchemeName`.
 REWARD_SCHEMES: tuple[str, ...] = get_args(RewardSchemeName)
 #: How far the compliance scale exceeds the width of the world's returns (a strict
@@ -112,11 +118,13 @@ class RewardScheme:
     """A reward scheme and its settings.
 
     Attributes:
-        name: ``"compliance"`` or ``"paper"`` (see the module docstring).
-        scale: ``compliance`` only: what each spec's acceptance is worth (per-spec values
-            may replace it, see :meth:`apply`); must be finite and > 0.
-        shaping: ``compliance`` only: add potential-based progress shaping.
-        pay_on_change: ``compliance`` only: pay acceptance as the DFA enters it and take
+        name: ``"compliance"``, ``"constrained"`` or ``"paper"`` (see the module
+            docstring).
+        scale: ``compliance`` and ``constrained`` (the price at ``λ = 1``): what each
+            spec's acceptance is worth (per-spec values may replace it, see
+            :meth:`apply`); must be finite and > 0.
+        shaping: not ``paper``: add potential-based progress shaping.
+        pay_on_change: not ``paper``: pay acceptance as the DFA enters it and take
             it back as it leaves (``on_change`` timing) rather than at the episode's end
             (``episode_end``).
 
@@ -147,7 +155,7 @@ class RewardScheme:
             object.__setattr__(self, "shaping", False)
             object.__setattr__(self, "pay_on_change", False)
             return
-        _check_scale(self.scale, "the compliance scheme's scale")
+        _check_scale(self.scale, f"the {self.name} scheme's scale")
         object.__setattr__(self, "scale", float(self.scale))  # type: ignore[arg-type]
 
     def apply(self, spec: Spec, *, scale: float | None = None) -> Spec:
@@ -155,7 +163,8 @@ class RewardScheme:
 
         ``paper`` returns ``spec`` unchanged; ``compliance`` sets its terminal reward to
         the scale and its timing to ``on_change`` (``episode_end`` without
-        ``pay_on_change``); its low-confidence cost is kept.
+        ``pay_on_change``); its low-confidence cost is kept. ``constrained`` pays as
+        ``compliance`` (its bolt's price scales the payments while it trains).
         """
         if self.name == "paper":
             if scale is not None:

@@ -1,0 +1,248 @@
+"""Compliance as a constraint: a cost budget and the Lagrange multiplier that keeps it.
+
+The ``compliance`` scheme (:mod:`noisybolt.bolt.schemes`) prices every violation at a
+fixed ``scale`` wider than the world's returns, from the first frame on. Where the task
+must be found by exploration, that price teaches "do nothing" before the task is ever
+seen: the violations of a random policy are met at once, the goal seldom (FrozenLake,
+CliffWalking, a lava room: bolted agents complied and stood still while the unbolted
+control of the same seed reached the goal).
+
+The ``constrained`` scheme asks instead: maximise the world's return *subject to* the
+expected cost of an episode staying within a budget ``d``. An episode's cost is the
+number of specs it does not satisfy, as the bolt sees them: a spec whose DFA entered a
+rejecting sink (violated for good), or ended the episode short of acceptance. The
+Lagrangian relaxation pays the learner ``R + price * compliance terms``, where the
+compliance terms are the ``compliance`` scheme's (acceptance, violation charge, graded
+outcome, progress shaping: every one of them linear in the scale) and
+``price = multiplier * scale``. The multiplier ``λ`` is learned (Ray, Achiam & Amodei
+2019; Stooke, Achiam & Abbeel, ICML 2020, "Responsive Safety in RL by PID Lagrangian
+Methods"): it starts at 0, so the task is learned as the unbolted agent learns it, rises
+while the measured episode cost exceeds ``d`` and falls back while it is below. It is
+capped at 1: at ``λ = 1`` the price is the compliance scale, whose optimum complies
+whenever a compliant policy exists (the compliance scheme's guarantee), and a higher
+price changes no optimum, only how hard the learning is.
+
+The update is Stooke et al.'s PID form on the error ``e = J_c - d`` (``J_c``: the mean
+cost of the episodes ended since the last update)::
+
+    I   <- max(0, I + lr * e)                   integral: the plain Lagrangian ascent
+    λ   =  clip(kp * e + I + kd * max(0, J_c - J_c_prev), 0, 1)
+
+``kp`` reacts to a rise in cost at once (the integral alone overshoots: it keeps rising
+until the cost has fallen), ``kd`` to how fast it rises. With ``kp = kd = 0`` it is the
+gradient-ascent multiplier of PPO-Lagrangian. The multiplier is a small object of its own,
+apart from any learner (OmniSafe's layout); its state is a dict of floats, saved with a
+run's checkpoints and restored on resume.
+
+Example:
+    >>> limit = CostLimit(cost_limit=0.1, lr=0.5, kp=0.0)
+    >>> lagrange = LagrangeMultiplier(limit)
+    >>> lagrange.value
+    0.0
+    >>> round(lagrange.update(0.9), 2)  # cost above the budget: the price rises
+    0.4
+    >>> round(lagrange.update(0.5), 2)
+    0.6
+    >>> round(lagrange.update(0.0), 2)  # below it: the price falls back
+    0.55
+    >>> lagrange.update(5.0)  # never above 1: the compliance scheme's own price
+    1.0
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from noisybolt.errors import ConfigError
+
+__all__ = ["CONSTRAINT_KEYS", "CostLimit", "LagrangeMultiplier", "episode_costs"]
+
+#: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
+CONSTRAINT_KEYS: tuple[str, ...] = ("cost_limit", "lr", "kp", "kd", "initial")
+
+
+def _number(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"bolt.constraint.{name} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(f"bolt.constraint.{name} must be finite, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CostLimit:
+    """The cost budget of the ``constrained`` scheme and how its multiplier learns.
+
+    Attributes:
+        cost_limit: ``d``, the expected number of specs an episode may leave unsatisfied
+            (as the bolt sees them); 0 asks for compliance in every episode. ``>= 0``.
+        lr: the integral gain, the multiplier's learning rate per update (``> 0``).
+        kp: the proportional gain (``>= 0``).
+        kd: the derivative gain, on rises of the cost only (``>= 0``).
+        initial: the multiplier at the start of training, in ``[0, 1]`` (0: the task is
+            learned first, compliance is asked as the cost is measured).
+
+    Raises:
+        ConfigError: a value that is not a finite number, a negative limit or gain, a
+            learning rate ``<= 0``, or an initial multiplier outside ``[0, 1]``; each
+            names the setting and what to give.
+    """
+
+    cost_limit: float = 0.0
+    lr: float = 0.05
+    kp: float = 0.5
+    kd: float = 0.0
+    initial: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in CONSTRAINT_KEYS:
+            object.__setattr__(self, name, _number(name, getattr(self, name)))
+        if self.cost_limit < 0:
+            raise ConfigError(
+                f"bolt.constraint.cost_limit must be >= 0 (the specs an episode may leave "
+                f"unsatisfied, on average), got {self.cost_limit}"
+            )
+        if self.lr <= 0:
+            raise ConfigError(
+                f"bolt.constraint.lr (the multiplier's learning rate) must be > 0, got {self.lr}"
+            )
+        for name in ("kp", "kd"):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"bolt.constraint.{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= self.initial <= 1.0:
+            raise ConfigError(f"bolt.constraint.initial must be in [0, 1], got {self.initial}")
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> CostLimit:
+        """From ``bolt.constraint``'s dict; an unknown key is refused by name."""
+        unknown = sorted(set(values) - set(CONSTRAINT_KEYS))
+        if unknown:
+            raise ConfigError(
+                f"unknown config key(s) bolt.constraint.{unknown}; known: {list(CONSTRAINT_KEYS)}"
+            )
+        return cls(**dict(values))
+
+
+class LagrangeMultiplier:
+    """The learned multiplier ``λ`` in ``[0, 1]`` (see the module docstring).
+
+    Args:
+        limit: the budget and gains.
+        state: a saved :meth:`state_dict` to continue from (None: start at
+            ``limit.initial``).
+
+    Raises:
+        ConfigError: a saved state that is not the one :meth:`state_dict` writes.
+    """
+
+    def __init__(self, limit: CostLimit, state: Mapping[str, Any] | None = None) -> None:
+        if not isinstance(limit, CostLimit):
+            raise ConfigError(f"limit must be a CostLimit, got {limit!r}")
+        self.limit = limit
+        self._integral = limit.initial
+        self._value = limit.initial
+        self._last_cost: float | None = None
+        self._updates = 0
+        if state is not None:
+            self.load_state_dict(state)
+
+    @property
+    def value(self) -> float:
+        """``λ``: the share of the compliance scale the bolt pays now."""
+        return self._value
+
+    @property
+    def updates(self) -> int:
+        """How many measured costs the multiplier has learned from."""
+        return self._updates
+
+    def update(self, mean_episode_cost: float) -> float:
+        """Learns from the mean cost of the episodes ended since the last update; returns
+        the new ``λ``.
+
+        Raises:
+            ConfigError: a cost that is negative or not finite.
+        """
+        cost = float(mean_episode_cost)
+        if not math.isfinite(cost) or cost < 0:
+            raise ConfigError(f"an episode cost must be finite and >= 0, got {mean_episode_cost!r}")
+        limit = self.limit
+        error = cost - limit.cost_limit
+        self._integral = min(max(0.0, self._integral + limit.lr * error), 1.0)
+        rise = 0.0 if self._last_cost is None else max(0.0, cost - self._last_cost)
+        self._value = min(max(0.0, limit.kp * error + self._integral + limit.kd * rise), 1.0)
+        self._last_cost = cost
+        self._updates += 1
+        return self._value
+
+    def state_dict(self) -> dict[str, Any]:
+        """JSON-able state (floats and an int): what a checkpoint keeps."""
+        return {
+            "value": self._value,
+            "integral": self._integral,
+            "last_cost": self._last_cost,
+            "updates": self._updates,
+        }
+
+    def load_state_dict(self, state: Mapping[str, Any]) -> None:
+        """Continues from a :meth:`state_dict`.
+
+        Raises:
+            ConfigError: a state with missing or unknown keys or out-of-range values.
+        """
+        if not isinstance(state, Mapping) or set(state) != {
+            "value",
+            "integral",
+            "last_cost",
+            "updates",
+        }:
+            raise ConfigError(
+                f"a Lagrange multiplier's saved state must hold value, integral, last_cost "
+                f"and updates, got {state!r}"
+            )
+        numbers = {}
+        for key in ("value", "integral"):
+            value = state[key]
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ConfigError(f"multiplier state {key} must be a number, got {value!r}")
+            if not 0.0 <= value <= 1.0:
+                raise ConfigError(f"multiplier state {key} must be in [0, 1], got {value!r}")
+            numbers[key] = float(value)
+        last = state["last_cost"]
+        if last is not None and (
+            isinstance(last, bool)
+            or not isinstance(last, (int, float))
+            or not math.isfinite(last)
+            or last < 0
+        ):
+            raise ConfigError(f"multiplier state last_cost must be None or >= 0, got {last!r}")
+        updates = state["updates"]
+        if isinstance(updates, bool) or not isinstance(updates, int) or updates < 0:
+            raise ConfigError(f"multiplier state updates must be an integer >= 0, got {updates!r}")
+        self._value, self._integral = numbers["value"], numbers["integral"]
+        self._last_cost = None if last is None else float(last)
+        self._updates = updates
+
+
+def episode_costs(accepting: np.ndarray, ended: np.ndarray) -> np.ndarray:
+    """float64 ``[n_envs]``: each ended episode's cost, the specs it leaves unsatisfied
+    (0 for the rows that did not end).
+
+    Args:
+        accepting: bool ``[n_envs, n_specs]``, whether each spec counts as accepting after
+            the step (the bolt's view: its DFA states, or its beliefs at the confidence).
+        ended: bool ``[n_envs]``, the episodes that end with the step.
+
+    Example:
+        >>> import numpy as np
+        >>> episode_costs(np.array([[True, False], [False, False]]), np.array([True, False]))
+        array([1., 0.])
+    """
+    accepting = np.asarray(accepting, dtype=bool)
+    ended = np.asarray(ended, dtype=bool)
+    return np.where(ended, (~accepting).sum(axis=1), 0).astype(np.float64)

@@ -1,0 +1,223 @@
+"""The constrained scheme's pieces: the cost budget, the Lagrange multiplier, the bolt's price."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from bolt_helpers import F_E_AND_T, always, last_is
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from noisybolt.bolt import (
+    CostLimit,
+    LagrangeMultiplier,
+    ProgressShaping,
+    RestrainingBolt,
+    RewardScheme,
+    Spec,
+    episode_costs,
+)
+from noisybolt.errors import ConfigError
+
+# ------------------------------------------------------------------ the budget
+
+
+@pytest.mark.parametrize(
+    ("settings_", "named"),
+    [
+        ({"cost_limit": -0.1}, "cost_limit"),
+        ({"cost_limit": math.nan}, "cost_limit"),
+        ({"cost_limit": math.inf}, "cost_limit"),
+        ({"lr": 0.0}, "lr"),
+        ({"lr": -1.0}, "lr"),
+        ({"kp": -0.5}, "kp"),
+        ({"kd": -0.5}, "kd"),
+        ({"initial": 1.5}, "initial"),
+        ({"cost_limit": "0.1"}, "cost_limit"),
+        ({"lr": True}, "lr"),
+    ],
+)
+def test_bad_budgets_are_refused_by_name(settings_: dict, named: str) -> None:
+    with pytest.raises(ConfigError, match=f"bolt.constraint.{named}"):
+        CostLimit(**settings_)
+
+
+def test_unknown_constraint_keys_are_named() -> None:
+    with pytest.raises(ConfigError, match="budget"):
+        CostLimit.from_mapping({"budget": 0.1})
+    assert CostLimit.from_mapping({"cost_limit": 0.2}).cost_limit == 0.2
+
+
+# ------------------------------------------------------------------ the multiplier
+
+
+def test_the_multiplier_follows_the_pid_rule_by_hand() -> None:
+    limit = CostLimit(cost_limit=0.2, lr=0.1, kp=0.5, kd=1.0)
+    lagrange = LagrangeMultiplier(limit)
+    # e = 0.8: I = 0.08; lambda = 0.5 * 0.8 + 0.08 + 1.0 * 0 (no previous cost) = 0.48
+    assert lagrange.update(1.0) == pytest.approx(0.48)
+    # e = 0.4: I = 0.12; rise 0 (the cost fell): 0.2 + 0.12 = 0.32
+    assert lagrange.update(0.6) == pytest.approx(0.32)
+    # e = 0.6: I = 0.18; rise 0.2: 0.3 + 0.18 + 0.2 = 0.68
+    assert lagrange.update(0.8) == pytest.approx(0.68)
+    # e = -0.2: I = 0.16; kp term negative: -0.1 + 0.16 = 0.06
+    assert lagrange.update(0.0) == pytest.approx(0.06)
+    assert lagrange.updates == 4
+
+
+@given(costs=st.lists(st.floats(0.0, 3.0), min_size=1, max_size=40))
+@settings(max_examples=200, deadline=None)
+def test_the_integral_rises_only_while_the_cost_exceeds_the_budget(costs: list[float]) -> None:
+    limit = CostLimit(cost_limit=0.3, lr=0.2, kp=0.0)
+    lagrange = LagrangeMultiplier(limit)
+    before = lagrange.value
+    for cost in costs:
+        after = lagrange.update(cost)
+        assert 0.0 <= after <= 1.0
+        if cost > 0.3:
+            assert after >= before
+        elif cost < 0.3:
+            assert after <= before
+        before = after
+
+
+def test_a_budget_met_from_the_start_never_prices_compliance() -> None:
+    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.1))
+    for _ in range(50):
+        assert lagrange.update(0.05) == 0.0
+
+
+@given(costs=st.lists(st.floats(0.0, 2.0), min_size=2, max_size=20), cut=st.integers(1, 19))
+@settings(max_examples=100, deadline=None)
+def test_a_restored_multiplier_continues_as_the_original(costs: list[float], cut: int) -> None:
+    limit = CostLimit(cost_limit=0.1, lr=0.3, kp=0.4, kd=0.2)
+    whole = LagrangeMultiplier(limit)
+    cut = min(cut, len(costs) - 1)
+    first = LagrangeMultiplier(limit)
+    for cost in costs[:cut]:
+        whole.update(cost)
+        first.update(cost)
+    resumed = LagrangeMultiplier(limit, state=first.state_dict())
+    assert resumed.state_dict() == first.state_dict()
+    for cost in costs[cut:]:
+        assert resumed.update(cost) == whole.update(cost)
+
+
+@pytest.mark.parametrize(
+    "state",
+    [
+        {},
+        {"value": 0.5, "integral": 0.5, "last_cost": None},
+        {"value": 2.0, "integral": 0.5, "last_cost": None, "updates": 1},
+        {"value": 0.5, "integral": "x", "last_cost": None, "updates": 1},
+        {"value": 0.5, "integral": 0.5, "last_cost": -1.0, "updates": 1},
+        {"value": 0.5, "integral": 0.5, "last_cost": None, "updates": -1},
+        {"value": 0.5, "integral": 0.5, "last_cost": None, "updates": 1, "extra": 0},
+        [0.5],
+    ],
+)
+def test_a_damaged_saved_multiplier_is_refused(state: object) -> None:
+    with pytest.raises(ConfigError, match="multiplier"):
+        LagrangeMultiplier(CostLimit(), state=state)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("cost", [-0.1, math.nan, math.inf])
+def test_a_bad_measured_cost_is_refused(cost: float) -> None:
+    with pytest.raises(ConfigError, match="episode cost"):
+        LagrangeMultiplier(CostLimit()).update(cost)
+
+
+def test_episode_costs_count_the_unsatisfied_specs_of_ended_episodes() -> None:
+    accepting = np.array([[True, True], [False, True], [False, False], [False, False]])
+    ended = np.array([True, True, True, False])
+    assert episode_costs(accepting, ended).tolist() == [0.0, 1.0, 2.0, 0.0]
+
+
+# ------------------------------------------------------------------ the bolt's price
+
+
+def _bolt(scale: float, *, n_envs: int, tracking: str = "threshold") -> RestrainingBolt:
+    """Two specs under the compliance scheme at ``scale``: a safety spec and one that can
+    enter and leave acceptance, with progress shaping and low-confidence costs."""
+    dfas = [always("e", ["e", "t"]), last_is("t"), F_E_AND_T]
+    scheme = RewardScheme("compliance", scale=scale)
+    specs = [
+        scheme.apply(Spec(d.formula, name=f"s{i}", low_confidence_cost=0.5))
+        for i, d in enumerate(dfas)
+    ]
+    shaping = ProgressShaping(dfas, scales=[scale] * len(dfas), gamma=1.0)
+    return RestrainingBolt(
+        specs, ["e", "t"], dfas=dfas, n_envs=n_envs, shaping=shaping, tracking=tracking
+    )
+
+
+probs_rows = st.lists(
+    st.lists(st.sampled_from([0.0, 0.3, 0.5, 0.7, 0.95, 1.0]), min_size=2, max_size=2),
+    min_size=2,
+    max_size=2,
+)
+
+
+@given(
+    trace=st.lists(
+        st.tuples(probs_rows, st.lists(st.booleans(), min_size=2, max_size=2)),
+        min_size=1,
+        max_size=12,
+    ),
+    price=st.floats(0.0, 1.0),
+    tracking=st.sampled_from(["threshold", "belief"]),
+)
+@settings(max_examples=120, deadline=None)
+def test_a_bolt_at_price_p_pays_what_a_bolt_of_scale_p_times_s_pays(
+    trace: list, price: float, tracking: str
+) -> None:
+    """Every term the price scales is linear in the scale: a bolt of scale 10 at price p
+    pays exactly what a bolt of scale 10 p pays (states, acceptance, low-confidence
+    charges and totals alike), over random traces with resets."""
+    priced, scaled = (
+        _bolt(10.0, n_envs=2, tracking=tracking),
+        _bolt(max(10.0 * price, 1e-12), n_envs=2, tracking=tracking),
+    )
+    priced.price = price
+    start = np.array([[0.95, 0.2], [0.3, 0.7]])
+    a, b = priced.reset(start), scaled.reset(start)
+    np.testing.assert_allclose(a.total, b.total, atol=1e-9)
+    for probs, done in trace:
+        probs, done = np.array(probs), np.array(done)
+        a, b = priced.step(probs, done=done), scaled.step(probs, done=done)
+        np.testing.assert_array_equal(a.next_states, b.next_states)
+        np.testing.assert_allclose(a.low_confidence, b.low_confidence)
+        np.testing.assert_allclose(a.total, b.total, atol=1e-9)
+        if done.any():
+            priced.reset(probs, env_mask=done)
+            scaled.reset(probs, env_mask=done)
+
+
+def test_price_zero_leaves_only_the_low_confidence_charges() -> None:
+    bolt = _bolt(10.0, n_envs=1)
+    bolt.price = 0.0
+    bolt.reset(np.array([[0.95, 0.2]]))
+    out = bolt.step(np.array([[0.7, 0.7]]), done=np.array([False]))  # e, t both low: entry
+    assert out.total.tolist() == [out.low_confidence.sum()]
+    assert out.low_confidence.sum() < 0
+    out = bolt.step(np.array([[0.0, 0.0]]), done=np.array([True]))  # G(e) violated
+    assert out.total.tolist() == [0.0]
+
+
+def test_the_default_price_changes_nothing() -> None:
+    bolt = _bolt(10.0, n_envs=1)
+    assert bolt.price == 1.0
+    bolt.reset(np.array([[0.95, 0.2]]))
+    out = bolt.step(np.array([[0.95, 0.95]]), done=np.array([False]))
+    # s1 (last t) enters acceptance: +10; s2 F(e & t) accepts: +10; s0 G(e) holds: 0
+    assert out.terminal.tolist() == [[0.0, 10.0, 10.0]]
+
+
+@pytest.mark.parametrize("price", [-0.5, math.nan, math.inf, "1", True])
+def test_a_bad_price_is_refused(price: object) -> None:
+    bolt = _bolt(10.0, n_envs=1)
+    with pytest.raises(ConfigError, match="price"):
+        bolt.price = price  # type: ignore[assignment]
+    assert bolt.price == 1.0
