@@ -1,6 +1,7 @@
 """The import graph of ``src/noisybolt``: no cycles, and no private name imported from
-another module. Imports count wherever they are written (inside functions too), except
-under ``if TYPE_CHECKING:``, which never runs."""
+another module. Imports count wherever they are written: inside functions, and under
+``if TYPE_CHECKING:`` too (a cycle that only type checkers follow is still two modules
+that cannot be read one without the other)."""
 
 from __future__ import annotations
 
@@ -21,32 +22,37 @@ def _modules() -> dict[str, tuple[Path, bool]]:
     return modules
 
 
-def _runtime_imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
-    """Every import statement except those under ``if TYPE_CHECKING:``."""
-    found: list[ast.Import | ast.ImportFrom] = []
+def _imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement, wherever it is written (``if TYPE_CHECKING:`` included)."""
+    return [node for node in ast.walk(tree) if isinstance(node, ast.Import | ast.ImportFrom)]
 
-    def visit(node: ast.AST) -> None:
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            for child in node.orelse:
-                visit(child)
-            return
-        if isinstance(node, ast.Import | ast.ImportFrom):
-            found.append(node)
-        for child in ast.iter_child_nodes(node):
-            visit(child)
 
-    visit(tree)
+def _private(name: str) -> bool:
+    """``_x`` is private; a dunder (``__version__``) is not."""
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _private_module_imports(importer: str, imported: set[str]) -> list[tuple[str, str, str]]:
+    """``(importer, module, "")`` for each private module (``wrappers._common``) that
+    ``importer`` imports from outside the package that holds it."""
+    found = []
+    for module in sorted(imported):
+        head, _, last = module.rpartition(".")
+        if _private(last) and not (importer == head or importer.startswith(head + ".")):
+            found.append((importer, module, ""))
     return found
 
 
 def import_graph() -> tuple[dict[str, set[str]], list[tuple[str, str, str]]]:
     """Module -> the noisybolt modules it imports; and every (importer, module, name)
-    that imports a private name (one ``_x``, not a dunder) from another module."""
+    that imports a private name (one ``_x``, not a dunder) from another module, or
+    (importer, module, "") where the module itself is private (``_common``) to a package
+    the importer is not in."""
     modules = _modules()
     edges: dict[str, set[str]] = {name: set() for name in modules}
     private = []
     for name, (path, package) in modules.items():
-        for node in _runtime_imports(ast.parse(path.read_text(), str(path))):
+        for node in _imports(ast.parse(path.read_text(), str(path))):
             if isinstance(node, ast.Import):
                 edges[name] |= {a.name for a in node.names if a.name in modules}
                 continue
@@ -61,9 +67,9 @@ def import_graph() -> tuple[dict[str, set[str]], list[tuple[str, str, str]]]:
                     edges[name].add(f"{target}.{alias.name}")
                 elif target in modules:
                     edges[name].add(target)
-                    dunder = alias.name.startswith("__") and alias.name.endswith("__")
-                    if alias.name.startswith("_") and not dunder:
+                    if _private(alias.name):
                         private.append((name, target, alias.name))
+        private += _private_module_imports(name, edges[name])
     return edges, private
 
 
@@ -105,6 +111,16 @@ def test_the_checks_see_a_cycle_and_a_private_import_when_there_is_one() -> None
     edges, _ = import_graph()
     assert "noisybolt.experiments.sweeps" in edges["noisybolt.experiments.report"]
     assert "noisybolt.experiments.report" in edges["noisybolt.experiments.table1"]
+    # An import only type checkers follow counts (noisybolt/__init__.py's, for its lazy names).
+    assert "noisybolt.wrappers.bolt_wrapper" in edges["noisybolt"]
+    tree = ast.parse("if TYPE_CHECKING:\n    from a import _b\nelse:\n    import c\n")
+    assert [type(node).__name__ for node in _imports(tree)] == ["ImportFrom", "Import"]
+    # A private module is its package's: inside it, not a private import; outside, one.
+    inside = {"noisybolt.wrappers._common"}
+    assert _private_module_imports("noisybolt.wrappers.bolt_wrapper", inside) == []
+    assert _private_module_imports("noisybolt.agents.x", inside) == [
+        ("noisybolt.agents.x", "noisybolt.wrappers._common", "")
+    ]
 
 
 def test_no_import_cycle_in_src() -> None:
@@ -112,14 +128,22 @@ def test_no_import_cycle_in_src() -> None:
     assert find_cycles(edges) == []
 
 
-#: None left: bolt/engine.py made check_fluents and env_flags public.
-KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = set()
+#: Private imports kept for now, each with the reason (none of private names: bolt/engine.py
+#: made check_fluents and env_flags public).
+KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = {
+    # The info keys of the bolt's reward parts live in wrappers/_common.py, which mixes
+    # bolt logic, checks, spaces and info records; issue 44 splits it, and the keys move
+    # to a public module there.
+    ("noisybolt.agents.counterfactual", "noisybolt.wrappers._common", ""),
+}
 
 
 def test_no_private_name_is_imported_across_modules() -> None:
     _, private = import_graph()
     new = sorted(set(private) - KNOWN_PRIVATE_IMPORTS)
     assert new == [], "import a public name, or make the name public where it is defined"
+    mended = sorted(KNOWN_PRIVATE_IMPORTS - set(private))
+    assert mended == [], "mended: take these off KNOWN_PRIVATE_IMPORTS"
 
 
 @pytest.mark.parametrize("module", ["noisybolt.experiments.report"])

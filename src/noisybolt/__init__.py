@@ -26,7 +26,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from noisybolt.version import __version__
 
 # The public API: name -> module that defines it.
 _EXPORTS: dict[str, str] = {

@@ -1,29 +1,48 @@
 """The cheap checks of a run against its world, made before anything costly: the
 agent can read the world's observation, the algorithm can act in its actions, and every
 spec compiles over its fluents (named errors listing the world's fluents). They run
-before the compliance scale's random play (:mod:`noisybolt.agents.config`) and before a
-classifier is trained (:func:`~noisybolt.agents.environments.prepare_bolt`), so this
-module imports neither.
+before the compliance scale's random play (:func:`noisybolt.agents.config.resolve`) and
+before a classifier is trained (:func:`~noisybolt.agents.environments.prepare_bolt`), so
+this module imports neither: a run's config reaches it as :class:`CheckedRun`, the few
+settings the checks read.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import SimpleNamespace
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from noisybolt.agents.extractor import check_agent_observation
 from noisybolt.agents.hyperparams import check_action_space
+from noisybolt.bolt.spec import Spec
 from noisybolt.errors import SpecSyntaxError, UnknownFluentError, UnsatisfiableSpecError
 from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
 
-if TYPE_CHECKING:
-    from noisybolt.agents.config import TrainConfig
-
-__all__ = ["check_specs_against_world", "check_world_fits", "check_world_spaces"]
+__all__ = ["CheckedRun", "check_specs_against_world", "check_world_fits", "check_world_spaces"]
 
 
-def check_world_spaces(config: TrainConfig, world: Any) -> None:
+class CheckedRun(Protocol):
+    """What the checks read of a run's config
+    (:class:`~noisybolt.agents.config.TrainConfig` is one)."""
+
+    @property
+    def world(self) -> str:
+        """The world's name or factory path."""
+
+    @property
+    def algo(self) -> str:
+        """The algorithm's name."""
+
+    @property
+    def specs(self) -> tuple[Mapping[str, Any], ...]:
+        """The specs as given (``bolt.specs``: :class:`~noisybolt.bolt.Spec` fields)."""
+
+    def spec_objects(self) -> list[Spec]:
+        """The specs as the bolt pays them."""
+
+
+def check_world_spaces(config: CheckedRun, world: Any) -> None:
     """The agent can read the world's observation and the algorithm act in its actions.
 
     Raises:
@@ -38,7 +57,7 @@ def check_world_spaces(config: TrainConfig, world: Any) -> None:
         check_action_space(config.algo, actions, world=config.world)
 
 
-def check_world_fits(config: TrainConfig, world: Any) -> None:
+def check_world_fits(config: CheckedRun, world: Any) -> None:
     """The cheap checks of a run against its world, for before anything costly (the
     compliance scale's random play, a classifier's training): the agent can read the
     world's observation and the algorithm act in its actions, and every spec compiles
@@ -52,13 +71,13 @@ def check_world_fits(config: TrainConfig, world: Any) -> None:
     # The specs as given: their rewards may wait for the scale this check comes before.
     given = [
         SimpleNamespace(formula=spec["formula"], name=spec.get("name") or spec["formula"])
-        for spec in config.bolt.specs
+        for spec in config.specs
     ]
     check_specs_against_world(config, tuple(world.fluent_names), log=lambda _: None, specs=given)
 
 
 def check_specs_against_world(
-    config: TrainConfig,
+    config: CheckedRun,
     fluent_names: Sequence[str],
     *,
     log: Callable[[str], None] = print,

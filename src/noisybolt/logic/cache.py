@@ -47,7 +47,7 @@ def cache_directory(cache: bool | str | os.PathLike[str]) -> Path | None:
 def _header(
     formula: str, fluents: tuple[str, ...], backend: str, backend_version: str
 ) -> dict[str, Any]:
-    from noisybolt import __version__
+    from noisybolt.version import __version__
 
     return {
         "format": FORMAT_VERSION,
