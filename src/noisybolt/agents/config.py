@@ -290,6 +290,17 @@ class TrainConfig:
                 f"spec(s) {repeated} given twice: each spec is tracked and reported by its "
                 "name; remove the repeat, or give each a name of its own (--spec-set name=...)"
             )
+        if self.algorithm.counterfactual and not self.bolted:
+            raise ConfigError(
+                "algorithm.counterfactual relabels the bolt's DFA states, and this run is "
+                "unbolted (bolt.bolted false): turn one of them off"
+            )
+        if self.algorithm.counterfactual and self.tracking != "threshold":
+            raise ConfigError(
+                f"algorithm.counterfactual replays Algorithm 1 from other DFA states; under "
+                f"bolt.tracking={self.tracking} the bolt pays on a belief, not on one state: "
+                "use bolt.tracking=threshold, or turn algorithm.counterfactual off"
+            )
 
     # ------------------------------------------------------------------ building
 

@@ -262,6 +262,8 @@ def build_bolted_env(
         world_letters=letters,
         # The learner reads none of the per-step records; evaluation's envs keep them.
         info_records=not training,
+        # What a replay of the bolt's transitions reads (algorithm.counterfactual).
+        transition_records=training and config.algorithm.counterfactual,
     )
 
 

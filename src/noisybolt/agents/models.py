@@ -22,6 +22,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.counterfactual import replay_buffer_settings
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import (
     META_KEYS,
@@ -150,6 +151,14 @@ def make_model(
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     if trial and "buffer_size" in params:
         params["buffer_size"] = 1
+    if config.algorithm.counterfactual:
+        # Its buffer replays the bolt's transitions: it is rebuilt from the run's env on
+        # load (a trial model's kwargs, as every serialized entry is), never unpickled.
+        params.update(
+            replay_buffer_settings(
+                env, samples=config.algorithm.counterfactual_samples, seed=config.seed
+            )
+        )
     check_action_space(config.algo, env.action_space, world=config.world)
     device = "cpu" if trial else torch_device(config.algorithm.device)
     dtype = None if trial else compute_dtype(config.algorithm.precision, device)

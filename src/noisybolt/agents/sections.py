@@ -8,8 +8,10 @@ ranges, names), naming the setting by its path in ``config.json``. They compose
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
+
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
 from noisybolt.agents.hyperparams import (
     SPLIT,
@@ -19,7 +21,7 @@ from noisybolt.agents.hyperparams import (
     known_hyperparameters,
 )
 from noisybolt.agents.schema import freeze
-from noisybolt.bolt import COST_MODES, BeliefSettings, RewardScheme, Thresholds
+from noisybolt.bolt import COST_MODES, BeliefSettings, CostLimit, RewardScheme, Thresholds
 from noisybolt.bolt.belief import check_tracking
 from noisybolt.envs import DEFAULT_WORLD, check_world
 from noisybolt.errors import ConfigError, UnknownNameError
@@ -177,6 +179,10 @@ class BoltConfig:
             credits it.
         thresholds: ``{"truth": 0.5, "high": 0.9}`` of eq. 1.
         cost_mode: ``"count"`` or ``"proportional"``.
+        constraint: ``constrained`` only: the cost budget and how the Lagrange multiplier
+            learns (:class:`~noisybolt.bolt.CostLimit`: ``cost_limit``, the specs an
+            episode may leave unsatisfied on average, 0 by default; ``lr``, ``kp``,
+            ``kd``, ``initial``); the config holds every value used.
         bolted: False trains the same agent without a bolt (for comparison): specs are
             still tracked for compliance metrics, with zero rewards.
     """
@@ -191,6 +197,7 @@ class BoltConfig:
     min_dwell: int = 2
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
+    constraint: dict[str, float] = field(default_factory=lambda: asdict(CostLimit()))
     bolted: bool = True
 
     def __post_init__(self) -> None:
@@ -206,9 +213,22 @@ class BoltConfig:
             raise ConfigError(
                 f"bolt.cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
             )
+        # Every setting of the budget, the defaults filled in: what the run used.
+        limit = CostLimit.from_mapping(self.constraint)
+        object.__setattr__(self, "constraint", freeze(asdict(limit)))
+        if self.reward != "constrained" and limit != CostLimit():
+            raise ConfigError(
+                f"bolt.constraint (a cost budget) is set but the reward scheme is "
+                f"{self.reward!r}: a budget needs --reward constrained; or leave it out"
+            )
         check_tracking(self.tracking)
         # ConfidenceLevelError outside (0.5, 1); ConfigError for a min_dwell below 1
         BeliefSettings(confidence=self.confidence, min_dwell=self.min_dwell)
+
+    @property
+    def cost_limit(self) -> CostLimit:
+        """The ``constrained`` scheme's budget and gains."""
+        return CostLimit.from_mapping(self.constraint)
 
     @property
     def scheme(self) -> RewardScheme:
@@ -321,6 +341,13 @@ class AlgorithmConfig:
             folder or a ``model.zip`` of the same world, specs and network. Only a new run
             reads it (and keeps a copy, ``init_model.zip``); a resume continues from its
             own checkpoint. None (default): random weights.
+        counterfactual: counterfactual experience (off-policy learners: DQN; threshold
+            tracking): every transition is also stored replayed from other DFA states,
+            with the bolt's reward and next state from each
+            (:mod:`noisybolt.agents.counterfactual`). False (default): as gathered.
+        counterfactual_samples: the most relabelled copies per transition: every other
+            joint DFA state where there are at most this many, else this many drawn at
+            random (seeded by the run's seed). Default 16.
     """
 
     name: str = "ppo"
@@ -328,6 +355,8 @@ class AlgorithmConfig:
     device: str = "cpu"
     precision: str = "float32"
     init_from: str | None = None
+    counterfactual: bool = False
+    counterfactual_samples: int = 16
 
     def __post_init__(self) -> None:
         algorithm_class(self.name)
@@ -341,6 +370,7 @@ class AlgorithmConfig:
                 f"checkpoint folder or a model.zip), got {self.init_from!r}"
             )
         object.__setattr__(self, "hyperparams", freeze(dict(self.hyperparams)))
+        self._check_counterfactual()
         known = known_hyperparameters(self.name) - WORLD_KEYS
         for key in self.hyperparams:
             if key in WORLD_KEYS:
@@ -371,6 +401,30 @@ class AlgorithmConfig:
                     f"{key}: {self.name.upper()} has no {what} (only "
                     f"{' and '.join(a.upper() for a in algos)}); remove the hyperparameter"
                 )
+
+    def _check_counterfactual(self) -> None:
+        if not isinstance(self.counterfactual, bool):
+            raise ConfigError(
+                f"algorithm.counterfactual must be true or false, got {self.counterfactual!r}"
+            )
+        samples = self.counterfactual_samples
+        if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+            raise ConfigError(
+                f"algorithm.counterfactual_samples must be an integer >= 1, got {samples!r}"
+            )
+        if not self.counterfactual:
+            return
+        if not issubclass(algorithm_class(self.name), OffPolicyAlgorithm):
+            raise ConfigError(
+                f"algorithm.counterfactual replays stored transitions from other DFA states, "
+                f"and {self.name.upper()} is on-policy (it stores none): use dqn, or turn "
+                "algorithm.counterfactual off"
+            )
+        if self.hyperparams.get("optimize_memory_usage"):
+            raise ConfigError(
+                "algorithm.counterfactual stores its copies in a dict replay buffer, which "
+                "has no optimize_memory_usage: drop the hyperparameter"
+            )
 
 
 @dataclass(frozen=True, kw_only=True)

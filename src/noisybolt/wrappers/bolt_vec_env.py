@@ -57,7 +57,14 @@ from noisybolt.wrappers._common import (
     reward_shares,
 )
 
-__all__ = ["BoltVecEnv"]
+__all__ = ["BOLT_CARRIED_KEY", "BOLT_DONE_KEY", "FLUENT_PROBS_KEY", "BoltVecEnv"]
+
+#: ``transition_records``: the ``info`` entries of what the bolt's transition of a step
+#: read (float64 ``[n_fluents]``; bool: its episode ended with this step, the world's
+#: ``done``; float: the reward of the reset transition paid with this step).
+FLUENT_PROBS_KEY = "fluent_probs"
+BOLT_DONE_KEY = "bolt_done"
+BOLT_CARRIED_KEY = "bolt_carried"
 
 
 class BoltVecEnv(VecEnvWrapper):
@@ -87,6 +94,12 @@ class BoltVecEnv(VecEnvWrapper):
             time limit's and the terminal observation's entries, and evaluation runs on
             envs of its own, with records); observations, rewards and dones are the same
             either way (tested).
+        transition_records: whether each step's ``infos`` also get what the bolt's
+            transition read, so a learner can replay it from other DFA states
+            (counterfactual experience, :mod:`noisybolt.agents.counterfactual`): the
+            fluent probabilities (:data:`FLUENT_PROBS_KEY`), whether the bolt's episode
+            ended (:data:`BOLT_DONE_KEY`) and the reward carried from its reset
+            (:data:`BOLT_CARRIED_KEY`), beside the reward's two shares.
 
     Raises:
         ConfigError: ``venv`` is not an ``SB3VecEnv`` (possibly wrapped), or ``world`` is
@@ -113,6 +126,7 @@ class BoltVecEnv(VecEnvWrapper):
         tracking: Tracking = "threshold",
         belief: BeliefSettings | None = None,
         info_records: bool = True,
+        transition_records: bool = False,
     ) -> None:
         if end_on_violation:
             # Ending an episode that the world did not end needs a per-environment reset,
@@ -172,6 +186,10 @@ class BoltVecEnv(VecEnvWrapper):
         self._reads_images = reads_images(parts.detector) and not self._world_probs
         self._thresholds = thresholds
         self._records = bool(info_records)
+        self._transition_records = bool(transition_records)
+        # Whether a time limit's cut is paid as an end: what a replay of the bolt's
+        # transitions needs to know (noisybolt.agents.counterfactual).
+        self.pay_at_truncation = bool(pay_at_truncation)
         super().__init__(
             venv,
             observation_space=dict_observation_space(
@@ -308,6 +326,11 @@ class BoltVecEnv(VecEnvWrapper):
             # (``normalize_reward: split``, noisybolt.wrappers.SplitRewardNormalize).
             for i, info in enumerate(infos):
                 info.update(reward_shares(env_rewards[i], out.total[i]))
+        if self._transition_records:
+            for i, info in enumerate(infos):
+                info[FLUENT_PROBS_KEY] = probs[i]
+                info[BOLT_DONE_KEY] = bool(dones[i])
+                info[BOLT_CARRIED_KEY] = float(out.carried[i])
         if ended.size:
             final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
             for row in ended.tolist():
