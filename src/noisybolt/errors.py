@@ -39,6 +39,7 @@ __all__ = [
     "UnnormalizedRewardWarning",
     "UnsafeFileError",
     "UnsatisfiableSpecError",
+    "UntrustedCodeError",
     "UnseenFluentError",
     "UnseenFluentWarning",
     "WorldFactoryError",
@@ -226,6 +227,22 @@ class NoCheckpointError(ConfigError):
 class UnsafeFileError(CorruptFileError):
     """A file in a run directory that noisybolt will not load because loading it could run
     code (a pickle, or a model entry it does not know); the message says what to do."""
+
+
+class UntrustedCodeError(ConfigError):
+    """A saved run (its ``config.json``, a sweep's trial) names code outside noisybolt: a
+    world factory path (``world.name``), a detector factory path (``detector.kind``).
+    Loading a run never imports or runs such code without the user's word: pass
+    ``--trust-code`` (Python: ``trust_code=True``), or give the same reference yourself
+    (``--world mymod:make``, ``--detector mydetectors:noisy``).
+
+    Attributes:
+        references: each reference as ``"path = 'module:function'"``.
+    """
+
+    def __init__(self, message: str, *, references: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.references = references
 
 
 class DetectorFactoryError(WorldFactoryError):

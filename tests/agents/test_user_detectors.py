@@ -196,7 +196,9 @@ def test_train_and_resume_rebuild_the_users_detector(
     assert ("Seeded", 4) in userdetectors.calls
     userdetectors.calls.clear()
     resume = ["train", "--out", str(out), "--resume", "--frames", "128", "--no-progress"]
-    assert main(resume) == 0
+    assert main(resume) == 2  # the run names code: followed only with the user's word
+    assert not userdetectors.calls
+    assert main([*resume, "--trust-code"]) == 0
     assert userdetectors.calls and userdetectors.calls[0] == ("Seeded", 4)
     started = json.loads((out / "versions.json").read_text())  # the start, then the resume
     assert [r["frames"] for r in started] == [0, 64]

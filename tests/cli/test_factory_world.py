@@ -176,7 +176,16 @@ def test_train_then_evaluate_in_a_new_process(
     assert config["world"]["n_envs"] == 2
     assert config["algorithm"]["hyperparams"]["gamma"] == 0.99  # from _default.yaml
     evaluated = subprocess.run(
-        [sys.executable, "-m", "noisybolt", "evaluate", str(out), "--episodes", "3"],
+        [
+            sys.executable,
+            "-m",
+            "noisybolt",
+            "evaluate",
+            str(out),
+            "--episodes",
+            "3",
+            "--trust-code",
+        ],
         cwd=EXAMPLES,
         capture_output=True,
         text=True,
@@ -187,10 +196,11 @@ def test_train_then_evaluate_in_a_new_process(
     assert record["n_episodes"] == 3
     assert 0.0 <= record["goal_rate"] <= 1.0
     gif = tmp_path / "episode.gif"
-    assert main(["evaluate", str(out), "--episodes", "1", "--gif", str(gif)]) == 0
+    again = ["--world", WORLD]  # the run's world given again: the user vouches for it
+    assert main(["evaluate", str(out), "--episodes", "1", "--gif", str(gif), *again]) == 0
     assert gif.stat().st_size > 0  # the env's render beside the bolt's camera
     heatmap = tmp_path / "heatmap.png"
-    assert main(["evaluate", str(out), "--episodes", "2", "--heatmap", str(heatmap)]) == 0
+    assert main(["evaluate", str(out), "--episodes", "2", "--heatmap", str(heatmap), *again]) == 0
     assert heatmap.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the lake's 4x4 cells, drawn
 
 
@@ -217,7 +227,8 @@ def test_heatmap_of_a_world_without_a_grid_is_refused_with_how_to_declare_one(
     assert main([*argv, *_reward_args()]) == 0, capsys.readouterr().err
     capsys.readouterr()
     heatmap = tmp_path / "heatmap.png"
-    assert main(["evaluate", str(out), "--episodes", "1", "--heatmap", str(heatmap)]) == 2
+    evaluate = ["evaluate", str(out), "--episodes", "1", "--heatmap", str(heatmap)]
+    assert main([*evaluate, "--trust-code"]) == 2
     err = capsys.readouterr().err
     assert "declares no grid" in err and "GridLayout" in err
     assert not heatmap.exists()

@@ -19,7 +19,7 @@ from noisybolt.cli.train import FLAG_PATHS, train_overrides
 #: resolve into the schema's values).
 NOT_SETTINGS = {
     "--out", "--resume", "--restart", "--retrain-classifier", "--specs-file", "--hp-file",
-    "--set", "--spec-set", "--help",
+    "--set", "--spec-set", "--help", "--trust-code",
 }  # fmt: skip
 BASE = ["--spec", "edge", "--reward", "paper", "--detector", "oracle"]
 

@@ -402,6 +402,7 @@ class TrainConfig:
         overrides: Mapping[str, Any] | None = None,
         *,
         hp_file: str | os.PathLike[str] | None = None,
+        trust_code: bool = False,
     ) -> TrainConfig:
         """The config a resumed run continues with: its saved ``config.json`` (``saved``,
         read as :meth:`from_dict` reads it) with the settings the user gives again
@@ -413,9 +414,15 @@ class TrainConfig:
         saved one is refused by the resume's check unless it may change
         (:data:`RESUMABLE_KEYS`).
 
+        Code the saved config names (a world or detector factory path) is followed only
+        with the user's word: ``trust_code``, or the same reference among ``overrides``
+        (:mod:`noisybolt.agents.trust`).
+
         Raises:
             ConfigError: the saved config does not load, or an override is unknown or of
                 the wrong type (naming the path).
+            UntrustedCodeError: the saved config names code not vouched for (nothing is
+                imported).
 
         Example:
             >>> saved = TrainConfig.create(specs=["edge"], frames=1000).to_dict()
@@ -423,8 +430,11 @@ class TrainConfig:
             >>> resumed.frames, resumed.bolt.specs == TrainConfig.from_dict(saved).bolt.specs
             (2000, True)
         """
-        config = cls.from_dict(saved)
+        from noisybolt.agents.trust import loading_run
+
         changes = override_paths(overrides or {})
+        with loading_run(saved, trust_code=trust_code, given=changes):
+            config = cls.from_dict(saved)
         if hp_file is not None:
             prefix = "algorithm.hyperparams."
             given = {k[len(prefix) :]: v for k, v in changes.items() if k.startswith(prefix)}

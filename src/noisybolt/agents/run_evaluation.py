@@ -4,6 +4,9 @@ Loads the run's resolved config and final model (or its latest checkpoint), rebu
 same bolted world and detector, runs K episodes, and writes ``evaluation.json`` beside the
 run's results. Optionally saves one episode as a GIF (the world, the bolt's noisy view,
 the DFA states and fluent probabilities per step) and a trajectory heat-map.
+
+A run directory is data: code its config names (a world or detector factory path) is
+imported only with the user's word (:mod:`noisybolt.agents.trust`).
 """
 
 from __future__ import annotations
@@ -159,6 +162,7 @@ def evaluate_run(
     heatmap: str | os.PathLike[str] | None = None,
     heatmap_episodes: int = 30,
     overrides: Mapping[str, Any] | None = None,
+    trust_code: bool = False,
 ) -> RunEvaluation:
     """Evaluates a saved run (see the module docstring).
 
@@ -173,10 +177,53 @@ def evaluate_run(
         heatmap_episodes: episodes drawn in the heat-map.
         overrides: settings (schema paths) to change for this evaluation only (e.g.
             ``{"world.kwargs.noise": "regional"}`` to test the policy under other noise).
+            A code reference given here (``{"world.name": "mymod:make"}``, the run's own)
+            is the user's: it is followed.
+        trust_code: follow every code reference the run's config names (a world or
+            detector factory path): only for a run whose author you trust.
+
+    Raises:
+        UntrustedCodeError: the run names code neither ``trust_code`` nor ``overrides``
+            vouch for; nothing is imported or written.
     """
-    torch.set_num_threads(1)
+    from noisybolt.agents.config import override_paths
+    from noisybolt.agents.trust import code_references, loading_run
+
     run = RunDirectory(run_dir)
-    config = TrainConfig.from_dict(run.read_config()).override(overrides or {})
+    saved = run.read_config()
+    given = override_paths(overrides or {})
+    # A reference given again as the run has it vouches for it and changes nothing (the
+    # evaluation is the run's own, evaluation.json).
+    own = {r.path: r.value for r in code_references(saved)}
+    overrides = {k: v for k, v in (overrides or {}).items() if not (k in own and own[k] == v)}
+    with loading_run(saved, trust_code=trust_code, given=given, source=f"run {run.path}"):
+        return _evaluate(
+            run,
+            saved,
+            episodes=episodes,
+            seed=seed,
+            deterministic=deterministic,
+            gif=gif,
+            heatmap=heatmap,
+            heatmap_episodes=heatmap_episodes,
+            overrides=overrides,
+        )
+
+
+def _evaluate(
+    run: RunDirectory,
+    saved: Mapping[str, Any],
+    *,
+    episodes: int,
+    seed: int,
+    deterministic: bool | None,
+    gif: str | os.PathLike[str] | None,
+    heatmap: str | os.PathLike[str] | None,
+    heatmap_episodes: int,
+    overrides: Mapping[str, Any] | None,
+) -> RunEvaluation:
+    torch.set_num_threads(1)
+    config = TrainConfig.from_dict(saved).override(overrides or {})
     if deterministic is None:
         deterministic = config.eval_deterministic
     display = world_display(config.world)

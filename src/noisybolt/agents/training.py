@@ -93,7 +93,7 @@ from noisybolt.agents.warm_start import (
     apply_initial_weights,
     read_initial_weights,
 )
-from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError
+from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError, UntrustedCodeError
 from noisybolt.io import atomic_write_bytes, atomic_write_json
 from noisybolt.rundir import RunDirectory, config_differences
 
@@ -318,8 +318,17 @@ def check_same_config(run: RunDirectory, config: TrainConfig) -> None:
     Raises:
         ConfigError: the configs differ, or the saved one does not load.
     """
+    from noisybolt.agents.trust import code_references, loading_run
+
     try:
-        saved = TrainConfig.from_dict(run.read_config()).to_dict()
+        data = run.read_config()
+        # The code ``config`` names is the user's; other code the saved run names is not
+        # imported to compare (issue 46): it differs, and is refused as such.
+        given = {r.path: r.value for r in code_references(config.to_dict())}
+        with loading_run(data, given=given, source=f"{run.path} (resumed)"):
+            saved = TrainConfig.from_dict(data).to_dict()
+    except UntrustedCodeError:
+        raise
     except ConfigError as error:
         raise ConfigError(
             f"cannot resume {run.path}: its config.json does not load: {error}"

@@ -55,6 +55,7 @@ from torch import nn
 from noisybolt.agents.checkpoints import MODEL, latest_checkpoint
 from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.models import ALGO_KEY, read_model_data
+from noisybolt.envs.registry import refusing_code
 from noisybolt.errors import (
     ConfigError,
     CorruptFileError,
@@ -151,7 +152,9 @@ def _source_config(model: Path) -> dict[str, Any] | None:
         config = folder / "config.json"
         if config.is_file():
             try:
-                return TrainConfig.from_dict(read_json(config, kind=dict)).to_dict()
+                # Read as data: code the other run names is never imported (issue 46).
+                with refusing_code():
+                    return TrainConfig.from_dict(read_json(config, kind=dict)).to_dict()
             except (ConfigError, CorruptFileError):
                 return None  # an unreadable config tells nothing: the tensors still must fit
     return None

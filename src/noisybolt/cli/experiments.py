@@ -374,9 +374,13 @@ def _report(args: argparse.Namespace) -> int:
     # The experiments register their report sections when imported; report imports none.
     import noisybolt.experiments.case4
     import noisybolt.experiments.table1  # noqa: F401
+    from noisybolt.envs.registry import refusing_code
     from noisybolt.experiments.report import write_report
 
-    files = write_report(args.path, html_page=not args.no_html)
+    # A report reads JSON and pictures only: a code reference it would follow (a config
+    # that needs its world built to load) is refused, never imported.
+    with refusing_code():
+        files = write_report(args.path, html_page=not args.no_html)
     print(f"markdown: {files.markdown}")
     if not args.no_html:
         print(f"html: {files.html}")

@@ -251,6 +251,13 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="start the run in --out over: its earlier results and checkpoints are removed",
     )
+    train.add_argument(
+        "--trust-code",
+        action="store_true",
+        help="with --resume: follow the code the run's config.json names (a world or detector "
+        "factory path), which is otherwise refused unless given again (--world, --detector); "
+        "only for a run whose author you trust",
+    )
     flag("--no-progress", action="store_false", help="no progress bar")
     train.set_defaults(func=_train)
 
@@ -281,6 +288,25 @@ def register(subparsers: Any) -> None:
         default=None,
         help="evaluate with another bolt tracking (what its DFAs accept, and so the false "
         "acceptances; the agent sees those DFA states); written beside the run's own too",
+    )
+    evaluate.add_argument(
+        "--world",
+        default=None,
+        metavar="MODULE:FACTORY",
+        help="the run's world factory path, given again: you vouch for the code it names",
+    )
+    evaluate.add_argument(
+        "--detector",
+        default=None,
+        metavar="MODULE:FUNCTION",
+        help="the run's detector factory path, given again: you vouch for the code it names",
+    )
+    evaluate.add_argument(
+        "--trust-code",
+        action="store_true",
+        help="follow every code reference the run's config.json names (a world or detector "
+        "factory path); only for a run whose author you trust. Without it such a run is "
+        "refused before anything is imported",
     )
     evaluate.set_defaults(func=_evaluate)
 
@@ -403,7 +429,9 @@ def _train(args: argparse.Namespace) -> int:
         if not (out / "config.json").exists():
             raise ConfigError(f"--resume: {out} holds no run to continue")
         saved = RunDirectory(out).read_config()
-        config = TrainConfig.resumed(saved, overrides, hp_file=args.hp_file)
+        config = TrainConfig.resumed(
+            saved, overrides, hp_file=args.hp_file, trust_code=args.trust_code
+        )
     else:
         if not overrides.get("bolt.specs"):
             raise ConfigError(
@@ -413,6 +441,11 @@ def _train(args: argparse.Namespace) -> int:
         out = args.out or _default_out(overrides)
         if out.exists() and not out.is_dir():
             raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
+        if args.trust_code:
+            raise ConfigError(
+                "--trust-code vouches for the code a saved run names, with --resume; a new "
+                "run's code is the one you give (--world, --detector): leave it out"
+            )
     for path, flag_name in (("bolt.confidence", "--confidence"), ("bolt.min_dwell", "--min-dwell")):
         if path in overrides and config.tracking != "belief":
             raise ConfigError(
@@ -489,6 +522,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         overrides["world.kwargs.noise"] = args.noise
     if args.tracking is not None:
         overrides["bolt.tracking"] = args.tracking
+    if args.world is not None:
+        overrides["world.name"] = args.world
+    if args.detector is not None:
+        overrides["detector.kind"] = args.detector
     report = evaluate_run(
         args.run_dir,
         episodes=args.episodes,
@@ -498,6 +535,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         heatmap=args.heatmap,
         heatmap_episodes=args.episodes,
         overrides=overrides or None,
+        trust_code=args.trust_code,
     )
     print(format_eval_table(report.result.to_dict(), greedy=not args.stochastic))
     for label, path in report.files.items():

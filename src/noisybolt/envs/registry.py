@@ -7,6 +7,13 @@ A world is named in a config by a registered name or by a *factory path*
 process (a resumed run, ``evaluate``, a spawned worker) rebuilds it from the path; a
 module not on ``sys.path`` is looked for in the current directory too.
 
+A factory path is imported only where a world is built (:func:`make_world`), never where
+a config naming it is read (:func:`check_world` checks its form alone): a config read from
+a shared run directory is data. While a saved run is loaded (:func:`refusing_code`), a
+factory path the user did not vouch for is refused with
+:class:`~noisybolt.errors.UntrustedCodeError` before anything is imported, and the
+current directory is not searched for it.
+
 A registered world factory returns a vectorised world: a Gymnasium
 :class:`~gymnasium.vector.VectorEnv` with same-step autoreset that puts the bolt's labels
 into its batched ``info`` (the contract of :mod:`noisybolt.perception.protocols`) and
@@ -25,12 +32,14 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import importlib
 import inspect
 import os
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,6 +51,7 @@ from noisybolt.errors import (
     UnboundedEpisodesWarning,
     UnknownNameError,
     UnlabelledEnvError,
+    UntrustedCodeError,
     WorldFactoryError,
 )
 from noisybolt.perception.noise import NoiseSpec
@@ -56,6 +66,7 @@ __all__ = [
     "known_worlds",
     "make_single_world",
     "make_world",
+    "refusing_code",
     "register_world",
     "resolve_factory",
     "world_display",
@@ -127,6 +138,44 @@ def is_factory_path(name: str) -> bool:
     return isinstance(name, str) and name not in _WORLDS and ":" in name
 
 
+#: The factory paths a saved run being loaded may follow (None: no run is being loaded,
+#: every path is followed: a new run's author gave them). Set by :func:`refusing_code`.
+_TRUSTED_CODE: contextvars.ContextVar[frozenset[str] | None] = contextvars.ContextVar(
+    "noisybolt_trusted_code", default=None
+)
+
+
+@contextlib.contextmanager
+def refusing_code(trusted: Iterable[str] = ()) -> Iterator[None]:
+    """While the block runs, :func:`resolve_factory` refuses every factory path outside
+    ``trusted`` (the ones the user gave) with :class:`~noisybolt.errors.UntrustedCodeError`
+    before importing anything: what loads a saved run (``evaluate``, ``--resume``,
+    ``report``) runs inside it, so that a reference it missed is refused all the same.
+
+    Example:
+        >>> with refusing_code(trusted=["mymod:make"]):
+        ...     resolve_factory("os:system", what="detector")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.UntrustedCodeError: detector 'os:system' is named by a saved run...
+    """
+    token = _TRUSTED_CODE.set(frozenset(trusted))
+    try:
+        yield
+    finally:
+        _TRUSTED_CODE.reset(token)
+
+
+def _factory_parts(path: str, *, what: str, error: type[WorldFactoryError]) -> tuple[str, str]:
+    """``(module, function)`` of a factory path, refused unless of the form
+    ``package.module:function`` (nothing imported)."""
+    module_name, sep, attribute = path.partition(":")
+    modules = module_name.split(".")
+    if not sep or not all(part.isidentifier() for part in modules) or not attribute.isidentifier():
+        raise error(f"a {what} factory path is 'package.module:factory', got {path!r}", path=path)
+    return module_name, attribute
+
+
 def resolve_factory(
     path: str, *, what: str = "world", error: type[WorldFactoryError] = WorldFactoryError
 ) -> Callable[..., Any]:
@@ -138,10 +187,18 @@ def resolve_factory(
     Raises:
         WorldFactoryError: the path is malformed, its module does not import, or it names
             nothing callable.
+        UntrustedCodeError: inside :func:`refusing_code`, a path the user did not give.
     """
-    module_name, sep, attribute = path.partition(":")
-    if not sep or not module_name or not attribute.isidentifier():
-        raise error(f"a {what} factory path is 'package.module:factory', got {path!r}", path=path)
+    module_name, attribute = _factory_parts(path, what=what, error=error)
+    trusted = _TRUSTED_CODE.get()
+    if trusted is not None and path not in trusted:
+        raise UntrustedCodeError(
+            f"{what} {path!r} is named by a saved run, not by you: noisybolt imports no "
+            "code a run directory names without your word. If you trust whoever wrote the "
+            "run, pass --trust-code (Python: trust_code=True), or give the reference "
+            f"yourself (--{what} {path})",
+            references=(f"{what} = {path!r}",),
+        )
     try:
         module = _import_here_too(module_name)
     except Exception as exc:
@@ -238,14 +295,19 @@ def _labelled_env(
 
 
 def check_world(name: str) -> None:
-    """Checks that ``name`` is a registered world or an importable factory path.
+    """Checks that ``name`` is a registered world or a factory path
+    ``package.module:factory``.
+
+    A factory path is not imported here: a config naming it may have been read from a
+    shared run directory, and importing a module runs its code. :func:`make_world` imports
+    it (and says if it does not import).
 
     Raises:
         UnknownNameError: neither (the message lists the registered worlds).
-        WorldFactoryError: a factory path that does not import.
+        WorldFactoryError: a factory path of the wrong form.
     """
     if is_factory_path(name):
-        resolve_factory(name)
+        _factory_parts(name, what="world", error=WorldFactoryError)
     elif name not in _WORLDS:
         raise UnknownNameError(
             f"unknown world {name!r}; known worlds: {list(known_worlds())}, or a factory "

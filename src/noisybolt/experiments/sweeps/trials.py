@@ -158,6 +158,10 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
             config, folder.path, resume=resume, restart=restart, argv=argv, log=log or to_file
         )
     if task.final_eval_episodes > 0:
-        run_evaluation.evaluate_run(folder.path, episodes=task.final_eval_episodes)
+        # The run's config is the sweep's own (checked equal to it before any trial ran):
+        # the code it names is the sweep's author's, given in the sweep file.
+        run_evaluation.evaluate_run(
+            folder.path, episodes=task.final_eval_episodes, trust_code=True
+        )
     folder.end(time.perf_counter() - start)
     return task.record()
