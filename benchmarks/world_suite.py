@@ -75,6 +75,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
             keep_best=True,
             progress_bar=False,
             overrides=parse_overrides(args.hp),
+            **settings_from(args.set),
         )
         train(config, out, argv=[sys.executable, *sys.argv], log=lambda _: None)
     data = json.loads(summary.read_text())
@@ -97,6 +98,19 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
 
 
 WORLD_SPECS: dict[str, tuple[str, ...]] = {}
+
+
+def settings_from(texts: Sequence[str]) -> dict[str, Any]:
+    """``--set PATH=VALUE`` as the schema paths and values ``TrainConfig.create`` takes."""
+    from noisybolt.agents.config import value_from_text
+
+    settings: dict[str, Any] = {}
+    for text in texts:
+        path, sep, value = text.partition("=")
+        if not sep:
+            raise SystemExit(f"--set takes PATH=VALUE, got {text!r}")
+        settings[path] = value_from_text(path, value)
+    return settings
 
 
 def _load_worlds() -> None:
@@ -169,6 +183,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=[],
         metavar="KEY=VALUE",
         help="a hyperparameter for every trial, as noisybolt train --hp (repeatable)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PATH=VALUE",
+        help="a setting for every trial, as noisybolt train --set (bolt.reward=constrained)",
     )
     parser.add_argument("--out", default=str(HERE.parent / "runs" / "world_suite"))
     parser.add_argument("--collect", action="store_true", help="tabulate finished trials only")

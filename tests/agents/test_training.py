@@ -353,7 +353,7 @@ def test_keep_best_keeps_the_model_of_the_best_shaped_return(
 
 
 def test_without_keep_best_the_last_model_is_kept(tmp_path: Path) -> None:
-    train(_config(), tmp_path / "run", log=_quiet)
+    train(_config(keep_best=False), tmp_path / "run", log=_quiet)
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["kept_model"] == {"frames": 2048, "chosen_by": "last"}
     assert not (tmp_path / "run" / "best").exists()

@@ -216,11 +216,20 @@ class CheckpointCallback(BaseCallback):
     so it follows that callback in a ``CallbackList``.
     """
 
-    def __init__(self, *, config: TrainConfig, run: RunDirectory, evaluation: EvaluationCallback):
+    def __init__(
+        self,
+        *,
+        config: TrainConfig,
+        run: RunDirectory,
+        evaluation: EvaluationCallback,
+        constraint: Any = None,
+    ):
         super().__init__(verbose=0)
         self.config = config
         self.run = run
         self.evaluation = evaluation
+        #: The constrained scheme's callback (its multiplier is saved), or None.
+        self.constraint = constraint
         self._next_checkpoint = 0
 
     def _init_callback(self) -> None:
@@ -236,6 +245,8 @@ class CheckpointCallback(BaseCallback):
             "history": evaluation.history,
             "best": evaluation.best,
         }
+        if self.constraint is not None:
+            state["multiplier"] = self.constraint.state_dict()
         save_checkpoint(self.model, env, self.run, state, algo=self.config.algo)
         # Only now that the newest checkpoint names this best model may the older ones
         # go: a run killed earlier resumes from a checkpoint naming one of them.

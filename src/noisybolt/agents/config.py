@@ -23,8 +23,12 @@ resolved one). The types of the paths are the dataclasses' annotations: there is
 second type table.
 
 Each section validates itself at construction (values, ranges, names); ``TrainConfig``
-validates what spans sections (specs under the reward scheme, the compliance scale from
-the world, schedules against the budget). What needs things built (the model on the env's
+validates what spans sections (specs under the reward scheme, schedules against the
+budget); none of it builds a world. What only the world can tell (the compliance scale,
+exact on a tabular product or from the world's return bounds; whether a user's world's
+images are small integers) is decided by :func:`resolve`, the one resolver that
+:meth:`TrainConfig.build`, :func:`noisybolt.agents.training.train`, ``noisybolt check``,
+sweeps and ``reproduce`` all call. What needs things built (the model on the env's
 spaces, the detector against the world) is checked by
 :func:`noisybolt.agents.training.train` before it writes anything.
 
@@ -46,12 +50,9 @@ import dataclasses
 import json
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Generic, TypeVar
-
-import gymnasium as gym
-import numpy as np
 
 from noisybolt.agents.hyperparams import (
     SPLIT,
@@ -59,6 +60,12 @@ from noisybolt.agents.hyperparams import (
     check_hyperparameter_values,
     frame_schedules,
     load_hyperparams,
+)
+from noisybolt.agents.resolution import (
+    SMALL_INTEGER_IMAGE_MAX,
+    ScaleChoice,
+    choose_compliance_scale,
+    small_integer_image_top,
 )
 from noisybolt.agents.schema import (
     FrozenDict,
@@ -82,18 +89,12 @@ from noisybolt.agents.sections import (
     check_count,
 )
 from noisybolt.agents.specs import expand_specs, resolve_spec
-from noisybolt.bolt import (
-    BeliefSettings,
-    RewardScheme,
-    Spec,
-    compliance_scale,
-)
-from noisybolt.envs import DEFAULT_WORLD, make_world
-from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
+from noisybolt.agents.world_checks import check_world_fits
+from noisybolt.bolt import BeliefSettings, RewardScheme, Spec
+from noisybolt.envs import DEFAULT_WORLD
 from noisybolt.envs.registry import is_factory_path
 from noisybolt.errors import (
     ConfigError,
-    EstimatedBoundsWarning,
     SmallIntegerImagesWarning,
     SpecSyntaxError,
     UnnormalizedRewardWarning,
@@ -112,11 +113,14 @@ __all__ = [
     "FrozenDict",
     "TrainConfig",
     "WorldConfig",
+    "check_given_settings",
     "check_hyperparameter_values",
     "checked_value",
+    "compliance_scale_choice",
     "describe_scheme",
     "nested_config",
     "override_paths",
+    "resolve",
     "schema_paths",
     "spec_worths",
     "value_from_text",
@@ -173,6 +177,9 @@ LEGACY_DEFAULTS: dict[str, Any] = {
 }
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
+#: The on-policy algorithms: what the ``constrained`` scheme trains (its price moves
+#: between rollouts).
+ON_POLICY: tuple[str, ...] = ("ppo", "a2c")
 
 
 _T = TypeVar("_T")
@@ -277,13 +284,14 @@ class TrainConfig:
         if not self.specs:
             raise ConfigError("give at least one spec (--spec NAME or --spec FORMULA: bolt.specs)")
         bolt = self.bolt
-        if bolt.reward == "compliance" and bolt.reward_scale is None:
-            bolt = replace(bolt, reward_scale=_scale_from_world(self))
-        scheme = bolt.scheme  # validates reward, reward_scale and shaping
+        # Validates reward, reward_scale and shaping. A scale left to resolve() (None) is
+        # the world's to give: the rest is validated here with a stand-in.
+        scale = 1.0 if bolt.reward != "paper" and bolt.reward_scale is None else None
+        scheme = replace(bolt, reward_scale=scale).scheme if scale else bolt.scheme
         if (scheme.shaping, scheme.pay_on_change) != (bolt.shaping, bolt.pay_on_change):
             bolt = replace(bolt, shaping=scheme.shaping, pay_on_change=scheme.pay_on_change)
         object.__setattr__(self, "bolt", bolt)
-        names = [spec.name for spec in self.spec_objects()]  # validates every spec
+        names = [spec.name for spec in self._spec_objects(scheme)]  # validates every spec
         repeated = sorted({name for name in names if names.count(name) > 1})
         if repeated:
             raise ConfigError(
@@ -301,6 +309,13 @@ class TrainConfig:
                 f"bolt.tracking={self.tracking} the bolt pays on a belief, not on one state: "
                 "use bolt.tracking=threshold, or turn algorithm.counterfactual off"
             )
+        if bolt.reward == "constrained" and self.algorithm.name not in ON_POLICY:
+            raise ConfigError(
+                "--reward constrained learns the bolt's price between rollouts, which "
+                f"{self.algorithm.name.upper()}'s replay buffer would mix (rewards of many "
+                f"prices): use it with {' or '.join(a.upper() for a in ON_POLICY)}, or "
+                "--reward compliance"
+            )
 
     # ------------------------------------------------------------------ building
 
@@ -310,19 +325,25 @@ class TrainConfig:
         overrides: Mapping[str, Any] | None = None,
         *,
         hp_file: str | os.PathLike[str] | None = None,
+        log: Callable[[str], None] | None = None,
     ) -> TrainConfig:
         """A new run's config: the schema's defaults with ``overrides`` applied, resolved.
 
-        Resolving: specs given by name, group or formula become :class:`~noisybolt.bolt.Spec`
-        fields; the hyperparameters are the world's file for the algorithm (or ``hp_file``)
-        with the ``algorithm.hyperparams.*`` overrides on top, and the world settings the
-        file gives (``n_envs``, the Atari conventions) fill the ``world`` section where no
-        override set them; the compliance scale comes from the world.
+        The overrides: specs given by name, group or formula become
+        :class:`~noisybolt.bolt.Spec` fields; the hyperparameters are the world's file for
+        the algorithm (or ``hp_file``) with the ``algorithm.hyperparams.*`` overrides on
+        top, and the world settings the file gives (``n_envs``, the Atari conventions)
+        fill the ``world`` section where no override set them; a setting the run would
+        ignore is refused (``bolt.confidence`` under threshold tracking). Then
+        :func:`resolve` gives what the world decides (the compliance scale, a user's
+        world's small-integer images), as for every other door.
 
         Args:
             overrides: ``{schema path: value}``; a mapping value merges key by key
                 (``{"bolt": {"tracking": "belief"}}`` is ``{"bolt.tracking": "belief"}``).
             hp_file: a YAML file of the built-in hyperparameter layout to read instead.
+            log: told where the compliance scale came from when it is computed on the
+                world's product (:func:`resolve`).
 
         Raises:
             ConfigError: an unknown path or a value of the wrong type (naming the path),
@@ -351,13 +372,13 @@ class TrainConfig:
             value = params.pop(key, None)
             if value is not None and f"world.{key}" not in changes:
                 data["world"][key] = value
-        chosen = "policy_kwargs.normalize_images" in params_given or hp_file is not None
-        if is_factory_path(world) and not chosen:
-            _keep_small_integer_images(world, dict(data["world"]["kwargs"]), params)
         data["algorithm"]["hyperparams"] = params
         bolt = data["bolt"]
         bolt["specs"] = _resolved_specs(bolt["specs"], paper=bolt["reward"] == "paper")
-        return load(cls, data)
+        config = load(cls, data)
+        config.check_budget()
+        check_given_settings(config, changes)
+        return resolve(config, log=log)
 
     @classmethod
     def create(
@@ -444,14 +465,19 @@ class TrainConfig:
                 if value is not None and f"world.{key}" not in changes:
                     changes[f"world.{key}"] = value
             changes.update({prefix + key: value for key, value in params.items()})
-        return config.override(changes) if changes else config
+        if not changes:
+            return config
+        config = config.override(changes)
+        check_given_settings(config, changes)
+        return config
 
     def override(self, changes: Mapping[str, Any]) -> TrainConfig:
         """This config with ``changes`` (``{schema path: value}``) applied, validated whole.
 
         It changes what the paths name and nothing else: a resolved config keeps its
         hyperparameters and compliance scale (build a new run's config with :meth:`build`
-        to resolve them again). Specs may be given by name or formula.
+        to resolve them again; a scale set to None is left to :func:`resolve`). Specs may
+        be given by name or formula.
 
         Raises:
             ConfigError: an unknown path or a value of the wrong type, naming the path.
@@ -462,6 +488,62 @@ class TrainConfig:
                 value = _resolved_specs(checked_value(path, value), paper=self.reward == "paper")
             set_path(data, path, checked_value(path, value))
         return TrainConfig.from_dict(data)
+
+    def check_budget(self) -> None:
+        """Refuses a new run whose budget cannot be kept: PPO's or A2C's first rollout
+        (``world.n_envs`` x ``n_steps`` frames) larger than ``frames`` (SB3 would train
+        that rollout whole, past the budget), or DQN's ``learning_starts`` at or past
+        ``frames`` (it would never learn); warns where ``evaluation.freq`` exceeds
+        ``frames`` (no evaluation would run before the final one).
+
+        :meth:`build` calls it (every new run's config); a saved config is not refused by
+        it (:meth:`from_dict`), so that a run saved before the rule still evaluates.
+
+        Raises:
+            ConfigError: giving the arithmetic and what to change.
+
+        Example:
+            >>> TrainConfig.build({"bolt.specs": ["edge"], "bolt.reward": "paper",
+            ...                    "frames": 1000, "world.n_envs": 16})  # doctest: +ELLIPSIS
+            Traceback (most recent call last):
+            ...
+            noisybolt.errors.ConfigError: frames 1,000 is less than one PPO rollout: ...
+        """
+        from noisybolt.agents.hyperparams import constructor_defaults
+        from noisybolt.errors import NoEvaluationWarning
+
+        defaults_ = constructor_defaults(self.algo)
+        params = {**defaults_, **self.hyperparams}
+        if "n_steps" in defaults_:  # the on-policy learners: one rollout before an update
+            steps = params["n_steps"]
+            rollout = self.n_envs * steps
+            if rollout > self.frames:
+                fewer = (
+                    f"--hp n_steps={self.frames // self.n_envs} or less"
+                    if self.frames >= self.n_envs
+                    else f"--n-envs {self.frames} or less"
+                )
+                raise ConfigError(
+                    f"frames {self.frames:,} is less than one {self.algo.upper()} rollout: "
+                    f"world.n_envs x algorithm.hyperparams.n_steps = {self.n_envs} x {steps} "
+                    f"= {rollout:,} frames, which would be trained whole, past the budget; "
+                    f"give --frames {rollout} or more, or {fewer}"
+                )
+        starts = params.get("learning_starts")
+        if isinstance(starts, int) and "n_steps" not in defaults_ and starts >= self.frames:
+            raise ConfigError(
+                f"algorithm.hyperparams.learning_starts {starts:,} >= frames {self.frames:,}: "
+                f"{self.algo.upper()} would never learn; give --frames above {starts} or --hp "
+                f"learning_starts={max(0, self.frames // 10)}"
+            )
+        if self.eval_freq > self.frames:
+            warnings.warn(
+                f"evaluation.freq {self.eval_freq:,} > frames {self.frames:,}: no periodic "
+                "evaluation runs before the final one (give --eval-freq at most the frames, "
+                "or 0 for none)",
+                NoEvaluationWarning,
+                stacklevel=3,
+            )
 
     # ------------------------------------------------------------------ reading
 
@@ -482,7 +564,17 @@ class TrainConfig:
 
     @property
     def scheme(self) -> RewardScheme:
-        """The reward scheme of the run."""
+        """The reward scheme of the run.
+
+        Raises:
+            ConfigError: its scale is not resolved yet (:func:`resolve` gives it).
+        """
+        if self.reward != "paper" and self.reward_scale is None:
+            raise ConfigError(
+                f"the {self.reward} scheme's scale (bolt.reward_scale) is not resolved yet: "
+                "resolve(config) computes it from the world (TrainConfig.build and train() "
+                "call it), or give one"
+            )
         return self.bolt.scheme
 
     @property
@@ -502,8 +594,14 @@ class TrainConfig:
         return BeliefSettings(confidence=self.confidence, min_dwell=self.min_dwell)
 
     def spec_objects(self) -> list[Spec]:
-        """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted)."""
-        scheme = self.scheme
+        """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted).
+
+        Raises:
+            ConfigError: the scheme's scale is not resolved yet (:func:`resolve`).
+        """
+        return self._spec_objects(self.scheme)
+
+    def _spec_objects(self, scheme: RewardScheme) -> list[Spec]:
         specs = []
         for fields in self.specs:
             fields = dict(fields)
@@ -710,96 +808,119 @@ def _parsed_spec(fields: str | Mapping[str, Any]) -> Spec:
         ) from None
 
 
-#: The largest value an image observation may show in random play and still be read as
-#: small integers (MiniGrid's symbolic grid: object, colour and state indices, <= 10),
-#: not as pixels.
-SMALL_INTEGER_IMAGE_MAX = 31
+# --------------------------------------------------------------------------- resolution
 
 
-def _keep_small_integer_images(
-    world: str, world_kwargs: dict[str, Any], params: dict[str, Any]
-) -> None:
-    """Turns SB3's division of image observations by 255 off for a user's world whose
-    uint8 "images" are small integers (seen in seeded random play), and says so.
+def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) -> TrainConfig:
+    """``config`` with what only its world can tell decided: the one resolver every door
+    calls.
 
-    SB3 takes any uint8 ``[H, W, C]`` Box for pixels; MiniGrid's symbolic grid divided by
-    255 reaches the network as values under 0.04, and PPO then barely learns (the
-    MiniGrid example reached goal and compliance 100 % at 40k frames with the integers
-    kept).
+    ``train()``, ``noisybolt train``, ``noisybolt check``, sweeps and ``reproduce`` resolve
+    a config here (:meth:`TrainConfig.build` calls it), so a config is paid the same
+    whichever door it came in by. What is decided:
+
+    - the scale of a scheme that pays one (``bolt.reward_scale``, where None): on a
+      tabular world (the gridworld), exact on the product of the world and the specs'
+      DFAs, else from the world's return bounds (declared, or estimated by random play);
+      the specs and spaces are checked against the world before anything costly
+      (:func:`compliance_scale_choice`);
+    - for a user's world (a factory path) whose uint8 images are small integers,
+      ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
+      :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
+      name it.
+
+    Idempotent: what a config names (a scale, ``normalize_images``) is kept, so a resolved
+    config comes back unchanged. A config is data; this is where the world is played.
+
+    Args:
+        log: told where a scale computed on the product came from.
+
+    Example:
+        >>> both = "F(top_right_corner) & F(bottom_left_corner)"
+        >>> config = TrainConfig.build({"bolt.specs": [both]})  # the gridworld: exact
+        >>> round(config.reward_scale, 2), resolve(config) is config
+        (58.45, True)
     """
-    probe: Any = make_world(world, num_envs=2, seed=0, **world_kwargs)
-    space = probe.single_observation_space
-    if not (
-        isinstance(space, gym.spaces.Box) and space.dtype == np.uint8 and len(space.shape) == 3
-    ):
-        probe.close()
-        return
-    obs, _ = probe.reset(seed=0)
-    probe.action_space.seed(0)
-    top = int(np.max(obs))
-    for _ in range(64):
-        obs, *_ = probe.step(probe.action_space.sample())
-        top = max(top, int(np.max(obs)))
-    probe.close()
-    if top > SMALL_INTEGER_IMAGE_MAX:
-        return
-    params.setdefault("policy_kwargs", {})["normalize_images"] = False
-    warnings.warn(
-        f"the {world!r} world's image observations are small integers (at most {top} in "
-        "random play, like MiniGrid's symbolic grid), not pixels: they reach the network "
-        "as they are (policy_kwargs.normalize_images=false; pass --hp "
-        "policy_kwargs.normalize_images=true to divide them by 255 after all)",
-        SmallIntegerImagesWarning,
-        stacklevel=3,
+    params = config.hyperparams
+    policy_kwargs = dict(params.get("policy_kwargs") or {})
+    if is_factory_path(config.world) and "normalize_images" not in policy_kwargs:
+        top = small_integer_image_top(config.world, config.world_kwargs)
+        if top is not None and top <= SMALL_INTEGER_IMAGE_MAX:
+            kept = {**policy_kwargs, "normalize_images": False}
+            algorithm = replace(config.algorithm, hyperparams={**params, "policy_kwargs": kept})
+            config = replace(config, algorithm=algorithm)
+            warnings.warn(
+                f"the {config.world!r} world's image observations are small integers (at "
+                f"most {top} in random play, like MiniGrid's symbolic grid), not pixels: "
+                "they reach the network as they are (policy_kwargs.normalize_images=false; "
+                "pass --hp policy_kwargs.normalize_images=true to divide them by 255 after "
+                "all)",
+                SmallIntegerImagesWarning,
+                stacklevel=3,
+            )
+    if config.reward != "paper" and config.reward_scale is None:
+        choice = compliance_scale_choice(config)
+        config = replace(config, bolt=replace(config.bolt, reward_scale=choice.scale))
+        if choice.exact and log is not None:
+            log(
+                f"compliance scale computed on the {config.world}'s product: {choice.scale:g} "
+                f"(the bound from its return range: {choice.bound:g})"
+            )
+    return config
+
+
+def compliance_scale_choice(config: TrainConfig) -> ScaleChoice:
+    """The scale :func:`resolve` gives ``config`` where it names none (whatever it names),
+    with the bound from the world's returns beside it; the run's cheap checks
+    (:func:`~noisybolt.agents.world_checks.check_world_fits`: spaces, specs over the
+    world's fluents) come first.
+
+    Raises:
+        ConfigError, UnknownFluentError, UnsatisfiableSpecError, SpecSyntaxError: as
+            :func:`~noisybolt.agents.world_checks.check_world_fits`.
+    """
+    return choose_compliance_scale(
+        config.world,
+        config.world_settings,
+        formulas=[str(spec["formula"]) for spec in config.specs],
+        gamma=float(config.hyperparams.get("gamma", 0.99)),
+        pay_on_change=config.pay_on_change,
+        clipped=config.world_config.clip_reward,
+        check=lambda world: check_world_fits(config, world),
     )
 
 
-#: Random-play steps (8 envs together) behind a world's estimated return bounds.
-ESTIMATE_STEPS = 4096
+def check_given_settings(config: TrainConfig, given: Mapping[str, Any]) -> None:
+    """Refuses a setting that was given (``given``: ``{schema path: value}``, as
+    :meth:`TrainConfig.build` and :meth:`TrainConfig.resumed` take them) where ``config``
+    would ignore it: a rule on what a user asked for, not on the values (a saved config
+    holds every setting, its defaults too).
 
+    Raises:
+        ConfigError: ``bolt.confidence`` or ``bolt.min_dwell`` without belief tracking,
+            ``bolt.shaping`` under the paper scheme; naming the path and its flag.
 
-def _scale_from_world(config: TrainConfig) -> float:
-    """The ``compliance`` scale from the world's declared return bounds, or, for a world
-    that declares none, from bounds estimated by seeded random play (with a warning).
-
-    With ``world.clip_reward`` the learner is paid the game's rewards clipped to their
-    sign, so the bounds are those of the clipped return (Breakout: 0 to 216 bricks, not
-    its 864 points): the scale puts compliance first over what the learner is paid."""
-    from noisybolt.agents.world_checks import check_world_fits
-
-    clipped = config.world_config.clip_reward
-    probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
-    try:
-        bounds = world_return_bounds(probe, clipped=clipped)
-        if bounds is None:  # what cannot run is refused before random play estimates them
-            check_world_fits(config, probe)
-    finally:
-        probe.close()
-    if bounds is None:
-        # A user's env rarely knows its bounds; refusing to train would send every new
-        # user to a flag. Random play's returns are an estimate, said so, not a bound.
-        world: Any = make_world(config.world, num_envs=8, seed=0, **config.world_settings)
-        estimate = estimate_return_bounds(world, steps=ESTIMATE_STEPS, seed=0, clipped=clipped)
-        world.close()
-        bounds = estimate.bounds
-        if clipped:
-            what = "its episodes' returns with the rewards clipped to their sign "
-            what += "(world.clip_reward)"
-            advice = "pass --reward-scale S (S above the widest gap between two episodes' "
-            advice += "clipped returns)"
-        else:
-            what = "its episodes' returns"
-            advice = "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or "
-            advice += "pass --reward-scale S (S above the widest gap between two episodes' returns)"
-        warnings.warn(
-            f"the {config.world!r} world declares no bounds on {what}; the "
-            f"compliance scale {compliance_scale(bounds):g} rests on bounds "
-            f"{estimate.describe()}. A trained agent may return more than random play: "
-            f"{advice}",
-            EstimatedBoundsWarning,
-            stacklevel=2,
+    Example:
+        >>> TrainConfig.build({"bolt.specs": ["edge"], "bolt.confidence": 0.8})
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: bolt.confidence 0.8 (--confidence) sets how belief \
+tracking reads the detector; with threshold tracking it would be ignored: set bolt.tracking \
+belief (--tracking belief), or leave it out
+    """
+    for path, flag in (("bolt.confidence", "--confidence"), ("bolt.min_dwell", "--min-dwell")):
+        if path in given and config.tracking != "belief":
+            raise ConfigError(
+                f"{path} {given[path]} ({flag}) sets how belief tracking reads the detector; "
+                f"with {config.tracking} tracking it would be ignored: set bolt.tracking "
+                "belief (--tracking belief), or leave it out"
+            )
+    if "bolt.shaping" in given and config.reward == "paper":
+        raise ConfigError(
+            "bolt.shaping (--no-shaping) turns off the compliance scheme's progress shaping; "
+            "the paper scheme has none, so it would be ignored: set bolt.reward compliance "
+            "(--reward compliance), or leave it out"
         )
-    return compliance_scale(bounds)
 
 
 def describe_scheme(config: TrainConfig) -> str:
@@ -808,6 +929,17 @@ def describe_scheme(config: TrainConfig) -> str:
         return "unbolted: the specs are tracked for compliance only, with no rewards"
     if config.reward == "paper":
         return "reward scheme: paper (each spec's terminal reward on every accepting step)"
+    if config.reward == "constrained":
+        limit = config.bolt.cost_limit
+        return (
+            f"reward scheme: constrained, the world's return subject to at most "
+            f"{limit.cost_limit:g} unsatisfied spec(s) an episode on average (as the bolt "
+            f"sees them; --cost-limit to change it): the specs are paid as under the "
+            f"compliance scheme ({'with' if config.shaping else 'without'} progress "
+            f"shaping), at a learned multiplier (0 to 1, from {limit.initial:g}) times "
+            f"{spec_worths(config)} (scale {config.reward_scale:g}), which rises only while "
+            "the episodes' cost exceeds the budget"
+        )
     shaping = "with" if config.shaping else "without"
     when = (
         "as soon as it accepts (taken back if it stops; nothing where an episode starts)"
@@ -852,7 +984,7 @@ def warn_of_unnormalized_rewards(config: TrainConfig) -> None:
     100 %) but followed 23 of the gridworld suite's 24 specs, whose world pays rewards as
     large as the scale.
     """
-    if not config.bolted or config.reward != "compliance" or config.algo not in ("ppo", "a2c"):
+    if not config.bolted or config.reward == "paper" or config.algo not in ON_POLICY:
         return
     if config.hyperparams.get("normalize_reward"):
         return

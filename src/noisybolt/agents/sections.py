@@ -448,9 +448,13 @@ class EvaluationConfig:
             ``frames`` budget.
         keep_best: the run's final model is the one of the periodic evaluation with the
             highest mean *shaped* return (environment + bolt rewards, as the bolt sees
-            them through its detector), not the last one, as RL Zoo keeps
-            ``best_model.zip``. Ground truth never chooses: compliance is measured on the
-            kept model afterwards.
+            them through its detector, at the compliance scale under ``constrained``), not
+            the last one, as RL Zoo keeps ``best_model.zip``. Ground truth never chooses:
+            compliance is measured on the kept model afterwards. On by default: a policy
+            that complied and reached the goal can collapse later in training (a detour
+            spec on the gridworld complied at 30k frames and looped at 60k), and the
+            model a user gets is the one to deploy. False (``--last-model``) keeps the
+            last.
     """
 
     freq: int = 10_000
@@ -459,7 +463,7 @@ class EvaluationConfig:
     deterministic: bool = False
     success_threshold: float = 0.95
     stop_after: int = 0
-    keep_best: bool = False
+    keep_best: bool = True
 
     def __post_init__(self) -> None:
         check_count("evaluation.freq", self.freq, 0)

@@ -76,8 +76,10 @@ from noisybolt.agents.config import (
     DetectorConfig,
     TrainConfig,
     describe_scheme,
+    resolve,
     warn_of_unnormalized_rewards,
 )
+from noisybolt.agents.constraint import LagrangianCallback
 from noisybolt.agents.detectors import (
     classifier_architecture,
     default_classifier_path,
@@ -202,6 +204,11 @@ def train(
             f"{run.path} already holds a run; pass --resume to continue it (resume=True from "
             "Python), --restart to start it over (restart=True), or choose another directory"
         )
+    if not resume:
+        # What the world decides (the compliance scale, exact on a tabular product), as
+        # every door decides it: a no-op on a config TrainConfig.build resolved. A resumed
+        # run keeps what its config.json holds: check_same_config refuses anything else.
+        config = resolve(config, log=log)
     if resume:  # before the costly checks: a resume with other settings fails at once
         check_same_config(run, config)
         check_frames_left(run, config)
@@ -245,6 +252,7 @@ def train(
         history: list[dict[str, Any]] = []
         frames_to_comply: int | None = None
         best: dict[str, Any] | None = None
+        multiplier: dict[str, Any] | None = None
         if resume:
             # Read under the lock: no other writer can be midway through these files.
             check_same_config(run, config)
@@ -253,6 +261,7 @@ def train(
             history = list(state.get("history", []))
             frames_to_comply = state.get("frames_to_comply")
             best = state.get("best")
+            multiplier = state.get("multiplier")
             log(f"resuming {run.path} from {model.num_timesteps} frames")
         else:
             if run.exists() and not restart:  # written by another process meanwhile
@@ -278,6 +287,7 @@ def train(
             history=history,
             frames_to_comply=frames_to_comply,
             best=best,
+            multiplier=multiplier,
             fresh=not resume,
             log=log,
         )
@@ -416,6 +426,7 @@ def _learn(
     history: list[dict[str, Any]],
     frames_to_comply: int | None,
     best: dict[str, Any] | None,
+    multiplier: dict[str, Any] | None = None,
     fresh: bool,
     log: Callable[[str], None],
 ) -> TrainResult:
@@ -441,8 +452,20 @@ def _learn(
         callback_on_new_best=SaveBestModel(run, algo=config.algo) if config.keep_best else None,
         callback_after_eval=stop,
     )
-    checkpoints = CheckpointCallback(config=config, run=run, evaluation=evaluation)
+    # The constrained scheme's multiplier moves the training bolts' price between
+    # rollouts; evaluation's bolts keep price 1 (the compliance scheme's payments), so the
+    # shaped returns that choose the kept model are measured on one scale.
+    constraint = (
+        LagrangianCallback(config.bolt.cost_limit, state=multiplier)
+        if config.bolted and config.reward == "constrained"
+        else None
+    )
+    checkpoints = CheckpointCallback(
+        config=config, run=run, evaluation=evaluation, constraint=constraint
+    )
     callbacks: list[BaseCallback] = [evaluation, checkpoints]
+    if constraint is not None:
+        callbacks.insert(0, constraint)
     callbacks += linear_schedules(config.hyperparams, algo=config.algo, frames=config.frames)
     if config.world_config.workers and isinstance(model, OnPolicyAlgorithm):
         callbacks.append(UpdateThreads.for_this_machine())

@@ -63,17 +63,12 @@ def _checked_detector(kind: str) -> str:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from noisybolt.agents.config import spec_worths
+    from noisybolt.agents.config import compliance_scale_choice, spec_worths
     from noisybolt.agents.specs import load_specs_file
     from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
     from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.errors import ConfigError, EstimatedBoundsWarning
-    from noisybolt.experiments.checks import (
-        exact_scale,
-        goal_feasibility,
-        tabular_settings,
-        with_exact_scale,
-    )
+    from noisybolt.experiments.checks import goal_feasibility, tabular_settings
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
 
@@ -90,7 +85,8 @@ def _check(args: argparse.Namespace) -> int:
         "detector": DetectorConfig(kind=_checked_detector(args.detector)),
         "world_kwargs": {} if args.noise is None else {"noise": args.noise},
     }
-    # A world that declares no return bounds gets a scale from random play: say so.
+    # Resolved as noisybolt train resolves it (the scale it would pay). A world that
+    # declares no return bounds gets a scale from random play: say so.
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", EstimatedBoundsWarning)
         config = TrainConfig.create(**common, reward_scale=args.reward_scale)
@@ -120,7 +116,7 @@ def _check(args: argparse.Namespace) -> int:
     best = goal_feasibility(config)
     if best is None:
         print(f"world {args.world} cannot be explored exactly here: no route check")
-        if config.reward == "compliance":
+        if config.reward != "paper":
             print(
                 f"compliance scale: {config.reward_scale:g}; complying is worth "
                 f"{spec_worths(config)}"
@@ -139,22 +135,22 @@ def _check(args: argparse.Namespace) -> int:
         f"compliant route to the goal: yes, R^c_max {best.value:g} in {best.steps} steps "
         f"(unconstrained R_max {r_max.value:g} in {r_max.steps} steps)"
     )
-    scale = exact_scale(config)
-    assert scale is not None
+    scale = float(config.reward_scale)  # what noisybolt train pays this config
+    bound = compliance_scale_choice(config).bound
     gamma = float(config.hyperparams.get("gamma", 0.99))
     formulas = [spec.formula for spec in config.spec_objects()]
     optimum = scheme_optimum(
         formulas, scale=scale, gamma=gamma, pay_on_change=config.pay_on_change, **settings
     )
+    given = "given; " if args.reward_scale is not None else ""
     print(
-        f"compliance scheme: scale {scale:g} (bound {config.reward_scale:g}); its optimal "
+        f"compliance scheme: scale {scale:g} ({given}bound {bound:g}); its optimal "
         f"policy (gamma {gamma:g}) {'complies' if optimum.complies else 'does NOT comply'}"
         f"{' and reaches the goal' if optimum.reaches_goal else ''} in {optimum.steps} steps"
     )
-    trained = with_exact_scale(config, log=None)  # what noisybolt train would pay
-    if len({spec.terminal_reward for spec in trained.spec_objects()}) > 1:
+    if len({spec.terminal_reward for spec in config.spec_objects()}) > 1:
         print(
-            f"note: training pays {spec_worths(trained)} (specs with a reward_scale of "
+            f"note: training pays {spec_worths(config)} (specs with a reward_scale of "
             f"their own); the optimum above pays every spec {scale:g}"
         )
     return 0

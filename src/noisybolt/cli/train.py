@@ -56,6 +56,7 @@ FLAG_PATHS: dict[str, str] = {
     "--spec": "bolt.specs",
     "--reward": "bolt.reward",
     "--reward-scale": "bolt.reward_scale",
+    "--cost-limit": "bolt.constraint.cost_limit",
     "--no-shaping": "bolt.shaping",
     "--tracking": "bolt.tracking",
     "--confidence": "bolt.confidence",
@@ -68,12 +69,14 @@ FLAG_PATHS: dict[str, str] = {
     "--algo": "algorithm.name",
     "--hp": "algorithm.hyperparams",
     "--init-from": "algorithm.init_from",
+    "--counterfactual": "algorithm.counterfactual",
     "--frames": "frames",
     "--seed": "seed",
     "--eval-freq": "evaluation.freq",
     "--eval-episodes": "evaluation.episodes",
     "--checkpoint-freq": "checkpoint_freq",
     "--keep-best": "evaluation.keep_best",
+    "--last-model": "evaluation.keep_best",
     "--no-progress": "progress_bar",
 }
 
@@ -126,8 +129,18 @@ def register(subparsers: Any) -> None:
         "between two episodes' returns, paid as the spec comes to accept and taken back if "
         "it stops, with progress shaping; --set bolt.pay_on_change=false pays at the "
         "episode's end) "
+        "; constrained (the world's return subject to a cost budget, --cost-limit: the "
+        "specs paid as under compliance at a learned multiplier from 0 to 1 that rises "
+        "only while episodes leave specs unsatisfied; PPO and A2C) "
         "or paper (each spec's terminal_reward every accepting step: Algorithm 1 as "
         "reproduced)",
+    )
+    flag(
+        "--cost-limit",
+        type=float,
+        help="constrained scheme: how many specs an episode may leave unsatisfied, on "
+        "average, as the bolt sees them (default 0: comply in every episode); "
+        "--set bolt.constraint.lr=... (and kp, kd, initial) tune the multiplier",
     )
     flag(
         "--reward-scale",
@@ -141,6 +154,12 @@ def register(subparsers: Any) -> None:
         help="compliance scheme: no progress shaping over the DFAs",
     )
     flag("--algo", help="ppo, a2c or dqn (default ppo)")
+    flag(
+        "--counterfactual",
+        action="store_true",
+        help="DQN: counterfactual experience, every transition also stored replayed from the "
+        "other DFA states (at most algorithm.counterfactual_samples copies; --set to change)",
+    )
     flag(
         "--detector",
         help="classifier (trained CNN, default), oracle (ground truth), synthetic, or your "
@@ -229,7 +248,12 @@ def register(subparsers: Any) -> None:
         "--keep-best",
         action="store_true",
         help="keep the model of the evaluation with the best shaped (env + bolt) return, "
-        "not the last one (best/ holds it; ground truth never chooses)",
+        "not the last one (best/ holds it; ground truth never chooses): the default",
+    )
+    flag(
+        "--last-model",
+        action="store_false",
+        help="keep the last model, not the best evaluated one (--keep-best, the default)",
     )
     train.add_argument(
         "--set",
@@ -437,7 +461,8 @@ def _train(args: argparse.Namespace) -> int:
             raise ConfigError(
                 "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
             )
-        config = TrainConfig.build(overrides, hp_file=args.hp_file)
+        # Resolved as every door resolves a config (the scale, exact on a tabular product).
+        config = TrainConfig.build(overrides, hp_file=args.hp_file, log=print)
         out = args.out or _default_out(overrides)
         if out.exists() and not out.is_dir():
             raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")
@@ -446,22 +471,8 @@ def _train(args: argparse.Namespace) -> int:
                 "--trust-code vouches for the code a saved run names, with --resume; a new "
                 "run's code is the one you give (--world, --detector): leave it out"
             )
-    for path, flag_name in (("bolt.confidence", "--confidence"), ("bolt.min_dwell", "--min-dwell")):
-        if path in overrides and config.tracking != "belief":
-            raise ConfigError(
-                f"{flag_name} {overrides[path]} sets how belief tracking reads the detector; "
-                f"with {config.tracking} tracking it would be ignored: add --tracking "
-                "belief, or leave it out"
-            )
-    if "bolt.shaping" in overrides and config.reward == "paper":
-        raise ConfigError(
-            "--no-shaping turns off the compliance scheme's progress shaping; the paper "
-            "scheme has none, so it would be ignored: add --reward compliance, or leave it out"
-        )
-    from noisybolt.experiments.checks import goal_feasibility, with_exact_scale
+    from noisybolt.experiments.checks import goal_feasibility
 
-    if config.reward == "compliance" and not args.resume and "bolt.reward_scale" not in overrides:
-        config = with_exact_scale(config)
     best = goal_feasibility(config)
     if best is not None and best.value is None:
         print(

@@ -1,16 +1,17 @@
 """Checks of a run's specs on a world whose product can be explored: routes and scales.
 
-Used by ``noisybolt check``, ``noisybolt train`` and sweeps (trials take the same scale a
-``train`` of theirs would), so the compliance scheme's scale is the same whichever way a
-run is started. The Python API's :class:`~noisybolt.agents.training.TrainConfig` (a lower
-layer) takes the scale from the world's return bounds; :func:`with_exact_scale` refines it.
+Used by ``noisybolt check`` and ``noisybolt train``. The compliance scale itself is
+decided once, by :func:`noisybolt.agents.config.resolve` (which every door calls: the
+same config is paid the same scale from Python, the CLI, ``check`` and sweeps); what is
+left here is what those doors *say* about a world: whether a compliant episode reaches
+the goal.
 
 Example:
     >>> from noisybolt.agents.training import DetectorConfig, TrainConfig
     >>> config = TrainConfig.create(specs=["F(bottom_left_corner)"],
     ...                             detector=DetectorConfig(kind="oracle"))
-    >>> round(config.reward_scale, 2), round(with_exact_scale(config, log=None).reward_scale, 2)
-    (345.95, 34.45)
+    >>> round(config.reward_scale, 2), with_exact_scale(config, log=None) is config
+    (34.45, True)
     >>> goal_feasibility(config).steps
     8
 """
@@ -26,7 +27,7 @@ from noisybolt.errors import ConfigError, NoisyboltError, UnknownFluentError
 
 if TYPE_CHECKING:
     from noisybolt.agents.training import TrainConfig
-    from noisybolt.experiments.optimal import OptimalResult
+    from noisybolt.bolt.product import OptimalResult
 
 __all__ = [
     "check_worlds", "exact_scale", "goal_feasibility", "tabular_settings", "with_exact_scale",
@@ -42,9 +43,15 @@ def _world(config: TrainConfig) -> Any:
 def tabular_settings(config: TrainConfig, world: Any = None) -> dict[str, Any] | None:
     """The planner's world settings for ``config``'s world (``world``, if built already),
     or None if it is not tabular."""
-    from noisybolt.experiments.optimal import tabular_gridworld_settings
+    from noisybolt.envs.gridworld_tabular import tabular_gridworld_settings
 
-    return tabular_gridworld_settings(_world(config) if world is None else world)
+    if world is not None:
+        return tabular_gridworld_settings(world)
+    world = _world(config)
+    try:
+        return tabular_gridworld_settings(world)
+    finally:
+        world.close()
 
 
 def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
@@ -55,7 +62,7 @@ def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
     settings = tabular_settings(config)
     if settings is None:
         return None
-    formulas = [spec.formula for spec in config.spec_objects()]
+    formulas = [str(spec["formula"]) for spec in config.specs]
     try:
         return optimal_constrained_return(formulas, require_goal=True, **settings)
     except UnknownFluentError:
@@ -63,48 +70,25 @@ def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
 
 
 def exact_scale(config: TrainConfig) -> float | None:
-    """The compliance scale computed on the world's product
-    (:func:`~noisybolt.experiments.optimal.exact_compliance_scale`), below the bound the
-    config holds; None where the product cannot be explored or no compliant episode
-    reaches the goal (the bound then stands)."""
-    from noisybolt.envs.bounds import world_return_bounds
-    from noisybolt.experiments.optimal import exact_compliance_scale
+    """The compliance scale computed on the world's product, as :func:`resolve
+    <noisybolt.agents.config.resolve>` gives it to a config that names none; None where
+    the product cannot be explored, no compliant episode reaches the goal (the bound from
+    the world's returns then stands), or the scheme pays no scale (``paper``)."""
+    from noisybolt.agents.config import compliance_scale_choice
 
-    if config.reward != "compliance" or config.reward_scale is None:
+    if config.reward == "paper":
         return None
-    world = _world(config)
-    settings = tabular_settings(config, world)
-    if settings is None:
-        return None
-    bounds = world_return_bounds(world)
-    floor = 0.1 * bounds.width if bounds is not None else 1.0
-    formulas = [spec.formula for spec in config.spec_objects()]
-    gamma = float(config.hyperparams.get("gamma", 0.99))
-    try:
-        return exact_compliance_scale(
-            formulas,
-            gamma=gamma,
-            floor=floor,
-            cap=float(config.reward_scale),
-            pay_on_change=config.pay_on_change,
-            **settings,
-        )
-    except UnknownFluentError:
-        return None  # training refuses the spec, naming the world's fluents
+    choice = compliance_scale_choice(config)
+    return choice.scale if choice.exact else None
 
 
 def with_exact_scale(config: TrainConfig, log: Callable[[str], None] | None = print) -> TrainConfig:
-    """``config`` with its compliance scale computed on the product where that is possible
-    (unchanged otherwise, or under the paper scheme); ``log`` says which it chose."""
-    scale = exact_scale(config)
-    if scale is None:
-        return config
-    if log is not None:
-        log(
-            f"compliance scale computed on the {config.world}'s product: {scale:g} (the bound "
-            f"from its return range: {config.reward_scale:g})"
-        )
-    return config.override({"bolt.reward_scale": scale})
+    """:func:`noisybolt.agents.config.resolve` (kept for the callers of the days when the
+    CLI refined the scale of a config built from Python: every config is resolved alike
+    now, and a resolved one comes back unchanged)."""
+    from noisybolt.agents.config import resolve
+
+    return resolve(config, log=log)
 
 
 def check_worlds(configs: Mapping[str, TrainConfig]) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from noisybolt.wrappers._common import EPISODE_COST_KEY
 from noisybolt.wrappers.atari import ClipGameReward, LifeLossTerminal
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
 from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
@@ -9,6 +10,7 @@ from noisybolt.wrappers.make_vec import make_bolted_vec_env
 from noisybolt.wrappers.normalize import SplitRewardNormalize
 
 __all__ = [
+    "EPISODE_COST_KEY",
     "BoltObservableEnv",
     "BoltVecEnv",
     "ClipGameReward",

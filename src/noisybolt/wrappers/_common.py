@@ -52,6 +52,10 @@ __all__ = [
 #: to it; every bolted step reports both (:func:`reward_shares`), records or not.
 ENV_REWARD_KEY = "env_reward"
 BOLT_REWARD_KEY = "bolt_reward"
+#: The ``info`` entry of an episode's last step that holds its cost: how many specs it
+#: leaves unsatisfied as the bolt sees them (:func:`~noisybolt.bolt.episode_costs`), read
+#: by the ``constrained`` scheme's multiplier.
+EPISODE_COST_KEY = "bolt_episode_cost"
 
 # Band codes are computed once per batch by the wrappers (``confidence_bands``).
 

@@ -38,6 +38,7 @@ from noisybolt.bolt import (
     Thresholds,
     Tracking,
     confidence_bands,
+    episode_costs,
 )
 from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.labels import batched_labels_from_info, carries
@@ -47,6 +48,7 @@ from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import reads_images, reseed_detector
 from noisybolt.perception.protocols import BOLT_PROBS_KEY, FINAL_INFO_KEY, FluentDetector
 from noisybolt.wrappers._common import (
+    EPISODE_COST_KEY,
     bolt_info,
     build_bolt,
     check_flat_observation,
@@ -198,6 +200,16 @@ class BoltVecEnv(VecEnvWrapper):
         )
 
     @property
+    def price(self) -> float:
+        """The bolt's price (:attr:`~noisybolt.bolt.RestrainingBolt.price`): what its specs'
+        payments are multiplied by; the ``constrained`` scheme sets it while training."""
+        return self.bolt.price
+
+    @price.setter
+    def price(self, value: float) -> None:
+        self.bolt.price = value
+
+    @property
     def world(self) -> Any:
         """The bolted world: the Gymnasium vector env under the ``SB3VecEnv``."""
         return self._source.venv
@@ -333,8 +345,10 @@ class BoltVecEnv(VecEnvWrapper):
                 info[BOLT_CARRIED_KEY] = float(out.carried[i])
         if ended.size:
             final_view = dfa_view(self.bolt)  # the ended episodes' last view, before restarting
+            costs = episode_costs(out.accepting, dones)
             for row in ended.tolist():
                 info = infos[row]
+                info[EPISODE_COST_KEY] = float(costs[row])
                 if "terminal_observation" in info:
                     info["terminal_observation"] = self._obs(
                         info["terminal_observation"], final_view[row]

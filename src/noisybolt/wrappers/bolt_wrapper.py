@@ -16,6 +16,7 @@ from noisybolt.bolt import (
     Thresholds,
     Tracking,
     confidence_bands,
+    episode_costs,
 )
 from noisybolt.envs.labels import (
     collect_labelled_samples,
@@ -27,6 +28,7 @@ from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import reseed_detector
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.wrappers._common import (
+    EPISODE_COST_KEY,
     bolt_info,
     build_bolt,
     check_flat_observation,
@@ -240,5 +242,7 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
                 true_accepting=self._truth.accepting,
             )
         )
+        if terminated or truncated:
+            info[EPISODE_COST_KEY] = float(episode_costs(out.accepting, np.ones(1, bool))[0])
         reward = float(env_reward) + float(out.total[0])
         return self._observation(obs), reward, terminated, truncated, info
