@@ -30,6 +30,7 @@ test: setup
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow $(PYTEST_ARGS)
+	$(PY) scripts/mutate_bolt.py  # the bolt's mutation gate: every mutation caught
 
 demo: setup
 	$(VENV)/bin/noisybolt demo
