@@ -333,9 +333,20 @@ def test_bad_counterfactual_settings_are_refused_by_name(
         _config(**changes)
 
 
-def test_the_setting_reads_from_the_command_line_override() -> None:
-    from noisybolt.agents.config import value_from_text
+def test_the_command_line_sets_it_by_flag_and_by_path() -> None:
+    from noisybolt.cli import build_parser
+    from noisybolt.cli.train import train_overrides
 
-    assert value_from_text("algorithm.counterfactual", "true") is True
-    assert value_from_text("algorithm.counterfactual_samples", "4") == 4
-    assert TrainConfig.create(specs=["edge"], algo="dqn").algorithm.counterfactual is False
+    def config(*argv: str) -> TrainConfig:
+        base = ["train", "--spec", "edge", "--detector", "oracle", "--algo", "dqn"]
+        args = build_parser().parse_args([*base, *argv])
+        return TrainConfig.build(train_overrides(args), hp_file=args.hp_file)
+
+    assert config().algorithm.counterfactual is False
+    assert config("--counterfactual").algorithm.counterfactual is True
+    chosen = config(
+        "--set", "algorithm.counterfactual=true", "--set", "algorithm.counterfactual_samples=4"
+    )
+    assert (chosen.algorithm.counterfactual, chosen.algorithm.counterfactual_samples) == (True, 4)
+    with pytest.raises(ConfigError, match="on-policy"):
+        config("--counterfactual", "--algo", "ppo")
