@@ -64,11 +64,16 @@ def _lake_module(folder: Path, monkeypatch: pytest.MonkeyPatch, name: str, label
     return f"{name}:make"
 
 
-def test_compliance_is_the_default_with_a_scale_from_the_worlds_return_bounds() -> None:
+def test_compliance_is_the_default_with_a_scale_exact_on_the_gridworlds_product() -> None:
+    from noisybolt.agents.config import compliance_scale_choice
+
     config = _config(["avoid_top_right"])
     bounds = world_return_bounds(make_world("gridworld"))
     assert bounds is not None and (bounds.low, bounds.high) == (-1.5 * 144, 98.5)
-    assert config.reward == "compliance" and config.reward_scale == compliance_scale(bounds)
+    # The bound from the world's returns caps it; the product gives far less.
+    choice = compliance_scale_choice(config)
+    assert choice.exact and choice.bound == compliance_scale(bounds)
+    assert config.reward == "compliance" and config.reward_scale == choice.scale < choice.bound
     (spec,) = config.spec_objects()
     assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "on_change"
     at_end = _config(["avoid_top_right"], pay_on_change=False)

@@ -65,7 +65,8 @@ def _at(config: TrainConfig, path: str) -> Any:
         (["--spec", "avoid_top_right"], "bolt.specs", None),
         (["--reward", "compliance", "--reward-scale", "7"], "bolt.reward_scale", 7.0),
         (["--tracking", "belief"], "bolt.tracking", "belief"),
-        (["--confidence", "0.95"], "bolt.confidence", 0.95),
+        # (the schema refuses a confidence that threshold tracking would ignore)
+        (["--tracking", "belief", "--confidence", "0.95"], "bolt.confidence", 0.95),
         (["--cost-mode", "proportional"], "bolt.cost_mode", "proportional"),
         (["--unbolted"], "bolt.bolted", False),
         (["--classifier", "cls.st"], "detector.path", "cls.st"),

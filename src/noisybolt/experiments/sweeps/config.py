@@ -235,15 +235,14 @@ def _slug(value: Any) -> str:
 
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
-    """A trial's config; its compliance scale computed on the world's product where that
-    can be explored, as ``noisybolt train`` chooses it (unless the settings give one)."""
+    """A trial's config, resolved as every door resolves one
+    (:func:`~noisybolt.agents.config.resolve`: the compliance scale a ``noisybolt train``
+    of the same settings pays, exact on a tabular product, unless the settings give one)."""
     from noisybolt.agents.training import TrainConfig
-    from noisybolt.experiments.checks import with_exact_scale
 
     if "bolt.specs" not in settings:
         raise ConfigError(f"{where}: no specs (set 'bolt.specs' in the row or in 'base')")
     try:
-        config = TrainConfig.build({"progress_bar": False, **settings, "seed": seed})
-        return config if "bolt.reward_scale" in settings else with_exact_scale(config, log=None)
+        return TrainConfig.build({"progress_bar": False, **settings, "seed": seed})
     except (NoisyboltError, TypeError, ValueError) as error:
         raise ConfigError(f"{where}: {error}") from None
