@@ -168,6 +168,9 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "algorithm.precision": "float32",
     # before algorithm.init_from existed every agent started from random weights
     "algorithm.init_from": None,
+    # before algorithm.counterfactual existed every transition was stored as gathered
+    "algorithm.counterfactual": False,
+    "algorithm.counterfactual_samples": 16,
     # before detector.restarts existed one classifier was trained, from detector.seed
     "detector.restarts": 1,
     # before detector.final_views existed collection never kept an episode's last state
@@ -736,7 +739,7 @@ def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
         >>> nested = nested_config({"algo": "dqn", "eval_freq": 500, "hyperparams": {"n_envs": 2}})
         >>> nested["algorithm"], nested["evaluation"]["freq"], nested["world"]["n_envs"]
         ({'name': 'dqn', 'hyperparams': {}, 'device': 'cpu', 'precision': 'float32', \
-'init_from': None}, 500, 2)
+'init_from': None, 'counterfactual': False, 'counterfactual_samples': 16}, 500, 2)
         >>> nested["bolt"]["tracking"]  # runs saved before belief tracking tracked by threshold
         'threshold'
     """
