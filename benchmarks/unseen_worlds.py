@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from noisybolt import FluentLabels, GridLayout
 
@@ -80,6 +81,58 @@ def room() -> FluentLabels:
     return FluentLabels(env, fluents=fluents, camera=camera, success="at_goal", grid=grid)
 
 
+def lava() -> FluentLabels:
+    """MiniGrid's LavaGapS6 (a lava column with one gap, the gap's row drawn each episode;
+    stepping into lava ends the episode unpaid; the agent's own partial view as its
+    image); the bolt wants the lava never entered (which the task itself asks: a safety
+    spec the world already pays for), or the bottom-left corner visited before the goal
+    (a detour back through the gap)."""
+    import minigrid  # noqa: F401  (registers the MiniGrid levels)
+    from minigrid.core.world_object import Lava
+    from minigrid.wrappers import ImgObsWrapper
+
+    env = ImgObsWrapper(gym.make("MiniGrid-LavaGapS6-v0", render_mode="rgb_array"))
+
+    def in_lava(e: Any) -> bool:
+        return isinstance(e.grid.get(*e.agent_pos), Lava)
+
+    fluents = {
+        "in_lava": in_lava,
+        "bottom_left": lambda e: tuple(e.agent_pos) == (1, 4),
+        "at_goal": lambda e: tuple(e.agent_pos) == (4, 4),
+    }
+    grid = GridLayout(
+        width=6,
+        height=6,
+        position=lambda e: (int(e.agent_pos[0]), int(e.agent_pos[1])),
+        walls=True,
+        goal=(4, 4),
+        start=(1, 1),
+    )
+
+    def camera(wrapped: gym.Env) -> Any:
+        return wrapped.unwrapped.get_frame(highlight=False, tile_size=4)
+
+    return FluentLabels(env, fluents=fluents, camera=camera, success="at_goal", grid=grid)
+
+
+def acrobot() -> FluentLabels:
+    """Acrobot (-1 a step until the tip is swung above the bar, 500 steps at most); the
+    bolt wants the tip swung out to the left at least once (x < -1), or the first link
+    never spun faster than 6 rad/s. Its bounds are declared (-500 to 0)."""
+    env = gym.make("Acrobot-v1", render_mode="rgb_array")
+
+    def tip_x(e: Any) -> float:
+        t1, t2 = e.state[0], e.state[1]
+        return float(np.sin(t1) + np.sin(t1 + t2))
+
+    fluents = {
+        "tip_left": lambda e: e.state is not None and tip_x(e) < -1.0,
+        "fast": lambda e: e.state is not None and abs(float(e.state[2])) > 6.0,
+    }
+    return FluentLabels(env, fluents=fluents, camera=_small, return_bounds=(-500, 0))
+
+
 def cartpole() -> FluentLabels:
     """CartPole (+1 a step balanced, 500 at most); the bolt wants the cart to visit the
     left side of the track (x < -0.5) while balancing. Its bounds are declared: a trained
@@ -99,4 +152,6 @@ WORLDS: dict[str, tuple[str, ...]] = {
     "unseen_worlds:cliff": ("G(!cliff_row)", "F(top_row)"),
     "unseen_worlds:room": ("F(bottom_left)", "!right_col U bottom_left"),
     "unseen_worlds:cartpole": ("F(left_side)", "G(!right_side)"),
+    "unseen_worlds:lava": ("G(!in_lava)", "F(bottom_left)"),
+    "unseen_worlds:acrobot": ("G(!fast)", "F(tip_left)"),
 }

@@ -67,6 +67,18 @@ def test_the_multiplier_follows_the_pid_rule_by_hand() -> None:
     assert lagrange.updates == 4
 
 
+def test_the_integral_rises_by_the_frames_trained_not_by_the_updates() -> None:
+    limit = CostLimit(cost_limit=0.0, lr=0.1)
+    once, twice = LagrangeMultiplier(limit), LagrangeMultiplier(limit)
+    once.update(0.5, frames=4000)  # 0.1 * 0.5 * 4
+    twice.update(0.5, frames=2000)
+    twice.update(0.5, frames=2000)
+    assert once.value == pytest.approx(twice.value) == pytest.approx(0.2)
+    for frames in (0, -5, 1.5, True):
+        with pytest.raises(ConfigError, match="frames"):
+            once.update(0.5, frames=frames)  # type: ignore[arg-type]
+
+
 @given(costs=st.lists(st.floats(0.0, 3.0), min_size=1, max_size=40))
 @settings(max_examples=200, deadline=None)
 def test_the_integral_rises_only_while_the_cost_exceeds_the_budget(costs: list[float]) -> None:

@@ -7,8 +7,9 @@ for the scheme and its update rule). :class:`LagrangianCallback` does the bookke
 
 * every step it reads the cost of each episode that ended (``info["bolt_episode_cost"]``,
   the specs the episode leaves unsatisfied as the bolt sees them: never ground truth);
-* at the end of each rollout it updates ``λ`` from the mean cost of those episodes (none
-  ended: no update) and sets every training bolt's price to it, so the next rollout is
+* at the end of each rollout it updates ``λ`` from the mean cost of those episodes, over
+  the frames trained since the last update (none ended: no update, the frames count
+  towards the next), and sets every training bolt's price to it, so the next rollout is
   collected, and the update that follows learns, at the new price;
 * it logs ``constraint/multiplier`` and ``constraint/episode_cost``, and its state is saved
   with the run's checkpoints (:meth:`state_dict`) and restored on resume.
@@ -77,11 +78,13 @@ class LagrangianCallback(BaseCallback):
         self.multiplier = LagrangeMultiplier(limit, state=state)
         self._costs: list[float] = []
         self._bolts: list[BoltVecEnv] = []
+        self._last_update = 0
 
     def _init_callback(self) -> None:
         env = self.model.get_env()
         assert env is not None
         self._bolts = bolted_envs(env)
+        self._last_update = int(self.model.num_timesteps)
         self._set_price()
 
     def _set_price(self) -> None:
@@ -98,9 +101,11 @@ class LagrangianCallback(BaseCallback):
         return True
 
     def _on_rollout_end(self) -> None:
-        if self._costs:
+        frames = int(self.model.num_timesteps) - self._last_update
+        if self._costs and frames > 0:
             cost = float(np.mean(self._costs))
-            self.multiplier.update(cost)
+            self.multiplier.update(cost, frames=frames)
+            self._last_update = int(self.model.num_timesteps)
             self.logger.record("constraint/episode_cost", cost)
             self._costs = []
         self._set_price()

@@ -23,19 +23,23 @@ whenever a compliant policy exists (the compliance scheme's guarantee), and a hi
 price changes no optimum, only how hard the learning is.
 
 The update is Stooke et al.'s PID form on the error ``e = J_c - d`` (``J_c``: the mean
-cost of the episodes ended since the last update)::
+cost of the episodes ended since the last update, over ``n`` frames)::
 
-    I   <- max(0, I + lr * e)                   integral: the plain Lagrangian ascent
+    I   <- clip(I + lr * e * n / 1000, 0, 1)    integral: the plain Lagrangian ascent
     λ   =  clip(kp * e + I + kd * max(0, J_c - J_c_prev), 0, 1)
 
-``kp`` reacts to a rise in cost at once (the integral alone overshoots: it keeps rising
-until the cost has fallen), ``kd`` to how fast it rises. With ``kp = kd = 0`` it is the
-gradient-ascent multiplier of PPO-Lagrangian. The multiplier is a small object of its own,
-apart from any learner (OmniSafe's layout); its state is a dict of floats, saved with a
-run's checkpoints and restored on resume.
+The integral's rate is per 1,000 frames, not per update, so that a learner that updates
+every 40 frames (A2C) and one that updates every 1,024 (PPO) raise the price alike.
+``kp`` reacts to a rise in cost at once, ``kd`` to how fast it rises; both are 0 by
+default (the gradient-ascent multiplier of PPO-Lagrangian): measured on the world suite
+with ``kp = 0.5``, the price jumped to half the compliance scale after the first rollout
+(a random policy's cost is ~1), which is the early price that paralyses.
+
+The multiplier is a small object of its own, apart from any learner (OmniSafe's layout);
+its state is a dict of floats, saved with a run's checkpoints and restored on resume.
 
 Example:
-    >>> limit = CostLimit(cost_limit=0.1, lr=0.5, kp=0.0)
+    >>> limit = CostLimit(cost_limit=0.1, lr=0.5)
     >>> lagrange = LagrangeMultiplier(limit)
     >>> lagrange.value
     0.0
@@ -80,8 +84,12 @@ class CostLimit:
 
     Attributes:
         cost_limit: ``d``, the expected number of specs an episode may leave unsatisfied
-            (as the bolt sees them); 0 asks for compliance in every episode. ``>= 0``.
-        lr: the integral gain, the multiplier's learning rate per update (``> 0``).
+            (as the bolt sees them), ``>= 0``; 0 asks for compliance in every episode, but
+            then the price never falls back once complying (the cost cannot go below 0).
+            The default, 0.02, asks for 98 % and lets the price ease off while the
+            agent complies, so the world's return is weighed again.
+        lr: the integral gain, the multiplier's learning rate (``> 0``): how much it rises
+            per 1,000 frames trained at a cost one above the budget.
         kp: the proportional gain (``>= 0``).
         kd: the derivative gain, on rises of the cost only (``>= 0``).
         initial: the multiplier at the start of training, in ``[0, 1]`` (0: the task is
@@ -93,9 +101,9 @@ class CostLimit:
             names the setting and what to give.
     """
 
-    cost_limit: float = 0.0
-    lr: float = 0.05
-    kp: float = 0.5
+    cost_limit: float = 0.02
+    lr: float = 0.02
+    kp: float = 0.0
     kd: float = 0.0
     initial: float = 0.0
 
@@ -161,19 +169,22 @@ class LagrangeMultiplier:
         """How many measured costs the multiplier has learned from."""
         return self._updates
 
-    def update(self, mean_episode_cost: float) -> float:
-        """Learns from the mean cost of the episodes ended since the last update; returns
-        the new ``λ``.
+    def update(self, mean_episode_cost: float, *, frames: int = 1000) -> float:
+        """Learns from the mean cost of the episodes ended over the last ``frames`` frames
+        trained; returns the new ``λ``.
 
         Raises:
-            ConfigError: a cost that is negative or not finite.
+            ConfigError: a cost that is negative or not finite, or ``frames`` < 1.
         """
         cost = float(mean_episode_cost)
         if not math.isfinite(cost) or cost < 0:
             raise ConfigError(f"an episode cost must be finite and >= 0, got {mean_episode_cost!r}")
+        if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
+            raise ConfigError(f"frames must be an integer >= 1, got {frames!r}")
         limit = self.limit
         error = cost - limit.cost_limit
-        self._integral = min(max(0.0, self._integral + limit.lr * error), 1.0)
+        step = limit.lr * error * (int(frames) / 1000)
+        self._integral = min(max(0.0, self._integral + step), 1.0)
         rise = 0.0 if self._last_cost is None else max(0.0, cost - self._last_cost)
         self._value = min(max(0.0, limit.kp * error + self._integral + limit.kd * rise), 1.0)
         self._last_cost = cost
