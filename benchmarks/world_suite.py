@@ -148,12 +148,55 @@ def summarise(records: Sequence[dict], threshold: float) -> list[str]:
             f"| {_pct(r['goal_rate'] for r in control)} "
             f"| {_num(r['env_return'] for r in control)} |"
         )
+    kept, counted, per_world = task_kept(records, threshold)
     lines += [
         "",
         f"world suite: {followed_total}/{total} (world, spec, algorithm) followed in every seed "
         f"(>= {threshold:.0%} compliance from ground truth)",
+        "",
+        "| world | trials whose control does the task | bolted: complied and kept the task |",
+        "|---|---:|---:|",
+        *(f"| {w} | {n} | {k} |" for w, (k, n) in sorted(per_world.items())),
+        "",
+        f"task kept: {kept}/{counted} trials (control reaches the goal in >= 90 % of "
+        f"episodes, or the task is a return) comply >= {threshold:.0%} and reach the goal in "
+        ">= 90 % (returns: >= 90 % of the control's, above the world's floor)",
     ]
     return lines
+
+
+#: The least return of the worlds whose task is a return (their declared bounds):
+#: "the control's return kept" is measured above it.
+RETURN_FLOOR = {"cartpole": 0.0, "acrobot": -500.0}
+
+
+def task_kept(
+    records: Sequence[dict], threshold: float
+) -> tuple[int, int, dict[str, tuple[int, int]]]:
+    """Each bolted trial against the unbolted control of its own world, algorithm and seed:
+    counted where the control does the task (goal in >= 90 % of episodes; every control of a
+    return world), kept where the bolted agent complies (``threshold``) and reaches the goal
+    in >= 90 % (a return world: >= 90 % of the control's return above the world's floor).
+    Returns ``(kept, counted, {world: (kept, counted)})``."""
+    controls = {(r["world"], r["algo"], r["seed"]): r for r in records if not r["bolted"]}
+    kept = counted = 0
+    per_world: dict[str, tuple[int, int]] = {}
+    for r in records:
+        control = controls.get((r["world"], r["algo"], r["seed"]))
+        if not r["bolted"] or control is None:
+            continue
+        if control["goal_rate"] is None:
+            floor = RETURN_FLOOR.get(r["world"], 0.0)
+            done = r["env_return"] - floor >= 0.9 * (control["env_return"] - floor)
+        elif control["goal_rate"] >= 0.9:
+            done = r["goal_rate"] is not None and r["goal_rate"] >= 0.9
+        else:
+            continue
+        ok = done and r["compliance"] >= threshold
+        kept, counted = kept + ok, counted + 1
+        k, n = per_world.get(r["world"], (0, 0))
+        per_world[r["world"]] = (k + ok, n + 1)
+    return kept, counted, per_world
 
 
 def _pct(values: Any) -> str:

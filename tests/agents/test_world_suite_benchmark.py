@@ -1,0 +1,52 @@
+"""benchmarks/world_suite.py: the "task kept" accounting, each bolted trial against the
+unbolted control of its own seed."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from types import ModuleType
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def suite(load_script: Callable[..., ModuleType]) -> ModuleType:
+    return load_script("benchmarks/world_suite.py")
+
+
+def _record(world: str, seed: int, *, bolted: bool, compliance: float, goal, ret: float) -> dict:
+    return {
+        "world": world, "spec": "s" if bolted else None, "algo": "ppo", "seed": seed,
+        "bolted": bolted, "compliance": compliance, "goal_rate": goal, "env_return": ret,
+    }  # fmt: skip
+
+
+def test_each_bolted_trial_is_judged_against_its_own_seeds_control(suite: ModuleType) -> None:
+    records = [
+        # lake seed 0: the control reaches the goal; the bolted agent complies and does too
+        _record("lake", 0, bolted=False, compliance=0.0, goal=1.0, ret=1.0),
+        _record("lake", 0, bolted=True, compliance=1.0, goal=0.95, ret=0.95),
+        # lake seed 1: the control fails the task: not counted, whatever the bolted agent does
+        _record("lake", 1, bolted=False, compliance=0.0, goal=0.5, ret=0.5),
+        _record("lake", 1, bolted=True, compliance=1.0, goal=0.0, ret=0.0),
+        # room seed 0: complies but stands still (goal 0): counted, not kept
+        _record("room", 0, bolted=False, compliance=1.0, goal=1.0, ret=0.9),
+        _record("room", 0, bolted=True, compliance=1.0, goal=0.0, ret=0.0),
+        # acrobot: a return task above the floor -500: -140 keeps 90 % of -100's 400
+        _record("acrobot", 0, bolted=False, compliance=0.0, goal=None, ret=-100.0),
+        _record("acrobot", 0, bolted=True, compliance=1.0, goal=None, ret=-140.0),
+        _record("acrobot", 0, bolted=True, compliance=1.0, goal=None, ret=-141.0),
+        # a bolted trial with no control of its seed is not counted
+        _record("room", 5, bolted=True, compliance=1.0, goal=1.0, ret=1.0),
+    ]
+    kept, counted, per_world = suite.task_kept(records, 0.95)
+    assert (kept, counted) == (2, 4)
+    assert per_world == {"lake": (1, 1), "room": (0, 1), "acrobot": (1, 2)}
+
+
+def test_a_trial_that_does_the_task_but_breaks_the_spec_is_not_kept(suite: ModuleType) -> None:
+    records = [
+        _record("lake", 0, bolted=False, compliance=0.0, goal=1.0, ret=1.0),
+        _record("lake", 0, bolted=True, compliance=0.9, goal=1.0, ret=1.0),
+    ]
+    assert suite.task_kept(records, 0.95)[:2] == (0, 1)
