@@ -24,6 +24,7 @@ __all__ = [
     "IncompatibleError",
     "LargeCameraWarning",
     "NoCheckpointError",
+    "NoEvaluationWarning",
     "NoisyboltError",
     "ObservationSpaceError",
     "RareFluentWarning",
@@ -39,9 +40,9 @@ __all__ = [
     "UnnormalizedRewardWarning",
     "UnsafeFileError",
     "UnsatisfiableSpecError",
-    "UntrustedCodeError",
     "UnseenFluentError",
     "UnseenFluentWarning",
+    "UntrustedCodeError",
     "WorldFactoryError",
     "WorldWorkerError",
 ]
@@ -258,6 +259,11 @@ class EstimatedBoundsWarning(UserWarning):
     """The world declares no bounds on its episodes' returns, so the ``compliance`` scale
     was set from bounds estimated by random play; declare them (``return_bounds=``) or give
     the scale to be sure compliance comes first."""
+
+
+class NoEvaluationWarning(UserWarning):
+    """A new run evaluates every ``evaluation.freq`` frames, more than its whole budget
+    (``frames``): no periodic evaluation runs before the final one."""
 
 
 class UnknownBaseRatesWarning(UserWarning):

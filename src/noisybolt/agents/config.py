@@ -95,6 +95,7 @@ from noisybolt.envs import DEFAULT_WORLD
 from noisybolt.envs.registry import is_factory_path
 from noisybolt.errors import (
     ConfigError,
+    NoEvaluationWarning,
     SmallIntegerImagesWarning,
     SpecSyntaxError,
     UnnormalizedRewardWarning,
@@ -379,7 +380,15 @@ class TrainConfig:
         bolt = data["bolt"]
         bolt["specs"] = _resolved_specs(bolt["specs"], paper=bolt["reward"] == "paper")
         config = load(cls, data)
-        config.check_budget()
+        freq = changes.get("evaluation.freq")
+        if isinstance(freq, int) and freq > config.frames:  # chosen, so said
+            warnings.warn(
+                f"evaluation.freq {freq:,} > frames {config.frames:,}: no periodic "
+                "evaluation runs before the final one (give --eval-freq at most the frames, "
+                "or 0 for none)",
+                NoEvaluationWarning,
+                stacklevel=2,
+            )
         check_given_settings(config, changes)
         return resolve(config, log=log)
 
@@ -493,31 +502,32 @@ class TrainConfig:
         return TrainConfig.from_dict(data)
 
     def check_budget(self) -> None:
-        """Refuses a new run whose budget cannot be kept: PPO's or A2C's first rollout
-        (``world.n_envs`` x ``n_steps`` frames) larger than ``frames`` (SB3 would train
-        that rollout whole, past the budget), or DQN's ``learning_starts`` at or past
-        ``frames`` (it would never learn); warns where ``evaluation.freq`` exceeds
-        ``frames`` (no evaluation would run before the final one).
+        """Refuses to start a run whose budget cannot be kept: PPO's or A2C's first
+        rollout (``world.n_envs`` x ``n_steps`` frames) larger than ``frames`` (SB3 would
+        train that rollout whole, past the budget), or DQN's ``learning_starts`` at or
+        past ``frames`` (it would never learn).
 
-        :meth:`build` calls it (every new run's config); a saved config is not refused by
-        it (:meth:`from_dict`), so that a run saved before the rule still evaluates.
+        :func:`~noisybolt.agents.training.train` calls it for a new run before anything
+        is written (so does every door that starts one: the CLI, sweeps, ``reproduce``);
+        reading a saved config does not (:meth:`from_dict`), so a run saved before the
+        rule still evaluates and resumes.
 
         Raises:
             ConfigError: giving the arithmetic and what to change.
 
         Example:
-            >>> TrainConfig.build({"bolt.specs": ["edge"], "bolt.reward": "paper",
-            ...                    "frames": 1000, "world.n_envs": 16})  # doctest: +ELLIPSIS
+            >>> config = TrainConfig.build({"bolt.specs": ["edge"], "bolt.reward": "paper",
+            ...                             "frames": 1000, "world.n_envs": 64})
+            >>> config.check_budget()  # doctest: +ELLIPSIS
             Traceback (most recent call last):
             ...
             noisybolt.errors.ConfigError: frames 1,000 is less than one PPO rollout: ...
         """
         from noisybolt.agents.hyperparams import constructor_defaults
-        from noisybolt.errors import NoEvaluationWarning
 
         defaults_ = constructor_defaults(self.algo)
         params = {**defaults_, **self.hyperparams}
-        if "n_steps" in defaults_:  # the on-policy learners: one rollout before an update
+        if self.algo in ON_POLICY:  # one rollout of every env before an update
             steps = params["n_steps"]
             rollout = self.n_envs * steps
             if rollout > self.frames:
@@ -532,20 +542,13 @@ class TrainConfig:
                     f"= {rollout:,} frames, which would be trained whole, past the budget; "
                     f"give --frames {rollout} or more, or {fewer}"
                 )
+            return
         starts = params.get("learning_starts")
-        if isinstance(starts, int) and "n_steps" not in defaults_ and starts >= self.frames:
+        if isinstance(starts, int) and starts >= self.frames:
             raise ConfigError(
                 f"algorithm.hyperparams.learning_starts {starts:,} >= frames {self.frames:,}: "
                 f"{self.algo.upper()} would never learn; give --frames above {starts} or --hp "
-                f"learning_starts={max(0, self.frames // 10)}"
-            )
-        if self.eval_freq > self.frames:
-            warnings.warn(
-                f"evaluation.freq {self.eval_freq:,} > frames {self.frames:,}: no periodic "
-                "evaluation runs before the final one (give --eval-freq at most the frames, "
-                "or 0 for none)",
-                NoEvaluationWarning,
-                stacklevel=3,
+                f"learning_starts={self.frames // 10}"
             )
 
     # ------------------------------------------------------------------ reading

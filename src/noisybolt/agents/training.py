@@ -199,6 +199,8 @@ def train(
         )
     if resume and not run.exists():
         raise NoCheckpointError(f"--resume: {run.path} holds no run to continue")
+    if not resume:  # a budget a new run cannot keep is refused (a saved run keeps its own)
+        config.check_budget()
     if not (resume or restart) and run.exists():
         raise ConfigError(
             f"{run.path} already holds a run; pass --resume to continue it (resume=True from "

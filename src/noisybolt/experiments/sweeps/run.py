@@ -71,6 +71,8 @@ def run_sweep(
     for task in tasks:  # a run with other settings (its frames aside) is refused
         if RunDirectory(task.run_dir).exists():
             check_same_config(RunDirectory(task.run_dir), task.config)
+        else:  # and a new trial's budget it cannot keep, before any trial runs
+            task.config.check_budget()
     sweep_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_json(sweep_dir / SWEEP_FILE, sweep.to_dict())
     RunDirectory(sweep_dir).write_command(argv)
