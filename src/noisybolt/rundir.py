@@ -124,9 +124,15 @@ class RunDirectory:
             noisybolt.errors.CorruptFileError: ../elsewhere lies outside the run directory ...
         """
         root = self.path.resolve()
-        target = (self.path / relative).resolve()
+        source = f" (named in {named_in})" if named_in is not None else ""
+        try:
+            target = (self.path / relative).resolve()
+        except (ValueError, OSError) as error:  # a NUL byte, a loop of links, a long name
+            raise CorruptFileError(
+                f"{relative!r} names no file of the run directory {self.path}{source} "
+                f"({error}); fix or remove the pointer"
+            ) from None
         if target != root and root not in target.parents:
-            source = f" (named in {named_in})" if named_in is not None else ""
             raise CorruptFileError(
                 f"{relative} lies outside the run directory {self.path}{source}: a run "
                 "directory is only read from inside itself; fix or remove the pointer"

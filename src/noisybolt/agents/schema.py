@@ -175,7 +175,8 @@ def load(cls: type[_T], data: Any, prefix: str = "") -> _T:
         where = f"config key {prefix[:-1]}" if prefix else "a config"
         raise ConfigError(f"{where} must be a mapping, got {data!r}")
     keys, hints = field_keys(cls), typing.get_type_hints(cls)
-    unknown = sorted(set(data) - set(keys))
+    # A YAML file's keys may be numbers or null ("?", "1: x"): named as text, not sorted raw.
+    unknown = sorted(map(str, set(data) - set(keys)))
     if unknown:
         where = f" in {prefix[:-1]}" if prefix else ""
         found = ", ".join(prefix + k for k in unknown)
