@@ -81,7 +81,6 @@ from noisybolt.wrappers._common import BOLT_REWARD_KEY, ENV_REWARD_KEY
 from noisybolt.wrappers.bolt_vec_env import BOLT_CARRIED_KEY, BOLT_DONE_KEY, FLUENT_PROBS_KEY
 
 __all__ = [
-    "DEFAULT_SAMPLES",
     "BoltReplay",
     "CounterfactualReplayBuffer",
     "CounterfactualStates",
@@ -89,8 +88,6 @@ __all__ = [
     "replay_buffer_settings",
 ]
 
-#: How many relabelled copies a transition gets at most (``algorithm.counterfactual_samples``).
-DEFAULT_SAMPLES = 16
 #: How closely the replay of the visited state must give what the bolt paid.
 _TOLERANCE = 1e-6
 
@@ -206,7 +203,8 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
             optimize_memory_usage, handle_timeout_termination: SB3's (the size counts
             the relabelled copies).
         replay: the bolt's transitions, replayed (:class:`BoltReplay`).
-        samples: the most copies per transition (:class:`CounterfactualStates`).
+        samples: the most copies per transition (:class:`CounterfactualStates`;
+            ``algorithm.counterfactual_samples``).
         seed: seeds the drawn states.
 
     Raises:
@@ -225,7 +223,7 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         handle_timeout_termination: bool = True,
         *,
         replay: BoltReplay,
-        samples: int = DEFAULT_SAMPLES,
+        samples: int,
         seed: int | None = None,
     ) -> None:
         if optimize_memory_usage:
