@@ -255,3 +255,20 @@ def test_trust_code_is_refused_for_a_new_run(
     assert main(["train", "--spec", "edge", "--out", str(out), "--trust-code"]) == 2
     assert "--resume" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_classifier_directorys_world_is_not_followed_unasked(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", str(tmp_path))])
+    payload = Payload(tmp_path, "world")
+    folder = payload.root / "classifiers"
+    RunDirectory(folder).write_config({"collect": {"world": payload.reference, "samples": 8}})
+    payload.before = _snapshot(payload.root)
+    assert main(["classifiers", "report", "--out", str(folder)]) == 2
+    assert "--trust-code" in capsys.readouterr().err
+    assert payload.untouched()
+    assert main(["classifiers", "report", "--out", str(folder), "--trust-code"]) == 2
+    assert "the factory raised RuntimeError" in capsys.readouterr().err
+    assert payload.marker.exists()

@@ -135,6 +135,13 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="allow a camera noise other than the classifier's (deliberate robustness test)",
     )
+    report.add_argument(
+        "--trust-code",
+        action="store_true",
+        help="follow the world factory path the run directory's collect stage names "
+        "(otherwise refused unless given again with --world); only for a directory whose "
+        "author you trust",
+    )
     report.set_defaults(func=_report)
 
 
@@ -308,6 +315,14 @@ def _report(args: argparse.Namespace) -> int:
         if world_name is None:
             raise ConfigError(
                 "report needs --world (or --dataset), or a run directory made by collect"
+            )
+        if args.world is None:  # read from the directory: its code is not followed unasked
+            from noisybolt.agents.trust import check_code_trusted
+
+            check_code_trusted(
+                {"world": {"name": world_name}},
+                trust_code=args.trust_code,
+                source=f"{run.path}'s collect stage (config.json)",
             )
         noise = args.noise if args.noise is not None else collected.get("noise")
         extra = dict(args.world_arg) if args.world_arg else collected.get("world_args", {})
