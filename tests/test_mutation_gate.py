@@ -6,8 +6,7 @@ test-slow`` runs the whole gate)."""
 from __future__ import annotations
 
 import ast
-import importlib.util
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
@@ -17,13 +16,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def gate() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("mutate_bolt", ROOT / "scripts/mutate_bolt.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["mutate_bolt"] = module  # dataclasses resolve their module by name
-    spec.loader.exec_module(module)
-    return module
+def gate(load_script: Callable[..., ModuleType]) -> ModuleType:
+    return load_script("scripts/mutate_bolt.py")
 
 
 def test_every_mutation_still_applies(gate: ModuleType) -> None:
@@ -33,14 +27,13 @@ def test_every_mutation_still_applies(gate: ModuleType) -> None:
 
 
 def test_each_mutation_changes_only_its_function(gate: ModuleType) -> None:
+    parsed: dict[str, dict[str, str]] = {}
     for m in gate.MUTATIONS:
         source = (ROOT / m.path).read_text()
-        before, after = ast.parse(source), ast.parse(m.apply(source))
-        changed = {
-            name
-            for name in _functions(before) | _functions(after)
-            if _functions(before).get(name) != _functions(after).get(name)
-        }
+        if m.path not in parsed:
+            parsed[m.path] = _functions(ast.parse(source))
+        before, after = parsed[m.path], _functions(ast.parse(m.apply(source)))
+        changed = {name for name in before | after if before.get(name) != after.get(name)}
         assert changed == {m.function}, m.name
         for test in m.tests:
             assert (ROOT / test).is_file(), (m.name, test)
