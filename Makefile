@@ -40,7 +40,7 @@ walkthrough: setup
 
 # The documentation site (docs/, mkdocs.yml) into build/site/, warnings as errors.
 docs: $(STAMP)
-	$(VENV)/bin/mkdocs build --strict
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check src tests benchmarks

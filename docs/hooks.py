@@ -4,7 +4,7 @@
   subcommand, read from the argument parser itself (``noisybolt.cli.build_parser``), so
   the page cannot drift from the command.
 * ``reference/api/index.md``: ``<!-- public-api -->`` becomes one mkdocstrings block per
-  name of ``noisybolt.__all__``, at the module that defines it.
+  name of ``noisybolt.__all__``.
 * ``reference/api/<package>.md``: one page per subpackage of ``noisybolt`` (what its
   ``__all__`` exports), generated, and listed in the nav under "API reference".
 """
@@ -45,9 +45,17 @@ def on_config(config: Any) -> Any:
 
 def on_files(files: Files, config: Any) -> Files:
     for name in _subpackages():
-        module = importlib.import_module(f"noisybolt.{name}")
-        summary = (module.__doc__ or "").strip().splitlines()[0] if module.__doc__ else ""
-        content = (
+        files.append(File.generated(config, f"{_API_DIR}/{name}.md", content=_api_page(name)))
+    return files
+
+
+def _api_page(name: str) -> str:
+    """A subpackage's page: what its ``__all__`` exports or, for a package that exports
+    nothing itself (a namespace of modules), each of its public modules."""
+    package = importlib.import_module(f"noisybolt.{name}")
+    summary = (package.__doc__ or "").strip().split("\n\n")[0]
+    if hasattr(package, "__all__"):
+        return (
             f"# noisybolt.{name}\n\n{summary}\n\n"
             f"::: noisybolt.{name}\n"
             "    options:\n"
@@ -55,8 +63,19 @@ def on_files(files: Files, config: Any) -> Files:
             "      show_root_toc_entry: false\n"
             "      members_order: source\n"
         )
-        files.append(File.generated(config, f"{_API_DIR}/{name}.md", content=content))
-    return files
+    modules = sorted(
+        info.name
+        for info in pkgutil.iter_modules(package.__path__)
+        if not info.name.startswith("_")
+    )
+    blocks = [
+        f"::: noisybolt.{name}.{module}\n"
+        "    options:\n"
+        "      heading_level: 2\n"
+        "      members_order: source\n"
+        for module in modules
+    ]
+    return f"# noisybolt.{name}\n\n{summary}\n\n" + "\n".join(blocks)
 
 
 def _public_api() -> str:
@@ -66,8 +85,7 @@ def _public_api() -> str:
     for name in noisybolt.__all__:
         if name.startswith("__"):
             continue
-        value = getattr(noisybolt, name)
-        blocks.append(f"## `noisybolt.{name}`\n\n::: {value.__module__}.{name}\n")
+        blocks.append(f"## `noisybolt.{name}`\n\n::: noisybolt.{name}\n")
     return "\n".join(blocks)
 
 
