@@ -425,12 +425,11 @@ def test_unknown_backend_is_a_config_error(tmp_path: Path) -> None:
         run_sweep(_sweep(), tmp_path, backend="slurm")
 
 
-def test_the_readmes_sweep_example_is_a_valid_sweep() -> None:
+def test_the_docs_sweep_example_is_a_valid_sweep() -> None:
     import re
 
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    section = readme[readme.index("## Sweeps") :]
-    example = re.search(r"```yaml\n(.*?)```", section, re.S)
+    page = Path(__file__).resolve().parents[2] / "docs" / "tutorials" / "sweeps.md"
+    example = re.search(r"```yaml\n(.*?)```", page.read_text(), re.S)
     assert example is not None
     sweep = SweepConfig.from_dict(yaml.safe_load(example.group(1)))
     assert len(sweep.trials) == 2 * 2 * 3  # rows x cost modes x seeds
