@@ -26,7 +26,7 @@ from noisybolt.experiments.sweeps import SweepConfig
 RESULTS = Path(__file__).resolve().parents[2] / "results"
 BOTH = "F(top_right_corner) & F(bottom_left_corner)"
 #: A run small enough to train in a test: one PPO rollout of 2 x 32 frames.
-TINY = {
+TINY: dict[str, Any] = {
     "bolt.specs": [BOTH],
     "detector.kind": "oracle",
     "frames": 64,
@@ -61,9 +61,10 @@ def test_every_door_pays_the_same_config_the_exact_scale(
     # from its return range (345.95, what Python's train() paid before one resolver).
     gamma = float(built.hyperparams.get("gamma", 0.99))
     exact = exact_compliance_scale([BOTH], gamma=gamma, floor=31.45, cap=345.95)
-    assert exact is not None and built.reward_scale == pytest.approx(exact)
+    assert exact is not None and built.reward_scale is not None
+    assert built.reward_scale == pytest.approx(exact)
     assert round(exact, 2) == 58.45 and round(compliance_scale_choice(built).bound, 2) == 345.95
-    scales: dict[str, float] = {"TrainConfig.build": float(built.reward_scale)}
+    scales: dict[str, float] = {"TrainConfig.build": built.reward_scale}
 
     # Python: train() on the built config, and on the same config left unresolved.
     train(built, tmp_path / "python", log=_quiet)
@@ -146,11 +147,12 @@ def test_a_resumed_run_keeps_the_scale_its_config_json_holds(tmp_path: Path) -> 
 
 
 def test_settings_a_run_would_ignore_are_refused_by_the_schema() -> None:
-    for given, message in [
+    cases: list[tuple[dict[str, Any], str]] = [
         ({"bolt.confidence": 0.8}, r"bolt\.confidence 0\.8 \(--confidence\).*threshold"),
         ({"bolt.min_dwell": 1}, r"bolt\.min_dwell 1 \(--min-dwell\)"),
         ({"bolt.reward": "paper", "bolt.shaping": False}, "the paper scheme has none"),
-    ]:
+    ]
+    for given, message in cases:
         with pytest.raises(ConfigError, match=message):
             TrainConfig.build({**TINY, **given})
     belief = TrainConfig.build({**TINY, "bolt.tracking": "belief", "bolt.confidence": 0.8})

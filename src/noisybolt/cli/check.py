@@ -135,7 +135,8 @@ def _check(args: argparse.Namespace) -> int:
         f"compliant route to the goal: yes, R^c_max {best.value:g} in {best.steps} steps "
         f"(unconstrained R_max {r_max.value:g} in {r_max.steps} steps)"
     )
-    scale = float(config.reward_scale)  # what noisybolt train pays this config
+    assert config.reward_scale is not None  # resolved: what noisybolt train pays this config
+    scale = config.reward_scale
     bound = compliance_scale_choice(config).bound
     gamma = float(config.hyperparams.get("gamma", 0.99))
     formulas = [spec.formula for spec in config.spec_objects()]
