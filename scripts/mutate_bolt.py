@@ -321,6 +321,23 @@ MUTATIONS: tuple[Mutation, ...] = (
         "self._dead_cost[next_cells] - self._dead_cost[cells]",
         _SCHEME_TESTS,
     ),
+    # ---------------------------------------------------------------- the constraint's cost
+    Mutation(
+        "constraint: an episode's cost counts the specs it satisfies",
+        "src/noisybolt/bolt/constraint.py",
+        "episode_costs",
+        "(~accepting).sum(axis=1)",
+        "accepting.sum(axis=1)",
+        ("tests/bolt/test_constraint.py",),
+    ),
+    Mutation(
+        "constraint: the price rises while the cost is under the budget",
+        "src/noisybolt/bolt/constraint.py",
+        "LagrangeMultiplier.update",
+        "cost - limit.cost_limit",
+        "limit.cost_limit - cost",
+        ("tests/bolt/test_constraint.py",),
+    ),
     # ---------------------------------------------------------------- belief tracking
     Mutation(
         "belief update: the detector's evidence is ignored (prediction only)",
@@ -386,12 +403,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("targets", nargs="*", help="test paths for every mutation")
     parser.add_argument("--list", action="store_true", help="print the mutations and stop")
     parser.add_argument("--check", action="store_true", help="check that each applies, run nothing")
+    parser.add_argument("-k", default="", help="only the mutations whose name holds this")
     args = parser.parse_args(argv)
+    mutations = [m for m in MUTATIONS if args.k in m.name]
     if args.list:
-        for m in MUTATIONS:
+        for m in mutations:
             print(f"{m.name}\n    {m.path} {m.function}: {m.old!r} -> {m.new!r}")
         return 0
-    problems = check_mutations()
+    problems = check_mutations(mutations)
     if args.check:
         for name, problem in problems.items():
             print(f"{'applies' if problem is None else 'NOT APPLIED'}: {name}"
@@ -413,14 +432,14 @@ def main(argv: list[str] | None = None) -> int:
         if not probe.startswith(str(copy)):
             print(f"error: the copy is not the package imported ({probe})", file=sys.stderr)
             return 2
-        every_target = sorted({t for m in MUTATIONS for t in (args.targets or m.tests)})
+        every_target = sorted({t for m in mutations for t in (args.targets or m.tests)})
         code, summary = _run_tests(copy, every_target)
         if code != 0:
             print(f"error: the unmutated tests fail: {summary}", file=sys.stderr)
             return 2
         print("| mutation | function | applied | caught by (first failing test) | s |")
         print("|---|---|---|---|---|")
-        for m in MUTATIONS:
+        for m in mutations:
             if problems[m.name] is not None:
                 holes += 1
                 print(f"| {m.name} | {m.function} | NO: {problems[m.name]} | - | - |")
