@@ -427,7 +427,9 @@ def test_entropy_schedule_reaches_the_model_before_each_rollout(tmp_path: Path) 
     # frames, when the coefficient is 0.05 + (0.01 - 0.05) * 1536 / 2048 = 0.02.
     from stable_baselines3 import PPO
 
-    config = _config(overrides={"n_steps": 64, "ent_coef": 0.05, "ent_coef_final": 0.01})
+    config = _config(
+        overrides={"n_steps": 64, "ent_coef": 0.05, "ent_coef_final": 0.01}, keep_best=False
+    )  # the last model: the one of the last rollout
     train(config, tmp_path / "run", log=_quiet)
     model = PPO.load(tmp_path / "run" / "model.zip", device="cpu")
     assert model.ent_coef == pytest.approx(0.02)

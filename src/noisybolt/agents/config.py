@@ -152,6 +152,8 @@ LEGACY_DEFAULTS: dict[str, Any] = {
     "evaluation.stop_after": 0,
     # before keep_best existed a run's final model was its last
     "evaluation.keep_best": False,
+    # before the constrained scheme existed no run had a cost budget
+    "bolt.constraint": {},
     # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
     "bolt.tracking": "threshold",
     "bolt.confidence": 0.9,

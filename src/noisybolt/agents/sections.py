@@ -181,8 +181,9 @@ class BoltConfig:
         cost_mode: ``"count"`` or ``"proportional"``.
         constraint: ``constrained`` only: the cost budget and how the Lagrange multiplier
             learns (:class:`~noisybolt.bolt.CostLimit`: ``cost_limit``, the specs an
-            episode may leave unsatisfied on average, 0 by default; ``lr``, ``kp``,
-            ``kd``, ``initial``); the config holds every value used.
+            episode may leave unsatisfied on average; ``lr``, ``kp``, ``kd``,
+            ``initial``); under ``constrained`` the config holds every value used, under
+            the other schemes it is empty.
         bolted: False trains the same agent without a bolt (for comparison): specs are
             still tracked for compliance metrics, with zero rewards.
     """
@@ -197,7 +198,7 @@ class BoltConfig:
     min_dwell: int = 2
     thresholds: dict[str, float] = field(default_factory=lambda: {"truth": 0.5, "high": 0.9})
     cost_mode: str = "count"
-    constraint: dict[str, float] = field(default_factory=lambda: asdict(CostLimit()))
+    constraint: dict[str, float] = field(default_factory=dict)
     bolted: bool = True
 
     def __post_init__(self) -> None:
@@ -213,13 +214,16 @@ class BoltConfig:
             raise ConfigError(
                 f"bolt.cost_mode must be one of {list(COST_MODES)}, got {self.cost_mode!r}"
             )
-        # Every setting of the budget, the defaults filled in: what the run used.
-        limit = CostLimit.from_mapping(self.constraint)
-        object.__setattr__(self, "constraint", freeze(asdict(limit)))
-        if self.reward != "constrained" and limit != CostLimit():
+        if self.reward == "constrained":
+            # Every setting of the budget, the defaults filled in: what the run used (a
+            # saved run keeps its values if the defaults change).
+            limit = CostLimit.from_mapping(self.constraint)
+            object.__setattr__(self, "constraint", freeze(asdict(limit)))
+        elif self.constraint:
             raise ConfigError(
-                f"bolt.constraint (a cost budget) is set but the reward scheme is "
-                f"{self.reward!r}: a budget needs --reward constrained; or leave it out"
+                f"bolt.constraint (a cost budget: {sorted(self.constraint)}) is set but the "
+                f"reward scheme is {self.reward!r}: a budget needs --reward constrained; or "
+                "leave it out"
             )
         check_tracking(self.tracking)
         # ConfidenceLevelError outside (0.5, 1); ConfigError for a min_dwell below 1
@@ -227,7 +231,7 @@ class BoltConfig:
 
     @property
     def cost_limit(self) -> CostLimit:
-        """The ``constrained`` scheme's budget and gains."""
+        """The ``constrained`` scheme's budget and gains (the defaults under the others)."""
         return CostLimit.from_mapping(self.constraint)
 
     @property
