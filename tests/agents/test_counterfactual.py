@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from stable_baselines3 import DQN
 from stable_baselines3.common.buffers import DictReplayBuffer
 
 from noisybolt.agents.config import TrainConfig
@@ -225,6 +226,7 @@ def test_visited_transitions_are_stored_unchanged_and_copies_as_the_bolt_pays() 
     setup = prepare_bolt(config, seed=config.seed)
     env = make_env(config, setup.detector, training=True, dfas=setup.dfas)
     model = make_model(config, env)
+    assert isinstance(model, DQN)
     buffer = model.replay_buffer
     assert isinstance(buffer, CounterfactualReplayBuffer)
     calls: list[tuple[Any, ...]] = []
@@ -234,7 +236,7 @@ def test_visited_transitions_are_stored_unchanged_and_copies_as_the_bolt_pays() 
         calls.append(copy.deepcopy(args))
         original(*args)
 
-    buffer.add = record  # type: ignore[method-assign]
+    buffer.add = record  # type: ignore[method-assign,assignment]
     model.learn(240)
     env.close()
     copies = buffer.states.copies
@@ -280,15 +282,14 @@ def test_a_step_without_the_bolts_records_is_refused_by_name() -> None:
     config = _config()
     setup = prepare_bolt(config, seed=config.seed)
     env = make_env(config, setup.detector, training=True, dfas=setup.dfas)
-    buffer = make_model(config, env, trial=True).replay_buffer
+    model = make_model(config, env, trial=True)
     env.close()
-    obs = {k: np.zeros((buffer.n_envs, *s), dtype=buffer.observations[k].dtype)  # type: ignore[union-attr]
-           for k, s in buffer.obs_shape.items()}  # type: ignore[union-attr]  # fmt: skip
+    assert isinstance(model, DQN) and isinstance(model.replay_buffer, CounterfactualReplayBuffer)
+    buffer, n = model.replay_buffer, model.replay_buffer.n_envs
+    obs = {k: np.zeros((n, *shape), dtype=buffer.observations[k].dtype)
+           for k, shape in buffer.obs_shape.items()}  # fmt: skip
     with pytest.raises(RuntimeError, match="transition_records"):
-        buffer.add(  # type: ignore[union-attr]
-            obs, obs, np.zeros(buffer.n_envs), np.zeros(buffer.n_envs),  # type: ignore[union-attr]
-            np.zeros(buffer.n_envs), [{"env_reward": 0.0}] * buffer.n_envs,  # type: ignore[union-attr]
-        )  # fmt: skip
+        buffer.add(obs, obs, np.zeros(n), np.zeros(n), np.zeros(n), [{"env_reward": 0.0}] * n)
 
 
 def test_a_tiny_dqn_run_trains_checkpoints_and_resumes_with_its_copies(tmp_path: Path) -> None:
