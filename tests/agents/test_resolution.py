@@ -134,6 +134,22 @@ def test_a_config_is_data_building_one_plays_no_world(monkeypatch: pytest.Monkey
         resolve(config)
 
 
+def test_reproduce_is_resolved_without_playing_a_world(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Table 1 and case 4 pay the paper scheme: resolution has nothing to decide, so their
+    # configs (and numbers) are what they were.
+    from noisybolt.experiments.case4 import case4_sweep
+    from noisybolt.experiments.table1 import table1_sweep
+
+    def refuse(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("resolution built a world")
+
+    monkeypatch.setattr(resolution, "make_world", refuse)
+    for sweep in (table1_sweep(seeds=1), case4_sweep(seeds=1)):
+        for trial in sweep.trials:
+            assert trial.config.reward == "paper" and trial.config.reward_scale is None
+            assert resolve(trial.config) is trial.config
+
+
 def test_a_resumed_run_keeps_the_scale_its_config_json_holds(tmp_path: Path) -> None:
     # A run paid the bound (as Python's train() paid before one resolver) resumes with it.
     run = tmp_path / "run"
