@@ -14,6 +14,8 @@ Pure numpy; knows nothing of Gymnasium or torch.
   "belief"``), a distribution over each spec's DFA states from evidence over time.
 * :class:`AugmentedDFA`: the explicit augmented DFA of Fig. 2a, a reference to test and
   benchmark Algorithm 1 against.
+* :mod:`noisybolt.bolt.product`: the product of a tabular world and the DFAs, planned by
+  backward induction: exact R^c_max and the compliance scheme's exact scale.
 
 Example:
     >>> import numpy as np
