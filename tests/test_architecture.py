@@ -146,6 +146,51 @@ def test_no_private_name_is_imported_across_modules() -> None:
     assert mended == [], "mended: take these off KNOWN_PRIVATE_IMPORTS"
 
 
+#: DESIGN.md's layers, lowest first (its numbers): a module imports its own layer and those
+#: below, never one above. The runs layer (8) lives in agents/ (7) and rundir.py today, so
+#: those share a rank until issue 44 gives runs a package; ``noisybolt`` itself is the
+#: package facade, above every layer (its lazy names import them).
+LAYERS: dict[str, int] = {
+    "noisybolt.errors": 0,
+    "noisybolt.io": 0,
+    "noisybolt.version": 0,
+    "noisybolt.configs": 0,  # data files (YAML) only
+    "noisybolt.logic": 1,
+    "noisybolt.bolt": 2,
+    "noisybolt.perception": 3,
+    "noisybolt.envs": 4,
+    "noisybolt.wrappers": 5,
+    "noisybolt.agents": 7,
+    "noisybolt.rundir": 7,
+    "noisybolt.experiments": 9,
+    "noisybolt.cli": 10,
+    "noisybolt.__main__": 10,
+    "noisybolt": 11,
+}
+
+
+def _layer(module: str) -> int:
+    """The layer of ``module``: that of the longest prefix :data:`LAYERS` names."""
+    parts = module.split(".")
+    for end in range(len(parts), 0, -1):
+        prefix = ".".join(parts[:end])
+        if prefix in LAYERS:
+            return LAYERS[prefix]
+    raise AssertionError(f"{module} belongs to no layer: add its package to LAYERS")
+
+
+def test_no_module_imports_a_higher_layer() -> None:
+    edges, _ = import_graph()
+    upward = sorted(
+        (importer, imported)
+        for importer, targets in edges.items()
+        for imported in targets
+        if _layer(imported) > _layer(importer)
+    )
+    assert upward == [], "a lower layer imports a higher one (DESIGN.md's layers)"
+    assert _layer("noisybolt.bolt.product") == 2 and _layer("noisybolt.envs.gridworld_tabular") == 4
+
+
 @pytest.mark.parametrize("module", ["noisybolt.experiments.report"])
 def test_report_imports_no_experiment(module: str) -> None:
     edges, _ = import_graph()

@@ -16,8 +16,8 @@ import threading
 import warnings
 from collections.abc import Iterator, Sequence
 
-from noisybolt import __version__
 from noisybolt.errors import NoisyboltError
+from noisybolt.version import __version__
 
 __all__ = ["COMMAND_MODULES", "build_parser", "main"]
 
