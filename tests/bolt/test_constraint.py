@@ -35,6 +35,8 @@ from noisybolt.errors import ConfigError
         ({"kp": -0.5}, "kp"),
         ({"kd": -0.5}, "kd"),
         ({"initial": 1.5}, "initial"),
+        ({"anneal": -0.1}, "anneal"),
+        ({"anneal": 2.0}, "anneal"),
         ({"cost_limit": "0.1"}, "cost_limit"),
         ({"lr": True}, "lr"),
     ],
@@ -54,7 +56,7 @@ def test_unknown_constraint_keys_are_named() -> None:
 
 
 def test_the_multiplier_follows_the_pid_rule_by_hand() -> None:
-    limit = CostLimit(cost_limit=0.2, lr=0.1, kp=0.5, kd=1.0)
+    limit = CostLimit(cost_limit=0.2, lr=0.1, kp=0.5, kd=1.0, anneal=0.0)
     lagrange = LagrangeMultiplier(limit)
     # e = 0.8: I = 0.08; lambda = 0.5 * 0.8 + 0.08 + 1.0 * 0 (no previous cost) = 0.48
     assert lagrange.update(1.0) == pytest.approx(0.48)
@@ -68,7 +70,7 @@ def test_the_multiplier_follows_the_pid_rule_by_hand() -> None:
 
 
 def test_the_integral_rises_by_the_frames_trained_not_by_the_updates() -> None:
-    limit = CostLimit(cost_limit=0.0, lr=0.1)
+    limit = CostLimit(cost_limit=0.0, lr=0.1, anneal=0.0)
     once, twice = LagrangeMultiplier(limit), LagrangeMultiplier(limit)
     once.update(0.5, frames=4000)  # 0.1 * 0.5 * 4
     twice.update(0.5, frames=2000)
@@ -82,7 +84,7 @@ def test_the_integral_rises_by_the_frames_trained_not_by_the_updates() -> None:
 @given(costs=st.lists(st.floats(0.0, 3.0), min_size=1, max_size=40))
 @settings(max_examples=200, deadline=None)
 def test_the_integral_rises_only_while_the_cost_exceeds_the_budget(costs: list[float]) -> None:
-    limit = CostLimit(cost_limit=0.3, lr=0.2, kp=0.0)
+    limit = CostLimit(cost_limit=0.3, lr=0.2, kp=0.0, anneal=0.0)
     lagrange = LagrangeMultiplier(limit)
     before = lagrange.value
     for cost in costs:
@@ -93,6 +95,27 @@ def test_the_integral_rises_only_while_the_cost_exceeds_the_budget(costs: list[f
         elif cost < 0.3:
             assert after <= before
         before = after
+
+
+def test_the_budget_falls_from_the_first_cost_to_the_limit_over_the_anneal_share() -> None:
+    limit = CostLimit(cost_limit=0.1, lr=1.0, anneal=0.5)
+    assert limit.budget(0.0, first_cost=None) == 0.1  # nothing measured yet
+    assert limit.budget(0.0, first_cost=0.9) == pytest.approx(0.9)
+    assert limit.budget(0.25, first_cost=0.9) == pytest.approx(0.5)
+    assert limit.budget(0.5, first_cost=0.9) == pytest.approx(0.1)
+    assert limit.budget(0.9, first_cost=0.9) == pytest.approx(0.1)
+    assert limit.budget(0.1, first_cost=0.05) == 0.1  # a first cost within the limit
+    assert CostLimit(cost_limit=0.1, anneal=0.0).budget(0.0, first_cost=0.9) == 0.1
+
+
+def test_a_cost_that_falls_as_fast_as_the_annealed_budget_is_never_priced() -> None:
+    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, lr=1.0, anneal=0.5))
+    for step in range(11):  # the cost falls 1 -> 0 over the first half, as the budget does
+        progress = step / 20
+        assert lagrange.update(max(0.0, 1.0 - 2 * progress), progress=progress) == 0.0
+    # a cost that stays at 0.3 once the budget is 0 is priced: 1.0 * 0.3 a 1,000 frames
+    assert lagrange.update(0.3, progress=0.6) == pytest.approx(0.3)
+    assert lagrange.first_cost == 1.0
 
 
 def test_a_budget_met_from_the_start_never_prices_compliance() -> None:
@@ -121,12 +144,20 @@ def test_a_restored_multiplier_continues_as_the_original(costs: list[float], cut
     "state",
     [
         {},
-        {"value": 0.5, "integral": 0.5, "last_cost": None},
-        {"value": 2.0, "integral": 0.5, "last_cost": None, "updates": 1},
-        {"value": 0.5, "integral": "x", "last_cost": None, "updates": 1},
-        {"value": 0.5, "integral": 0.5, "last_cost": -1.0, "updates": 1},
-        {"value": 0.5, "integral": 0.5, "last_cost": None, "updates": -1},
-        {"value": 0.5, "integral": 0.5, "last_cost": None, "updates": 1, "extra": 0},
+        {"value": 0.5, "integral": 0.5, "last_cost": None, "first_cost": None},
+        {"value": 2.0, "integral": 0.5, "last_cost": None, "first_cost": None, "updates": 1},
+        {"value": 0.5, "integral": "x", "last_cost": None, "first_cost": None, "updates": 1},
+        {"value": 0.5, "integral": 0.5, "last_cost": -1.0, "first_cost": None, "updates": 1},
+        {"value": 0.5, "integral": 0.5, "last_cost": None, "first_cost": "1", "updates": 1},
+        {"value": 0.5, "integral": 0.5, "last_cost": None, "first_cost": None, "updates": -1},
+        {
+            "value": 0.5,
+            "integral": 0.5,
+            "last_cost": None,
+            "first_cost": None,
+            "updates": 1,
+            "extra": 0,
+        },
         [0.5],
     ],
 )

@@ -67,15 +67,19 @@ class LagrangianCallback(BaseCallback):
 
     Args:
         limit: the cost budget and the multiplier's gains.
+        frames: the run's frames (the budget is annealed over a share of them).
         state: a saved :meth:`state_dict` (a resumed run's); None starts afresh.
 
     Attributes:
         multiplier: the :class:`~noisybolt.bolt.LagrangeMultiplier`.
     """
 
-    def __init__(self, limit: CostLimit, state: Mapping[str, Any] | None = None) -> None:
+    def __init__(
+        self, limit: CostLimit, *, frames: int, state: Mapping[str, Any] | None = None
+    ) -> None:
         super().__init__(verbose=0)
         self.multiplier = LagrangeMultiplier(limit, state=state)
+        self.frames = int(frames)
         self._costs: list[float] = []
         self._bolts: list[BoltVecEnv] = []
         self._last_update = 0
@@ -104,7 +108,10 @@ class LagrangianCallback(BaseCallback):
         frames = int(self.model.num_timesteps) - self._last_update
         if self._costs and frames > 0:
             cost = float(np.mean(self._costs))
-            self.multiplier.update(cost, frames=frames)
+            progress = int(self.model.num_timesteps) / max(self.frames, 1)
+            self.multiplier.update(cost, frames=frames, progress=progress)
+            budget = self.multiplier.limit.budget(progress, self.multiplier.first_cost)
+            self.logger.record("constraint/budget", budget)
             self._last_update = int(self.model.num_timesteps)
             self.logger.record("constraint/episode_cost", cost)
             self._costs = []

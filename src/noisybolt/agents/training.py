@@ -458,7 +458,7 @@ def _learn(
     # rollouts; evaluation's bolts keep price 1 (the compliance scheme's payments), so the
     # shaped returns that choose the kept model are measured on one scale.
     constraint = (
-        LagrangianCallback(config.bolt.cost_limit, state=multiplier)
+        LagrangianCallback(config.bolt.cost_limit, frames=config.frames, state=multiplier)
         if config.bolted and config.reward == "constrained"
         else None
     )
