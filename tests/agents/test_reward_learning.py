@@ -9,7 +9,6 @@ from types import ModuleType
 import pytest
 
 from noisybolt.agents.training import DetectorConfig, TrainConfig, train
-from noisybolt.experiments.checks import with_exact_scale
 
 BOTH_CORNERS = "F(top_right_corner) & F(bottom_left_corner)"  # a 16-step detour, not 7
 
@@ -27,8 +26,6 @@ def _run(tmp_path: Path, reward: str, algo: str = "ppo") -> float:
         keep_best=True,
         progress_bar=False,
     )
-    if reward == "compliance":
-        config = with_exact_scale(config, log=lambda _: None)
     result = train(config, tmp_path / reward, log=lambda _: None)
     assert result.final.goal_rate >= 0.95
     return result.final.compliance[BOTH_CORNERS]
