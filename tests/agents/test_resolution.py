@@ -207,6 +207,26 @@ def test_every_kept_config_loads_resolves_and_round_trips(path: Path) -> None:
         assert json.dumps(written, indent=2, sort_keys=True) + "\n" == text
 
 
+def test_the_kept_gridworld_runs_were_paid_what_resolution_computes_today() -> None:
+    # noisybolt train's and the spec suite's runs (their scale computed on the product):
+    # resolving them again from scratch gives the scale they hold, so they resume as kept.
+    paid: dict[str, float] = {}
+    for path in _kept_configs():
+        config = TrainConfig.from_dict(json.loads(path.read_text()))
+        if config.world != "gridworld" or config.reward == "paper":
+            continue
+        unresolved = config.override({"bolt.reward_scale": None})
+        # What the scale depends on: the world's settings, the specs, the timing, gamma.
+        key = json.dumps(
+            [unresolved.world_settings, [s["formula"] for s in unresolved.specs]], sort_keys=True
+        )
+        key += f" {unresolved.pay_on_change} {unresolved.hyperparams.get('gamma')}"
+        if key not in paid:  # resolved once for each
+            paid[key] = float(resolve(unresolved).reward_scale)  # type: ignore[arg-type]
+        assert paid[key] == pytest.approx(config.reward_scale, abs=1e-9), path
+    assert len(paid) >= 20
+
+
 def test_there_are_kept_configs_of_both_forms() -> None:
     kept = [json.loads(path.read_text()) for path in _kept_configs()]
     assert any("schema" in data for data in kept) and any("schema" not in data for data in kept)
