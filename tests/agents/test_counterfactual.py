@@ -197,6 +197,48 @@ def test_a_seeded_sample_never_the_visited_state_when_many() -> None:
     assert np.array_equal(np.concatenate([again.choose(visited) for _ in range(200)]), draws)
 
 
+def test_only_states_that_can_still_comply_get_copies_and_a_violation_teaches_them_all() -> None:
+    # spec 0: states 0, 1 live; spec 1: state 2 a rejecting sink. Four live joint states.
+    live = [np.array([True, True]), np.array([True, True, False])]
+    chooser = CounterfactualStates((2, 3), samples=8, seed=3, live=live)
+    assert chooser.copies == 4
+    candidates = {(0, 0), (0, 1), (1, 0), (1, 1)}
+    for _ in range(20):
+        violated, complying = chooser.choose(np.array([[0, 2], [1, 0]])).transpose(1, 0, 2)
+        assert {tuple(q) for q in violated.tolist()} == candidates  # each live state once
+        # the visited (1, 0) is stored as gathered: its slot goes to another live state
+        others = [tuple(q) for q in complying.tolist()]
+        assert set(others) == candidates - {(1, 0)} and len(others) == 4
+    single = CounterfactualStates((2,), samples=8, live=[np.array([True, False])])
+    assert single.copies == 1
+    assert single.choose(np.array([[1], [0]]))[:, :, 0].tolist() == [[0, 0]]
+
+
+def test_the_buffer_copies_into_states_that_can_still_comply_by_default() -> None:
+    from gymnasium import spaces
+
+    specs = [Spec("F(e)", name="f"), Spec("G(e)", name="g")]
+    replay = BoltReplay(_bolt([eventually_all(["e"]), _g_e()], ["e"], specs))
+    assert [m.tolist() for m in replay.live_states] == [[True, True], [True, False]]
+    space = spaces.Dict(
+        {"image": spaces.Box(0, 1, (2,), np.float32), "dfa": spaces.MultiDiscrete([2, 2])}
+    )
+
+    def buffer(**kwargs: Any) -> CounterfactualReplayBuffer:
+        return CounterfactualReplayBuffer(8, space, spaces.Discrete(2), replay=replay, **kwargs)
+
+    assert buffer(samples=8).states.copies == 2  # (0, 0) and (1, 0): G(e) not violated
+    assert buffer(samples=8, from_violated=True).states.copies == 3  # all but the visited
+
+
+def _g_e() -> DFA:
+    """``G(e)``: accepting 0, rejecting sink 1."""
+    return DFA.from_function(
+        ["e"], n_states=2, initial_state=0, accepting=[True, False],
+        delta=lambda q, m: 0 if q == 0 and m & 1 else 1,
+    )  # fmt: skip
+
+
 def test_samples_below_one_are_refused() -> None:
     with pytest.raises(ConfigError, match="samples"):
         CounterfactualStates((2,), samples=0)

@@ -30,8 +30,12 @@ Exactly what is replayed (DESIGN.md, "Counterfactual experience"):
   and normalises at sampling: the copies are normalised alike).
 * ``done`` and the time limit's flag are the step's own: the batched bolt never ends an
   episode the world did not end.
-* States: with several specs, the joint states are the product of the DFAs' states. If
-  there are at most ``samples`` others than the visited one, every one is replayed;
+* States: with several specs, the joint states are the product of the DFAs' states. A
+  copy starts only where every spec can still be satisfied (no DFA in a rejecting sink;
+  ``from_violated=True``: anywhere): what being violated is worth the learner learns from
+  its own violated transitions; the copies go where complying is still at stake.
+  If there are at most ``samples`` such states, every one is replayed
+  (the visited one is stored as gathered: its slot goes to another, drawn at random);
   otherwise ``samples`` of them are drawn per environment and step (uniformly per spec,
   with replacement, never the visited one) from a seeded generator.
 
@@ -67,6 +71,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -124,6 +129,11 @@ class BoltReplay:
         return self._engine.n_states
 
     @property
+    def live_states(self) -> tuple[np.ndarray, ...]:
+        """bool ``[n_states[s]]`` per spec: the states that are not rejecting sinks."""
+        return tuple(~np.asarray(dfa.rejecting_sinks, dtype=bool) for dfa in self._engine.dfas)
+
+    @property
     def n_fluents(self) -> int:
         """The bolt's fluents: the columns of ``probs``."""
         return self._engine.n_fluents
@@ -156,7 +166,10 @@ class CounterfactualStates:
     Args:
         n_states: DFA states per spec.
         samples: the most copies per transition (>= 1).
-        seed: seeds the draws where not every joint state is replayed.
+        seed: seeds the draws (where not every joint state is replayed, and which one is
+            left out where the visited state is not among the candidates).
+        live: bool ``[n_states[s]]`` per spec, the states a copy may start in (None:
+            all); a joint state is a candidate where every spec's state is.
 
     Example:
         >>> chooser = CounterfactualStates((2, 3), samples=8)
@@ -164,33 +177,78 @@ class CounterfactualStates:
         (5, True)
         >>> chooser.choose(np.array([[1, 2]]))[:, 0].tolist()  # all but the visited (1, 2)
         [[0, 0], [0, 1], [0, 2], [1, 0], [1, 1]]
+
+    Where only some states are candidates (``live``), every candidate gets a copy, also
+    after a visit to a state that is none (a violation teaches the compliant states):
+
+        >>> live = [np.array([True, True]), np.array([True, True, False])]
+        >>> chooser = CounterfactualStates((2, 3), samples=8, live=live)
+        >>> chooser.choose(np.array([[1, 2]]))[:, 0].tolist()  # visited (1, 2): no candidate
+        [[0, 0], [0, 1], [1, 0], [1, 1]]
     """
 
-    def __init__(self, n_states: tuple[int, ...], *, samples: int, seed: int | None = None) -> None:
+    def __init__(
+        self,
+        n_states: tuple[int, ...],
+        *,
+        samples: int,
+        seed: int | None = None,
+        live: Sequence[np.ndarray] | None = None,
+    ) -> None:
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
             raise ConfigError(f"counterfactual samples must be an integer >= 1, got {samples!r}")
-        self._n_states = np.array(n_states, dtype=np.int64)
-        others = math.prod(n_states) - 1
+        if live is None:
+            live = [np.ones(n, dtype=bool) for n in n_states]
+        self._allowed = [np.flatnonzero(mask) for mask in live]  # candidate states per spec
+        self._sizes = np.array([len(a) for a in self._allowed], dtype=np.int64)
+        # where each spec's state sits among its candidates (-1: not one)
+        self._position = [np.full(n, -1, dtype=np.int64) for n in n_states]
+        for position, allowed in zip(self._position, self._allowed, strict=True):
+            position[allowed] = np.arange(len(allowed))
+        # Every state a candidate: the visited one always is, and is stored as gathered.
+        # Otherwise every candidate gets a copy (the visited one is a candidate or not:
+        # the same number of copies either way, see choose).
+        self._every_state = all(mask.all() for mask in live)
+        candidates = math.prod(len(a) for a in self._allowed)
+        others = candidates - 1 if self._every_state else candidates
         self.exhaustive = others <= samples
         #: Relabelled copies per transition.
         self.copies = others if self.exhaustive else samples
         self._rng = np.random.default_rng(seed)
         if self.exhaustive:
-            grids = np.meshgrid(*(np.arange(n) for n in n_states), indexing="ij")
-            self._joint = np.stack([g.ravel() for g in grids], axis=1)  # [n_joint, n_specs]
+            grids = np.meshgrid(*self._allowed, indexing="ij")
+            self._joint = np.stack([g.ravel() for g in grids], axis=1)  # [n_candidates, n_specs]
 
     def choose(self, visited: np.ndarray) -> np.ndarray:
         """int64 ``[copies, n_envs, n_specs]``: the states to replay from, for the
-        ``visited`` states ``[n_envs, n_specs]``."""
+        ``visited`` states ``[n_envs, n_specs]``: never the visited one."""
         visited = np.asarray(visited, dtype=np.int64)
+        n_envs, n_specs = visited.shape
         if self.exhaustive:
-            index = np.ravel_multi_index(tuple(visited.T), tuple(self._n_states))  # [n_envs]
-            others = np.arange(self.copies)[:, None]  # skip the visited joint state
-            return self._joint[others + (others >= index[None, :])]
-        shape = (self.copies, *visited.shape)
-        chosen = self._rng.integers(0, self._n_states, size=shape)
+            position = np.stack(
+                [self._position[s][visited[:, s]] for s in range(n_specs)], axis=1
+            )  # [n_envs, n_specs]
+            index = np.ravel_multi_index(tuple(np.maximum(position, 0).T), tuple(self._sizes))
+            if self._every_state:
+                others = np.arange(self.copies)[:, None]  # skip the visited joint state
+                return self._joint[others + (others >= index[None, :])]
+            # Every candidate once; where the visited state is one, its slot goes to another
+            # candidate drawn at random (itself where it is the only one).
+            slots = np.repeat(np.arange(self.copies)[:, None], n_envs, axis=1)
+            envs = np.flatnonzero((position >= 0).all(axis=1))
+            if self.copies > 1 and envs.size:
+                shift = self._rng.integers(1, self.copies, size=envs.size)
+                slots[index[envs], envs] = (index[envs] + shift) % self.copies
+            return self._joint[slots]
+        shape = (self.copies, n_envs, n_specs)
+
+        def draw(n: int) -> np.ndarray:
+            picks = self._rng.integers(0, self._sizes, size=(n, n_specs))
+            return np.stack([self._allowed[s][picks[:, s]] for s in range(n_specs)], axis=1)
+
+        chosen = draw(self.copies * n_envs).reshape(shape)
         while (same := (chosen == visited).all(axis=2)).any():
-            chosen[same] = self._rng.integers(0, self._n_states, size=(int(same.sum()), shape[2]))
+            chosen[same] = draw(int(same.sum()))
         return chosen
 
 
@@ -206,6 +264,8 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         samples: the most copies per transition (:class:`CounterfactualStates`;
             ``algorithm.counterfactual_samples``).
         seed: seeds the drawn states.
+        from_violated: whether copies may start in a violated state (some spec in a
+            rejecting sink); False: only where every spec can still be satisfied.
 
     Raises:
         ConfigError: ``optimize_memory_usage`` (SB3's dict buffers have none), or an
@@ -225,6 +285,7 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         replay: BoltReplay,
         samples: int,
         seed: int | None = None,
+        from_violated: bool = False,
     ) -> None:
         if optimize_memory_usage:
             raise ConfigError(
@@ -251,7 +312,12 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
             handle_timeout_termination=handle_timeout_termination,
         )
         self.replay = replay
-        self.states = CounterfactualStates(replay.n_states, samples=samples, seed=seed)
+        self.states = CounterfactualStates(
+            replay.n_states,
+            samples=samples,
+            seed=seed,
+            live=None if from_violated else replay.live_states,
+        )
 
     def add(  # type: ignore[override]
         self,
