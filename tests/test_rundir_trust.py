@@ -178,7 +178,7 @@ def test_bad_input_writes_nothing_and_exits_2(
     assert "error:" in capsys.readouterr().err
     assert not (out / "config.json").exists() and not (out / "command.txt").exists()
     if extra == ["--n-envs", "0"]:  # once: the corrected command is not blocked
-        assert main(_train_argv(out, "--frames", "256", "--eval-freq", "0")) == 0
+        assert main(_train_argv(out, "--frames", "512", "--eval-freq", "0")) == 0
 
 
 # ------------------------------------------------------------------ 4. named errors, exit 2

@@ -78,7 +78,7 @@ def test_a_spec_over_a_fluent_never_collected_true_is_refused_and_nothing_is_wri
     lake: Any, tmp_path: Path
 ) -> None:
     config = TrainConfig.create(
-        world=NAME, specs=["F(off_lake)"], detector=SMALL, frames=256, eval_freq=0
+        world=NAME, specs=["F(off_lake)"], detector=SMALL, frames=1024, eval_freq=0
     )
     with pytest.raises(UnseenFluentError) as caught:
         train(config, tmp_path / "run", log=lambda line: None)

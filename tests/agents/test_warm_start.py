@@ -120,7 +120,7 @@ def _outputs(policy: Any, images: torch.Tensor, states: np.ndarray) -> torch.Ten
 def test_an_agent_of_other_specs_starts_playing_as_the_source_did_at_its_start(
     algo: str, tmp_path: Path, policies: list[Any]
 ) -> None:
-    overrides = {"algorithm.name": algo, "frames": 128 if algo == "dqn" else 256}
+    overrides = {"algorithm.name": algo, "frames": 256}
     source = tmp_path / "source"
     train(_config(**overrides), source, log=lambda _: None)  # specs: G(on_edge)
     # the source's own network, as a run of its specs starts from it (tested above)

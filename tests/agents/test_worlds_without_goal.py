@@ -76,6 +76,7 @@ def test_a_run_in_a_world_without_goal_reports_no_goal_rate(
     world_module("nogoallake", WORLD)
     argv = ["train", "--world", "nogoallake:make", "--spec", "F(top)", "--detector", "oracle"]
     argv += ["--frames", "64", "--eval-freq", "0", "--eval-episodes", "2", "--no-progress"]
+    argv += ["--hp", "n_steps=32"]  # one rollout of 2 x 32 within the 64 frames
     assert main([*argv, "--set", "world.n_envs=2", "--out", str(tmp_path / "run")]) == 0
     printed = capsys.readouterr().out
     assert "goal rate" not in printed and "goal and compliant" not in printed

@@ -100,6 +100,7 @@ def test_a_factory_takes_the_world_settings_it_names_as_keywords(
     out = tmp_path / "run"
     argv = ["train", "--world", "paramlake:make", "--spec", "F(far)", "--detector", "oracle"]
     argv += ["--set", "world.kwargs.top=0", "--frames", "64", "--eval-freq", "0"]
+    argv += ["--n-envs", "2", "--hp", "n_steps=32"]  # one rollout within the 64 frames
     assert main([*argv, "--eval-episodes", "1", "--no-progress", "--out", str(out)]) == 0
     assert json.loads((out / "config.json").read_text())["world"]["kwargs"] == {"top": 0}
     summary = json.loads((out / "summary.json").read_text())
