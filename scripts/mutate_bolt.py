@@ -334,8 +334,8 @@ MUTATIONS: tuple[Mutation, ...] = (
         "constraint: the price rises while the cost is under the budget",
         "src/noisybolt/bolt/constraint.py",
         "LagrangeMultiplier.update",
-        "cost - limit.cost_limit",
-        "limit.cost_limit - cost",
+        "self._integral + step",
+        "self._integral - step",
         ("tests/bolt/test_constraint.py",),
     ),
     # ---------------------------------------------------------------- belief tracking
