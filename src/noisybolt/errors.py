@@ -8,6 +8,7 @@ handlers keep working.
 from __future__ import annotations
 
 __all__ = [
+    "BackendFallbackWarning",
     "BackendUnavailableError",
     "BaseRateError",
     "BriefFluentWarning",
@@ -253,6 +254,12 @@ class DetectorFactoryError(WorldFactoryError):
     Attributes:
         path: the factory path as given.
     """
+
+
+class BackendFallbackWarning(UserWarning):
+    """MONA is not installed, so ``backend="auto"`` compiles specs with the pure-Python BDD
+    progression (the same DFAs, slower on large specs): install MONA with
+    ``sudo apt-get install mona`` (``make mona`` in a checkout). Said once per process."""
 
 
 class EstimatedBoundsWarning(UserWarning):

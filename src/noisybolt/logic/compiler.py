@@ -4,13 +4,20 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Sequence
 from typing import Literal
 
-from noisybolt.errors import CompilationError
+from noisybolt.errors import BackendFallbackWarning, CompilationError
 from noisybolt.logic import cache as dfa_cache
 from noisybolt.logic.dfa import DFA
-from noisybolt.logic.mona import compile_mona, find_mona, mona_version, require_mona
+from noisybolt.logic.mona import (
+    MONA_INSTALL,
+    compile_mona,
+    find_mona,
+    mona_version,
+    require_mona,
+)
 from noisybolt.logic.progression import bdd_backend_version, compile_progression
 from noisybolt.logic.syntax import normalise, parse_ltlf, resolve_vocabulary
 
@@ -19,6 +26,9 @@ __all__ = ["BACKENDS", "Backend", "compile_ltlf", "resolve_backend"]
 Backend = Literal["auto", "mona", "bdd"]
 #: The backends ``compile_ltlf`` accepts.
 BACKENDS: tuple[str, ...] = ("auto", "mona", "bdd")
+
+# Whether this process has said that "auto" compiles without MONA (said once, not per spec).
+_fallback_announced = False
 
 
 def resolve_backend(backend: str) -> str:
@@ -32,6 +42,21 @@ def resolve_backend(backend: str) -> str:
     if backend == "auto":
         return "mona" if find_mona() is not None else "bdd"
     return backend
+
+
+def _announce_fallback() -> None:
+    """Warns, once per process, that ``"auto"`` compiles with the BDD progression."""
+    global _fallback_announced
+    if _fallback_announced:
+        return
+    _fallback_announced = True
+    warnings.warn(
+        "MONA is not installed (no 'mona' on PATH), so specs are compiled by the pure-Python "
+        "BDD backend: the same DFAs, slower on large specs. Install MONA with "
+        f"`{MONA_INSTALL}` (`make mona` in a checkout) to compile with it.",
+        BackendFallbackWarning,
+        stacklevel=3,
+    )
 
 
 def compile_ltlf(
@@ -56,7 +81,9 @@ def compile_ltlf(
             Fluents the formula does not mention are don't-cares.
         backend: ``"mona"`` (ltlf2dfa's encoding run by MONA), ``"bdd"`` (progression over
             BDDs in Python; no binary needed) or ``"auto"`` (MONA when installed, the
-            BDD progression where MONA is not, or where it times out or fails).
+            BDD progression where MONA is not, or where it times out or fails). Where
+            MONA is not installed, ``"auto"`` says so once per process
+            (:class:`~noisybolt.errors.BackendFallbackWarning`).
         timeout: seconds each backend may take (under ``"auto"``, MONA and then the
             progression may each take this long).
         cache: True for the default cache directory (``$NOISYBOLT_CACHE_DIR`` or
@@ -84,6 +111,8 @@ def compile_ltlf(
     parsed = parse_ltlf(formula)
     vocabulary = resolve_vocabulary(formula, parsed, fluents)
     chosen = resolve_backend(backend)
+    if backend == "auto" and chosen == "bdd":
+        _announce_fallback()
     # Under "auto" MONA goes first and the BDD progression takes over if MONA times out
     # or fails: MONA's time grows steeply on long chains of X (20 nested conjuncts of
     # G(a -> X^k b): past 60 s) that the progression compiles in about a second.
