@@ -214,7 +214,7 @@ def test_only_states_that_can_still_comply_get_copies_and_a_violation_teaches_th
     assert single.choose(np.array([[1], [0]]))[:, :, 0].tolist() == [[0, 0]]
 
 
-def test_the_buffer_copies_into_states_that_can_still_comply_by_default() -> None:
+def test_the_buffer_copies_into_every_state_or_only_those_that_can_still_comply() -> None:
     from gymnasium import spaces
 
     specs = [Spec("F(e)", name="f"), Spec("G(e)", name="g")]
@@ -227,8 +227,8 @@ def test_the_buffer_copies_into_states_that_can_still_comply_by_default() -> Non
     def buffer(**kwargs: Any) -> CounterfactualReplayBuffer:
         return CounterfactualReplayBuffer(8, space, spaces.Discrete(2), replay=replay, **kwargs)
 
-    assert buffer(samples=8).states.copies == 2  # (0, 0) and (1, 0): G(e) not violated
-    assert buffer(samples=8, from_violated=True).states.copies == 3  # all but the visited
+    assert buffer(samples=8).states.copies == 3  # every joint state but the visited
+    assert buffer(samples=8, from_violated=False).states.copies == 2  # (0, 0), (1, 0)
 
 
 def _g_e() -> DFA:

@@ -30,14 +30,14 @@ Exactly what is replayed (DESIGN.md, "Counterfactual experience"):
   and normalises at sampling: the copies are normalised alike).
 * ``done`` and the time limit's flag are the step's own: the batched bolt never ends an
   episode the world did not end.
-* States: with several specs, the joint states are the product of the DFAs' states. A
-  copy starts only where every spec can still be satisfied (no DFA in a rejecting sink;
-  ``from_violated=True``: anywhere): what being violated is worth the learner learns from
-  its own violated transitions; the copies go where complying is still at stake.
-  If there are at most ``samples`` such states, every one is replayed
-  (the visited one is stored as gathered: its slot goes to another, drawn at random);
+* States: with several specs, the joint states are the product of the DFAs' states. If
+  there are at most ``samples`` others than the visited one, every one is replayed;
   otherwise ``samples`` of them are drawn per environment and step (uniformly per spec,
-  with replacement, never the visited one) from a seeded generator.
+  with replacement, never the visited one) from a seeded generator. The buffer's
+  ``from_violated=False`` restricts the copies to joint states where every spec can still
+  be satisfied (every such state then gets one, also after a violation; a complying
+  visit's own slot goes to another, drawn at random): measured once, no faster than
+  copies in every state (``benchmarks/README.md``, "Counterfactual experience for DQN").
 
 Each step the replay of the *visited* state is checked against what the bolt actually
 paid and moved to (a bolt whose reward depends on more than its states and the
@@ -265,7 +265,8 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
             ``algorithm.counterfactual_samples``).
         seed: seeds the drawn states.
         from_violated: whether copies may start in a violated state (some spec in a
-            rejecting sink); False: only where every spec can still be satisfied.
+            rejecting sink; the default, CRM as published); False: only where every spec
+            can still be satisfied (see the module docstring).
 
     Raises:
         ConfigError: ``optimize_memory_usage`` (SB3's dict buffers have none), or an
@@ -285,7 +286,7 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         replay: BoltReplay,
         samples: int,
         seed: int | None = None,
-        from_violated: bool = False,
+        from_violated: bool = True,
     ) -> None:
         if optimize_memory_usage:
             raise ConfigError(
