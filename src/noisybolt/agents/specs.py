@@ -202,10 +202,11 @@ def load_specs_file(path: str | os.PathLike[str]) -> list[str | dict[str, Any]]:
             continue
         if not isinstance(item, Mapping):
             raise ConfigError(f"{where}: a spec is a name, a formula or a mapping, got {item!r}")
-        unknown = sorted(set(item) - set(SPEC_FILE_KEYS))
+        unknown = sorted(map(str, set(item) - set(SPEC_FILE_KEYS)))  # YAML keys: any type
         if unknown:
             raise ConfigError(f"{where}: unknown key(s) {unknown}; known: {list(SPEC_FILE_KEYS)}")
-        if "formula" not in item and item.get("name") not in BUILTIN_SPECS:
+        name = item.get("name")
+        if "formula" not in item and not (isinstance(name, str) and name in BUILTIN_SPECS):
             raise ConfigError(f"{where}: give a formula (or the name of a built-in spec)")
         out.append(dict(item))
     return out

@@ -510,11 +510,15 @@ def load_classifier(
         if _tensor_digest(tensors) != header["tensor_sha256"]:
             raise ValueError("the weights do not match their recorded SHA-256")
         names = tuple(header["fluent_names"])
+        if not all(isinstance(name, str) for name in names):
+            raise ValueError(f"fluent names must be strings, got {list(names)!r}")
         spec = camera_spec_from_dict(header["camera_spec"])
         config = ClassifierConfig.from_dict(header["config"])
         model = FluentNet(in_channels=spec.channels, n_fluents=len(names), config=config)
         model.load_state_dict(tensors, strict=True)
         training = header.get("training", {})
+        if not isinstance(training, dict):
+            raise ValueError(f"its training record must be a mapping, got {training!r}")
     except Exception as error:  # safetensors raises its own error types; all mean corrupt
         raise CorruptFileError(
             f"classifier file {path} is truncated or corrupt ({type(error).__name__}: "
