@@ -21,7 +21,7 @@ from typing import Any
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from noisybolt.errors import NoisyboltError
@@ -205,6 +205,8 @@ def _load_specs(text: str, folder: Path) -> None:
 
 @FAST
 @given(text=specs_docs)
+@example(text="specs:\n- name: []\n  reward_scale: 500\n")  # found: TypeError
+@example(text="specs:\n- {null: 1, formula: F(a)}\n")
 def test_specs_file(text: str, tmp_path: Path) -> None:
     _load_specs(text, tmp_path)
 
@@ -238,6 +240,7 @@ def _load_sweep(text: str, folder: Path) -> None:
 
 @FAST
 @given(text=sweep_docs)
+@example(text="?")  # found: {None: None} raised TypeError
 def test_sweep_file(text: str, tmp_path: Path) -> None:
     _load_sweep(text, tmp_path)
 
@@ -315,6 +318,7 @@ def _load_latest(doc: Any, run: Path) -> None:
 
 @FAST
 @given(doc=latest_docs)
+@example(doc={"folder": "step_512\x00", "frames": 512})  # found: ValueError
 def test_latest_checkpoint(doc: Any, checkpointed: Path) -> None:
     _load_latest(doc, checkpointed)
 
@@ -386,8 +390,14 @@ def _load_classifier(data: bytes, folder: Path) -> None:
 
 
 def test_classifier_file(classifier: tuple[dict[str, Any], Any, bytes], tmp_path: Path) -> None:
+    from safetensors.torch import save
+
+    header, tensors, _ = classifier
+    found = {**header, "fluent_names": [[], "b"]}  # found: TypeError past the load's check
+
     @FAST
     @given(data=classifier_bytes(classifier))
+    @example(data=bytes(save(tensors, metadata={"noisybolt": json.dumps(found)})))
     def check(data: bytes) -> None:
         _load_classifier(data, tmp_path)
 
