@@ -336,6 +336,7 @@ def test_a_step_without_the_bolts_records_is_refused_by_name() -> None:
 
 def test_a_tiny_dqn_run_trains_checkpoints_and_resumes_with_its_copies(tmp_path: Path) -> None:
     from noisybolt.agents.checkpoints import latest_checkpoint
+    from noisybolt.agents.run_evaluation import load_run_model
     from noisybolt.rundir import RunDirectory
 
     config = _config()
@@ -355,6 +356,9 @@ def test_a_tiny_dqn_run_trains_checkpoints_and_resumes_with_its_copies(tmp_path:
     with np.load(folder / "replay_buffer.npz") as saved:
         assert int(saved["pos"]) == 150 * 4
         assert np.array_equal(saved["observations/dfa"][:400, 0, :], dfa)  # kept over the resume
+    # The final model loads for evaluation (its buffer settings rebuilt, nothing unpickled).
+    model = load_run_model(RunDirectory(tmp_path / "run"), config)
+    assert isinstance(model, DQN) and isinstance(model.replay_buffer, CounterfactualReplayBuffer)
 
 
 # ---------------------------------------------------------------------- bad input
