@@ -231,6 +231,36 @@ def test_the_buffer_copies_into_every_state_or_only_those_that_can_still_comply(
     assert buffer(samples=8, from_violated=False).states.copies == 2  # (0, 0), (1, 0)
 
 
+def test_whole_groups_sample_each_step_with_all_its_copies() -> None:
+    from gymnasium import spaces
+
+    replay = BoltReplay(_bolt([last_is("t")], ["t"], [Spec("F(t & last)", name="l")]))
+    space = spaces.Dict(
+        {"image": spaces.Box(0, 100, (1,), np.float32), "dfa": spaces.MultiDiscrete([2])}
+    )
+    buffer = CounterfactualReplayBuffer(
+        7, space, spaces.Discrete(2), replay=replay, samples=8, seed=0, whole_groups=True
+    )
+    assert buffer.buffer_size == 6  # whole groups of a step and its copy
+    for step in range(5):
+        q, p = np.array([[step % 2]]), np.array([[0.2 + 0.2 * step]])
+        out = replay.step(q, p, done=np.array([False]))
+        info = {"fluent_probs": p[0], "env_reward": 1.0, "bolt_done": False,
+                "bolt_carried": 0.0, "bolt_reward": float(out.total[0])}  # fmt: skip
+        buffer.add(
+            {"image": np.array([[float(step)]]), "dfa": q},
+            {"image": np.array([[step + 1.0]]), "dfa": out.next_states},
+            np.array([0]), np.array([1.0 + out.total[0]]), np.array([False]), [info],
+        )  # fmt: skip
+    batch = buffer.sample(16)
+    images = batch.observations["image"].numpy().reshape(16, 2)
+    dfa = batch.observations["dfa"].numpy().reshape(16, 2)
+    assert (images[:, 0] == images[:, 1]).all()  # a step and its copy, side by side
+    assert sorted(dfa[0].tolist()) == [0, 1]  # from both DFA states
+    # The buffer wrapped (5 steps, room for 3): the oldest steps are gone.
+    assert set(images[:, 0].tolist()) <= {2.0, 3.0, 4.0}
+
+
 def _g_e() -> DFA:
     """``G(e)``: accepting 0, rejecting sink 1."""
     return DFA.from_function(

@@ -267,6 +267,10 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         from_violated: whether copies may start in a violated state (some spec in a
             rejecting sink; the default, CRM as published); False: only where every spec
             can still be satisfied (see the module docstring).
+        whole_groups: sample ``batch_size`` of the world's steps, each with all its copies
+            (a batch of ``batch_size * (1 + copies)`` rows: every step's copies learnt
+            together, as tabular CRM updates every state, and as many of the world's
+            steps per batch as without copies); False: SB3's uniform rows.
 
     Raises:
         ConfigError: ``optimize_memory_usage`` (SB3's dict buffers have none), or an
@@ -287,6 +291,7 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         samples: int,
         seed: int | None = None,
         from_violated: bool = True,
+        whole_groups: bool = False,
     ) -> None:
         if optimize_memory_usage:
             raise ConfigError(
@@ -319,6 +324,27 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
             seed=seed,
             live=None if from_violated else replay.live_states,
         )
+        self.whole_groups = bool(whole_groups)
+        self._groups_rng = np.random.default_rng(None if seed is None else [seed, 1])
+        if self.whole_groups:
+            # A step's rows stay one group through the buffer's wrap-around.
+            group = 1 + self.states.copies
+            self.buffer_size = max(self.buffer_size // group, 1) * group
+            if self.buffer_size > len(self.rewards):
+                raise ConfigError(
+                    f"a buffer of {len(self.rewards)} steps per env cannot hold one step with "
+                    f"its {self.states.copies} copies: raise buffer_size"
+                )
+
+    def sample(self, batch_size: int, env: Any = None) -> Any:
+        """SB3's uniform sample of rows; with ``whole_groups``, ``batch_size`` of the
+        world's steps drawn uniformly, each with all its copies."""
+        if not self.whole_groups:
+            return super().sample(batch_size, env=env)
+        group = 1 + self.states.copies
+        groups = (self.buffer_size if self.full else self.pos) // group
+        first = self._groups_rng.integers(0, groups, size=batch_size) * group
+        return self._get_samples((first[:, None] + np.arange(group)).ravel(), env=env)
 
     def add(  # type: ignore[override]
         self,
