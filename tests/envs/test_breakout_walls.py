@@ -101,6 +101,7 @@ def test_a_trained_image_run_s_walls_match_its_scores(script: ModuleType, tmp_pa
                 "detector.kind": "oracle",
                 "bolt.specs": ["edge"],
                 "algorithm.hyperparams.n_steps": 32,
+                "world.n_envs": 2,  # one rollout of 2 x 32 within the budget
             }
         ),
         flat,

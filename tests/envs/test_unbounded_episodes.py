@@ -104,6 +104,7 @@ def test_training_in_a_world_that_never_ends_an_episode_finishes(
     monkeypatch.setattr(registry, "DEFAULT_MAX_EPISODE_STEPS", 30)
     argv = ["train", "--world", "corridor:make", "--spec", "F(end)", "--detector", "oracle"]
     argv += ["--algo", "dqn", "--frames", "256", "--eval-freq", "0", "--eval-episodes", "2"]
+    argv += ["--hp", "learning_starts=128"]  # a budget that lets DQN learn (issue 46)
     with pytest.warns(UnboundedEpisodesWarning):
         assert main([*argv, "--no-progress", "--out", str(tmp_path / "run")]) == 0
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())

@@ -156,7 +156,12 @@ def test_a_spec_over_a_fluent_true_only_as_episodes_end_now_trains(
 ) -> None:
     def config(detector: DetectorConfig) -> TrainConfig:
         return TrainConfig.create(
-            world=NAME, specs=["F(in_hole)"], detector=detector, frames=256, eval_freq=0
+            world=NAME,
+            specs=["F(in_hole)"],
+            detector=detector,
+            frames=256,
+            eval_freq=0,
+            overrides={"n_steps": 32},  # one rollout of 8 x 32 within the budget
         )
 
     legacy = DetectorConfig(kind="classifier", samples=64, epochs=1, restarts=1, final_views=False)
