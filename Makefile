@@ -8,7 +8,7 @@ STAMP := $(VENV)/.noisybolt-installed
 # PYTEST_ARGS= (empty) runs it in one process.
 PYTEST_ARGS ?= -n 2
 
-.PHONY: all setup mona test test-slow demo walkthrough docs lint typecheck bench clean
+.PHONY: all setup mona test test-slow test-wheel demo walkthrough docs lint typecheck bench clean
 
 all: test
 
@@ -31,6 +31,11 @@ test: setup
 test-slow: setup
 	$(PY) -m pytest -q -m slow $(PYTEST_ARGS)
 	$(PY) scripts/mutate_bolt.py  # the bolt's mutation gate: every mutation caught
+
+# The wheel in a fresh virtual environment (tests/test_wheel.py, a few minutes): a CI step
+# of its own after `make test`, which it would otherwise lengthen by its whole time.
+test-wheel: setup
+	$(PY) -m pytest -q -m slow tests/test_wheel.py -n 0
 
 demo: setup
 	$(VENV)/bin/noisybolt demo
