@@ -94,6 +94,18 @@ def main(argv: list[str] | None = None) -> int:
                 record = run_trial(spec, seed, arm, args)
                 records.append(record)
                 print(json.dumps(record), flush=True)
+    print(f"| spec | {' | '.join(f'N_frames, {arm}' for arm in arms)} |")
+    print(f"|---|{'---:|' * len(arms)}")
+    cells = {(r["spec"], r["seed"], r["arm"]): r for r in records}
+    for seed in seeds:
+        for spec in detours:
+            row = [cells[(spec.name, seed, arm)] for arm in arms]
+            text = [
+                f"{r['frames_to_comply'] / 1000:.0f}k" if r["frames_to_comply"] else
+                f"> {r['frames'] / 1000:.0f}k"
+                for r in row
+            ]  # fmt: skip
+            print(f"| {spec.name} (seed {seed}) | {' | '.join(text)} |")
     by_arm: dict[str, list[float]] = {arm: [] for arm in arms}
     for r in records:
         by_arm[r["arm"]].append(r["frames_to_comply"] or r["frames"])
