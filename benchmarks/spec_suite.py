@@ -43,6 +43,9 @@ from typing import Any
 
 SCHEMES = {
     "compliance": {"reward": "compliance"},
+    # Compliance as a constraint: the compliance scheme's payments at a learned price
+    # (noisybolt.bolt.constraint), PPO and A2C only.
+    "constrained": {"reward": "constrained"},
     "no-shaping": {"reward": "compliance", "shaping": False},
     "paper": {"reward": "paper"},
     # The default scheme with belief tracking instead of Algorithm 1's threshold (base
