@@ -33,11 +33,7 @@ Exactly what is replayed (DESIGN.md, "Counterfactual experience"):
 * States: with several specs, the joint states are the product of the DFAs' states. If
   there are at most ``samples`` others than the visited one, every one is replayed;
   otherwise ``samples`` of them are drawn per environment and step (uniformly per spec,
-  with replacement, never the visited one) from a seeded generator. The buffer's
-  ``from_violated=False`` restricts the copies to joint states where every spec can still
-  be satisfied (every such state then gets one, also after a violation; a complying
-  visit's own slot goes to another, drawn at random): measured once, no faster than
-  copies in every state (``benchmarks/README.md``, "Counterfactual experience for DQN").
+  with replacement, never the visited one) from a seeded generator.
 
 Each step the replay of the *visited* state is checked against what the bolt actually
 paid and moved to (a bolt whose reward depends on more than its states and the
@@ -71,7 +67,6 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -129,11 +124,6 @@ class BoltReplay:
         return self._engine.n_states
 
     @property
-    def live_states(self) -> tuple[np.ndarray, ...]:
-        """bool ``[n_states[s]]`` per spec: the states that are not rejecting sinks."""
-        return tuple(~np.asarray(dfa.rejecting_sinks, dtype=bool) for dfa in self._engine.dfas)
-
-    @property
     def n_fluents(self) -> int:
         """The bolt's fluents: the columns of ``probs``."""
         return self._engine.n_fluents
@@ -166,10 +156,7 @@ class CounterfactualStates:
     Args:
         n_states: DFA states per spec.
         samples: the most copies per transition (>= 1).
-        seed: seeds the draws (where not every joint state is replayed, and which one is
-            left out where the visited state is not among the candidates).
-        live: bool ``[n_states[s]]`` per spec, the states a copy may start in (None:
-            all); a joint state is a candidate where every spec's state is.
+        seed: seeds the draws where not every joint state is replayed.
 
     Example:
         >>> chooser = CounterfactualStates((2, 3), samples=8)
@@ -177,78 +164,33 @@ class CounterfactualStates:
         (5, True)
         >>> chooser.choose(np.array([[1, 2]]))[:, 0].tolist()  # all but the visited (1, 2)
         [[0, 0], [0, 1], [0, 2], [1, 0], [1, 1]]
-
-    Where only some states are candidates (``live``), every candidate gets a copy, also
-    after a visit to a state that is none (a violation teaches the compliant states):
-
-        >>> live = [np.array([True, True]), np.array([True, True, False])]
-        >>> chooser = CounterfactualStates((2, 3), samples=8, live=live)
-        >>> chooser.choose(np.array([[1, 2]]))[:, 0].tolist()  # visited (1, 2): no candidate
-        [[0, 0], [0, 1], [1, 0], [1, 1]]
     """
 
-    def __init__(
-        self,
-        n_states: tuple[int, ...],
-        *,
-        samples: int,
-        seed: int | None = None,
-        live: Sequence[np.ndarray] | None = None,
-    ) -> None:
+    def __init__(self, n_states: tuple[int, ...], *, samples: int, seed: int | None = None) -> None:
         if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
             raise ConfigError(f"counterfactual samples must be an integer >= 1, got {samples!r}")
-        if live is None:
-            live = [np.ones(n, dtype=bool) for n in n_states]
-        self._allowed = [np.flatnonzero(mask) for mask in live]  # candidate states per spec
-        self._sizes = np.array([len(a) for a in self._allowed], dtype=np.int64)
-        # where each spec's state sits among its candidates (-1: not one)
-        self._position = [np.full(n, -1, dtype=np.int64) for n in n_states]
-        for position, allowed in zip(self._position, self._allowed, strict=True):
-            position[allowed] = np.arange(len(allowed))
-        # Every state a candidate: the visited one always is, and is stored as gathered.
-        # Otherwise every candidate gets a copy (the visited one is a candidate or not:
-        # the same number of copies either way, see choose).
-        self._every_state = all(mask.all() for mask in live)
-        candidates = math.prod(len(a) for a in self._allowed)
-        others = candidates - 1 if self._every_state else candidates
+        self._n_states = np.array(n_states, dtype=np.int64)
+        others = math.prod(n_states) - 1
         self.exhaustive = others <= samples
         #: Relabelled copies per transition.
         self.copies = others if self.exhaustive else samples
         self._rng = np.random.default_rng(seed)
         if self.exhaustive:
-            grids = np.meshgrid(*self._allowed, indexing="ij")
-            self._joint = np.stack([g.ravel() for g in grids], axis=1)  # [n_candidates, n_specs]
+            grids = np.meshgrid(*(np.arange(n) for n in n_states), indexing="ij")
+            self._joint = np.stack([g.ravel() for g in grids], axis=1)  # [n_joint, n_specs]
 
     def choose(self, visited: np.ndarray) -> np.ndarray:
         """int64 ``[copies, n_envs, n_specs]``: the states to replay from, for the
-        ``visited`` states ``[n_envs, n_specs]``: never the visited one."""
+        ``visited`` states ``[n_envs, n_specs]``."""
         visited = np.asarray(visited, dtype=np.int64)
-        n_envs, n_specs = visited.shape
         if self.exhaustive:
-            position = np.stack(
-                [self._position[s][visited[:, s]] for s in range(n_specs)], axis=1
-            )  # [n_envs, n_specs]
-            index = np.ravel_multi_index(tuple(np.maximum(position, 0).T), tuple(self._sizes))
-            if self._every_state:
-                others = np.arange(self.copies)[:, None]  # skip the visited joint state
-                return self._joint[others + (others >= index[None, :])]
-            # Every candidate once; where the visited state is one, its slot goes to another
-            # candidate drawn at random (itself where it is the only one).
-            slots = np.repeat(np.arange(self.copies)[:, None], n_envs, axis=1)
-            envs = np.flatnonzero((position >= 0).all(axis=1))
-            if self.copies > 1 and envs.size:
-                shift = self._rng.integers(1, self.copies, size=envs.size)
-                slots[index[envs], envs] = (index[envs] + shift) % self.copies
-            return self._joint[slots]
-        shape = (self.copies, n_envs, n_specs)
-
-        def draw(n: int) -> np.ndarray:
-            picks = self._rng.integers(0, self._sizes, size=(n, n_specs))
-            return np.stack([self._allowed[s][picks[:, s]] for s in range(n_specs)], axis=1)
-
-        chosen = draw(self.copies * n_envs).reshape(shape)
+            index = np.ravel_multi_index(tuple(visited.T), tuple(self._n_states))  # [n_envs]
+            others = np.arange(self.copies)[:, None]  # skip the visited joint state
+            return self._joint[others + (others >= index[None, :])]
+        shape = (self.copies, *visited.shape)
+        chosen = self._rng.integers(0, self._n_states, size=shape)
         while (same := (chosen == visited).all(axis=2)).any():
-            chosen[same] = draw(int(same.sum()))
+            chosen[same] = self._rng.integers(0, self._n_states, size=(int(same.sum()), shape[2]))
         return chosen
 
 
@@ -264,13 +206,6 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         samples: the most copies per transition (:class:`CounterfactualStates`;
             ``algorithm.counterfactual_samples``).
         seed: seeds the drawn states.
-        from_violated: whether copies may start in a violated state (some spec in a
-            rejecting sink; the default, CRM as published); False: only where every spec
-            can still be satisfied (see the module docstring).
-        whole_groups: sample ``batch_size`` of the world's steps, each with all its copies
-            (a batch of ``batch_size * (1 + copies)`` rows: every step's copies learnt
-            together, as tabular CRM updates every state, and as many of the world's
-            steps per batch as without copies); False: SB3's uniform rows.
 
     Raises:
         ConfigError: ``optimize_memory_usage`` (SB3's dict buffers have none), or an
@@ -290,8 +225,6 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
         replay: BoltReplay,
         samples: int,
         seed: int | None = None,
-        from_violated: bool = True,
-        whole_groups: bool = False,
     ) -> None:
         if optimize_memory_usage:
             raise ConfigError(
@@ -318,33 +251,7 @@ class CounterfactualReplayBuffer(DictReplayBuffer):
             handle_timeout_termination=handle_timeout_termination,
         )
         self.replay = replay
-        self.states = CounterfactualStates(
-            replay.n_states,
-            samples=samples,
-            seed=seed,
-            live=None if from_violated else replay.live_states,
-        )
-        self.whole_groups = bool(whole_groups)
-        self._groups_rng = np.random.default_rng(None if seed is None else [seed, 1])
-        if self.whole_groups:
-            # A step's rows stay one group through the buffer's wrap-around.
-            group = 1 + self.states.copies
-            self.buffer_size = max(self.buffer_size // group, 1) * group
-            if self.buffer_size > len(self.rewards):
-                raise ConfigError(
-                    f"a buffer of {len(self.rewards)} steps per env cannot hold one step with "
-                    f"its {self.states.copies} copies: raise buffer_size"
-                )
-
-    def sample(self, batch_size: int, env: Any = None) -> Any:
-        """SB3's uniform sample of rows; with ``whole_groups``, ``batch_size`` of the
-        world's steps drawn uniformly, each with all its copies."""
-        if not self.whole_groups:
-            return super().sample(batch_size, env=env)
-        group = 1 + self.states.copies
-        groups = (self.buffer_size if self.full else self.pos) // group
-        first = self._groups_rng.integers(0, groups, size=batch_size) * group
-        return self._get_samples((first[:, None] + np.arange(group)).ravel(), env=env)
+        self.states = CounterfactualStates(replay.n_states, samples=samples, seed=seed)
 
     def add(  # type: ignore[override]
         self,
