@@ -166,8 +166,9 @@ def test_report_follows_no_code(payload: Payload, capsys: pytest.CaptureFixture[
     assert not payload.marker.exists()
 
 
-def test_a_module_beside_the_run_is_not_imported_by_a_new_process(payload: Payload) -> None:
+def test_a_module_beside_the_run_is_not_imported_by_a_new_process(tmp_path: Path) -> None:
     # `python -m` puts the current directory on sys.path itself: still nothing is imported.
+    payload = Payload(tmp_path, "world")
     done = subprocess.run(
         [sys.executable, "-m", "noisybolt", "evaluate", "run", "--episodes", "2"],
         cwd=payload.root,
