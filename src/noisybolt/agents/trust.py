@@ -52,9 +52,9 @@ class CodeReference(NamedTuple):
         return f"{self.path} = {self.value!r}"
 
 
-def _names_code(path: str, value: object) -> bool:
-    if not isinstance(value, str):
-        return False  # refused by the schema, never imported
+def _names_code(path: str, value: str) -> bool:
+    """Whether ``value`` at ``path`` names code (a value of another type is refused by the
+    schema, never imported)."""
     if path == "world.name":
         return is_factory_path(value)
     return ":" in value  # no built-in detector kind holds one
@@ -73,7 +73,7 @@ def code_references(data: Any) -> tuple[CodeReference, ...]:
         value = data.get(section)
         if isinstance(value, Mapping):
             value = value.get(key)
-        if _names_code(path, value):
+        if isinstance(value, str) and _names_code(path, value):
             found.append(CodeReference(path, value))
     return tuple(found)
 
