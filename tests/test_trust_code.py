@@ -273,3 +273,14 @@ def test_a_classifier_directorys_world_is_not_followed_unasked(
     assert main(["classifiers", "report", "--out", str(folder), "--trust-code"]) == 2
     assert "the factory raised RuntimeError" in capsys.readouterr().err
     assert payload.marker.exists()
+
+
+def test_the_refusal_lists_every_reference_and_the_flags_that_consent() -> None:
+    data = {"world": {"name": "mymod:make"}, "detector": {"kind": "os:system"}}
+    with pytest.raises(UntrustedCodeError) as info:
+        check_code_trusted(data, source="run r")
+    message = str(info.value)
+    assert "world.name = 'mymod:make', detector.kind = 'os:system'" in message
+    assert "--world mymod:make --detector os:system" in message and "--trust-code" in message
+    assert info.value.references == ("world.name = 'mymod:make'", "detector.kind = 'os:system'")
+    assert check_code_trusted(data, trust_code=True) == code_references(data)
