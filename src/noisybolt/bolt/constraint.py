@@ -103,7 +103,12 @@ class CostLimit:
             The default, 0.02, asks for 98 % and lets the price ease off while the
             agent complies, so the world's return is weighed again.
         lr: the integral gain, the multiplier's learning rate (``> 0``): how much it rises
-            per 1,000 frames trained at a cost one above the budget.
+            per 1,000 frames trained at a cost one above the budget. With the budget
+            annealed, a cost that falls on its own is never priced, and one that does not
+            fall is priced quickly: measured at 0.02 on MiniGrid's room with
+            ``F(bottom_left)`` (PPO), the price reached 0.14 only at 37k frames, after the
+            policy had settled on the direct route, and it never found the detour even at
+            price 1; the compliance scheme, priced from the start, had.
         kp: the proportional gain (``>= 0``).
         kd: the derivative gain, on rises of the cost only (``>= 0``).
         initial: the multiplier at the start of training, in ``[0, 1]`` (0: the task is
@@ -119,7 +124,7 @@ class CostLimit:
     """
 
     cost_limit: float = 0.02
-    lr: float = 0.02
+    lr: float = 0.1
     kp: float = 0.0
     kd: float = 0.0
     initial: float = 0.0
