@@ -70,7 +70,6 @@ FLAG_PATHS: dict[str, str] = {
     "--hp": "algorithm.hyperparams",
     "--init-from": "algorithm.init_from",
     "--counterfactual": "algorithm.counterfactual",
-    "--counterfactual": "algorithm.counterfactual",
     "--frames": "frames",
     "--seed": "seed",
     "--eval-freq": "evaluation.freq",
@@ -155,12 +154,6 @@ def register(subparsers: Any) -> None:
         help="compliance scheme: no progress shaping over the DFAs",
     )
     flag("--algo", help="ppo, a2c or dqn (default ppo)")
-    flag(
-        "--counterfactual",
-        action="store_true",
-        help="DQN: counterfactual experience, every transition also stored replayed from the "
-        "other DFA states (at most algorithm.counterfactual_samples copies; --set to change)",
-    )
     flag(
         "--counterfactual",
         action="store_true",
