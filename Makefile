@@ -25,8 +25,11 @@ setup: $(STAMP) mona
 mona:
 	@sh scripts/ensure-mona.sh
 
+# The suite, then the wheel test (built and installed in a fresh venv, ~2-5 min of its own,
+# run apart so that xdist does not start it last beside an idle worker).
 test: setup
 	$(PY) -m pytest -q -m "not slow" $(PYTEST_ARGS)
+	$(MAKE) --no-print-directory test-wheel
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow $(PYTEST_ARGS)
