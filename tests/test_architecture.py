@@ -128,14 +128,9 @@ def test_no_import_cycle_in_src() -> None:
     assert find_cycles(edges) == []
 
 
-#: Private imports kept for now, each with the reason (none of private names: bolt/engine.py
-#: made check_fluents and env_flags public).
-KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = {
-    # The info keys of the bolt's reward parts live in wrappers/_common.py, which mixes
-    # bolt logic, checks, spaces and info records; issue 44 splits it, and the keys move
-    # to a public module there.
-    ("noisybolt.agents.counterfactual", "noisybolt.wrappers._common", ""),
-}
+#: Private imports kept for now, each with the reason (none: bolt/engine.py made
+#: check_fluents and env_flags public, noisybolt.wrappers the info keys).
+KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = set()
 
 
 def test_no_private_name_is_imported_across_modules() -> None:

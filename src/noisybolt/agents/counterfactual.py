@@ -80,8 +80,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
 from noisybolt.bolt import BoltEngine, BoltStep, ProgressShaping, RestrainingBolt
 from noisybolt.errors import ConfigError
-from noisybolt.wrappers import BoltVecEnv
-from noisybolt.wrappers._common import BOLT_REWARD_KEY, ENV_REWARD_KEY
+from noisybolt.wrappers import BOLT_REWARD_KEY, ENV_REWARD_KEY, BoltVecEnv
 from noisybolt.wrappers.bolt_vec_env import BOLT_CARRIED_KEY, BOLT_DONE_KEY, FLUENT_PROBS_KEY
 
 __all__ = [

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from noisybolt.wrappers._common import EPISODE_COST_KEY
+from noisybolt.wrappers._common import BOLT_REWARD_KEY, ENV_REWARD_KEY, EPISODE_COST_KEY
 from noisybolt.wrappers.atari import ClipGameReward, LifeLossTerminal
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
 from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
@@ -10,6 +10,8 @@ from noisybolt.wrappers.make_vec import make_bolted_vec_env
 from noisybolt.wrappers.normalize import SplitRewardNormalize
 
 __all__ = [
+    "BOLT_REWARD_KEY",
+    "ENV_REWARD_KEY",
     "EPISODE_COST_KEY",
     "BoltObservableEnv",
     "BoltVecEnv",
