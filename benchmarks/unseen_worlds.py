@@ -54,18 +54,13 @@ def cliff() -> FluentLabels:
     return FluentLabels(env, fluents=fluents, camera=_small, success="at_goal", grid=grid)
 
 
-def room() -> FluentLabels:
-    """MiniGrid's Empty-6x6 (the agent's own partial view as its image); the bolt wants the
-    bottom-left corner visited, or the right column kept clear until then."""
+def _minigrid_6x6(level: str, fluents: dict[str, Any]) -> FluentLabels:
+    """A 6x6 MiniGrid level as a user would label it: the agent's own partial view as its
+    image, the bolt's camera the whole grid at 4 pixels a tile, the goal at (4, 4)."""
     import minigrid  # noqa: F401  (registers the MiniGrid levels)
     from minigrid.wrappers import ImgObsWrapper
 
-    env = ImgObsWrapper(gym.make("MiniGrid-Empty-6x6-v0", render_mode="rgb_array"))
-    fluents = {
-        "bottom_left": lambda e: tuple(e.agent_pos) == (1, 4),
-        "right_col": lambda e: e.agent_pos[0] == 4,
-        "at_goal": lambda e: tuple(e.agent_pos) == (4, 4),
-    }
+    env = ImgObsWrapper(gym.make(level, render_mode="rgb_array"))
     grid = GridLayout(
         width=6,
         height=6,
@@ -79,6 +74,17 @@ def room() -> FluentLabels:
         return wrapped.unwrapped.get_frame(highlight=False, tile_size=4)
 
     return FluentLabels(env, fluents=fluents, camera=camera, success="at_goal", grid=grid)
+
+
+def room() -> FluentLabels:
+    """MiniGrid's Empty-6x6 (the agent's own partial view as its image); the bolt wants the
+    bottom-left corner visited, or the right column kept clear until then."""
+    fluents = {
+        "bottom_left": lambda e: tuple(e.agent_pos) == (1, 4),
+        "right_col": lambda e: e.agent_pos[0] == 4,
+        "at_goal": lambda e: tuple(e.agent_pos) == (4, 4),
+    }
+    return _minigrid_6x6("MiniGrid-Empty-6x6-v0", fluents)
 
 
 def lava() -> FluentLabels:
@@ -89,31 +95,13 @@ def lava() -> FluentLabels:
     (a detour back through the gap)."""
     import minigrid  # noqa: F401  (registers the MiniGrid levels)
     from minigrid.core.world_object import Lava
-    from minigrid.wrappers import ImgObsWrapper
-
-    env = ImgObsWrapper(gym.make("MiniGrid-LavaGapS6-v0", render_mode="rgb_array"))
-
-    def in_lava(e: Any) -> bool:
-        return isinstance(e.grid.get(*e.agent_pos), Lava)
 
     fluents = {
-        "in_lava": in_lava,
+        "in_lava": lambda e: isinstance(e.grid.get(*e.agent_pos), Lava),
         "bottom_left": lambda e: tuple(e.agent_pos) == (1, 4),
         "at_goal": lambda e: tuple(e.agent_pos) == (4, 4),
     }
-    grid = GridLayout(
-        width=6,
-        height=6,
-        position=lambda e: (int(e.agent_pos[0]), int(e.agent_pos[1])),
-        walls=True,
-        goal=(4, 4),
-        start=(1, 1),
-    )
-
-    def camera(wrapped: gym.Env) -> Any:
-        return wrapped.unwrapped.get_frame(highlight=False, tile_size=4)
-
-    return FluentLabels(env, fluents=fluents, camera=camera, success="at_goal", grid=grid)
+    return _minigrid_6x6("MiniGrid-LavaGapS6-v0", fluents)
 
 
 def acrobot() -> FluentLabels:
