@@ -3,7 +3,9 @@ unbolted control of its own seed."""
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Callable
+from pathlib import Path
 from types import ModuleType
 
 import pytest
@@ -50,3 +52,24 @@ def test_a_trial_that_does_the_task_but_breaks_the_spec_is_not_kept(suite: Modul
         _record("lake", 0, bolted=True, compliance=0.9, goal=1.0, ret=1.0),
     ]
     assert suite.task_kept(records, 0.95)[:2] == (0, 1)
+
+
+@pytest.mark.slow
+def test_a_slice_of_the_suite_a_constrained_agent_keeps_the_rooms_task_and_its_detour(
+    suite: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One trial of the world suite as it is measured (PPO, the built-in defaults, the
+    synthetic detector, 150k frames, seed 0): in MiniGrid's empty room the bolt asks for
+    the bottom-left corner first. Under the constrained scheme the agent complies and
+    still reaches the goal, as its unbolted control does (measured: 100 % and 100 %; at the
+    multiplier's earlier rate of 0.02 a 1,000 frames it settled on the direct route and
+    complied in 0 %)."""
+    monkeypatch.chdir(tmp_path)  # run_trial moves to benchmarks/: the test's cwd comes back
+    suite._load_worlds()
+    args = argparse.Namespace(
+        out=str(tmp_path), collect=False, detector="synthetic", frames=150_000,
+        eval_freq=10_000, eval_episodes=20, hp=[], set=["bolt.reward=constrained"],
+    )  # fmt: skip
+    record = suite.run_trial("unseen_worlds:room", "F(bottom_left)", "ppo", 0, args)
+    assert record["compliance"] >= 0.95
+    assert record["goal_rate"] >= 0.9
