@@ -1,0 +1,94 @@
+"""Two reward schemes on the world suite, side by side with the unbolted controls.
+
+Reads finished trials (their ``summary.json``) from world-suite output folders laid out as
+``world_suite.py`` writes them (``WORLD/ALGO/specN|unbolted/seedS``), one folder per
+scheme, and prints one row per (world, spec, algorithm, seed) that has a control:
+compliance / goal rate / return of the control, then of each scheme; then, per scheme, the
+"task kept" line of :func:`world_suite.task_kept` (each bolted trial against the control of
+its own seed).
+
+    cd benchmarks && ../.venv/bin/python world_suite_compare.py \\
+        --controls ../runs/ws-compliance \\
+        compliance=../runs/ws-compliance constrained=../runs/ws-constrained4
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import world_suite as ws
+
+
+def _record(root: Path, world: str, label: str, algo: str, seed: int) -> dict[str, Any] | None:
+    path = root / world / algo / label / f"seed{seed}" / "summary.json"
+    if not path.exists():
+        return None
+    final = json.loads(path.read_text())["final"]
+    return {
+        "world": world,
+        "algo": algo,
+        "seed": seed,
+        "bolted": label != "unbolted",
+        "spec": label,
+        "compliance": float(next(iter(final["compliance"].values()))),
+        "goal_rate": final["goal_rate"],
+        "env_return": final["env_return_mean"],
+    }
+
+
+def _cell(record: dict[str, Any] | None) -> str:
+    if record is None:
+        return "–"
+    goal = "–" if record["goal_rate"] is None else f"{record['goal_rate']:.0%}"
+    return f"{record['compliance']:.0%} / {goal} / {record['env_return']:.2f}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--controls", type=Path, required=True, help="folder of the controls")
+    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--algos", default="ppo,a2c")
+    parser.add_argument("schemes", nargs="+", metavar="NAME=FOLDER")
+    args = parser.parse_args(argv)
+    schemes = [(text.partition("=")[0], Path(text.partition("=")[2])) for text in args.schemes]
+    ws._load_worlds()
+    print(
+        "| world | spec | algo | seed | control: compliance / goal / return | "
+        + " | ".join(name for name, _ in schemes)
+        + " |"
+    )
+    print("|---|---|---|---:|---|" + "---|" * len(schemes))
+    per_scheme: dict[str, list[dict[str, Any]]] = {name: [] for name, _ in schemes}
+    for world_path, specs in ws.WORLD_SPECS.items():
+        world = world_path.split(":")[1]
+        for algo in args.algos.split(","):
+            for seed in range(args.seeds):
+                control = _record(args.controls, world, "unbolted", algo, seed)
+                if control is None:
+                    continue
+                for i, spec in enumerate(specs):
+                    found = [_record(root, world, f"spec{i}", algo, seed) for _, root in schemes]
+                    if all(r is None for r in found):
+                        continue
+                    for (name, _), record in zip(schemes, found, strict=True):
+                        if record is not None:
+                            per_scheme[name] += [control, record]
+                    print(
+                        f"| {world} | `{spec}` | {algo.upper()} | {seed} | {_cell(control)} | "
+                        + " | ".join(_cell(r) for r in found)
+                        + " |"
+                    )
+    print()
+    for name, records in per_scheme.items():
+        kept, counted, per_world = ws.task_kept(records, 0.95)
+        worlds = ", ".join(f"{w} {k}/{n}" for w, (k, n) in sorted(per_world.items()))
+        print(f"{name}: task kept {kept}/{counted} ({worlds})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
