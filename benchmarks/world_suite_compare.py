@@ -15,7 +15,6 @@ its own seed).
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -23,21 +22,10 @@ from typing import Any
 import world_suite as ws
 
 
-def _record(root: Path, world: str, label: str, algo: str, seed: int) -> dict[str, Any] | None:
-    path = root / world / algo / label / f"seed{seed}" / "summary.json"
-    if not path.exists():
-        return None
-    final = json.loads(path.read_text())["final"]
-    return {
-        "world": world,
-        "algo": algo,
-        "seed": seed,
-        "bolted": label != "unbolted",
-        "spec": label,
-        "compliance": float(next(iter(final["compliance"].values()))),
-        "goal_rate": final["goal_rate"],
-        "env_return": final["env_return_mean"],
-    }
+def _record(root: Path, world_path: str, spec: str | None, algo: str, seed: int) -> Any:
+    """The finished trial's record as ``world_suite.py`` reads it (None: not finished)."""
+    args = argparse.Namespace(out=str(root), collect=True)
+    return ws.run_trial(world_path, spec, algo, seed, args)
 
 
 def _cell(record: dict[str, Any] | None) -> str:
@@ -54,7 +42,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--algos", default="ppo,a2c")
     parser.add_argument("schemes", nargs="+", metavar="NAME=FOLDER")
     args = parser.parse_args(argv)
-    schemes = [(text.partition("=")[0], Path(text.partition("=")[2])) for text in args.schemes]
+    # absolute: run_trial reads from the folder holding unseen_worlds.py
+    schemes = [
+        (text.partition("=")[0], Path(text.partition("=")[2]).resolve()) for text in args.schemes
+    ]
+    controls = args.controls.resolve()
     ws._load_worlds()
     print(
         "| world | spec | algo | seed | control: compliance / goal / return | "
@@ -67,11 +59,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         world = world_path.split(":")[1]
         for algo in args.algos.split(","):
             for seed in range(args.seeds):
-                control = _record(args.controls, world, "unbolted", algo, seed)
+                control = _record(controls, world_path, None, algo, seed)
                 if control is None:
                     continue
-                for i, spec in enumerate(specs):
-                    found = [_record(root, world, f"spec{i}", algo, seed) for _, root in schemes]
+                for spec in specs:
+                    found = [_record(root, world_path, spec, algo, seed) for _, root in schemes]
                     if all(r is None for r in found):
                         continue
                     for (name, _), record in zip(schemes, found, strict=True):

@@ -30,6 +30,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from noisybolt.agents.checkpoints import BEST_DIR, best_folder, save_checkpoint, save_model_files
 from noisybolt.agents.config import TrainConfig
+from noisybolt.agents.constraint import LagrangianCallback
 from noisybolt.agents.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.hyperparams import SCHEDULED, constructor_defaults
 from noisybolt.errors import ConfigError
@@ -222,7 +223,7 @@ class CheckpointCallback(BaseCallback):
         config: TrainConfig,
         run: RunDirectory,
         evaluation: EvaluationCallback,
-        constraint: Any = None,
+        constraint: LagrangianCallback | None = None,
     ):
         super().__init__(verbose=0)
         self.config = config

@@ -119,8 +119,8 @@ class CostLimit:
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a
-            learning rate ``<= 0``, or an initial multiplier outside ``[0, 1]``; each
-            names the setting and what to give.
+            learning rate ``<= 0``, or an initial multiplier or anneal share outside
+            ``[0, 1]``; each names the setting and what to give.
     """
 
     cost_limit: float = 0.02
