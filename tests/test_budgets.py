@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from noisybolt.agents.config import TrainConfig
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError, NoEvaluationWarning
+from noisybolt.runs.config import TrainConfig
 
 BASE = {"bolt.specs": ["edge"], "bolt.reward": "paper", "detector.kind": "oracle"}
 
@@ -57,7 +57,7 @@ def test_a_budget_of_one_rollout_or_update_is_kept(settings: dict[str, object]) 
 
 
 def test_the_python_door_refuses_before_anything_is_written(tmp_path: Path) -> None:
-    from noisybolt.agents.training import train
+    from noisybolt.runs.training import train
 
     config = TrainConfig.build({**BASE, "frames": 100})
     with pytest.raises(ConfigError, match="rollout"):

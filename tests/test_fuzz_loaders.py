@@ -126,7 +126,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 # ------------------------------------------------------------------ config.json
 def _nested_base() -> list[dict[str, Any]]:
-    from noisybolt.agents.config import TrainConfig
+    from noisybolt.runs.config import TrainConfig
 
     base = {"bolt.specs": ["edge"], "detector.kind": "oracle", "frames": 4096}
     base |= {"evaluation.freq": 2048}
@@ -143,9 +143,9 @@ CONFIGS = [*_nested_base(), json.loads(_FLAT.read_text())]
 
 
 def _load_config(doc: Any, folder: Path) -> None:
-    from noisybolt.agents.config import TrainConfig
-    from noisybolt.agents.trust import code_references
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.rundir import RunDirectory
+    from noisybolt.runs.trust import code_references
 
     code_references(doc)  # never raises: whatever is not a config names no code
     before = _snapshot(folder)
@@ -174,8 +174,8 @@ def test_config_json_slow(doc: Any, tmp_path: Path) -> None:
 @FAST
 @given(data=st.binary(max_size=64) | st.text(max_size=64).map(str.encode))
 def test_config_json_bytes(data: bytes, tmp_path: Path) -> None:
-    from noisybolt.agents.config import TrainConfig
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.rundir import RunDirectory
 
     (tmp_path / "config.json").write_bytes(data)
     _named_or_fine(lambda: TrainConfig.from_dict(RunDirectory(tmp_path).read_config()))
@@ -193,8 +193,8 @@ specs_docs = mutated(SPECS_FILE).map(yaml.safe_dump) | st.text(max_size=80)
 
 
 def _load_specs(text: str, folder: Path) -> None:
-    from noisybolt.agents.config import TrainConfig
-    from noisybolt.agents.specs import load_specs_file
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.specs import load_specs_file
 
     path = folder / "specs.yaml"
     path.write_text(text)
@@ -254,7 +254,7 @@ def test_sweep_file_slow(text: str, tmp_path: Path) -> None:
 
 # ------------------------------------------------------------------ --set PATH=VALUE
 def _paths() -> list[str]:
-    from noisybolt.agents.config import schema_paths
+    from noisybolt.runs.config import schema_paths
 
     # The world's name and the reward scheme are left alone: a valid one builds a world.
     return [p for p in schema_paths() if p not in ("world.name", "bolt.reward")]
@@ -269,8 +269,8 @@ assignments = st.one_of(
 
 
 def _load_assignment(item: str) -> None:
-    from noisybolt.agents.config import TrainConfig
     from noisybolt.cli.train import config_assignments
+    from noisybolt.runs.config import TrainConfig
 
     given_ = _named_or_fine(lambda: config_assignments([("--set", item)]))
     if given_ is not None and not {"world.name", "bolt.reward"} & set(given_):
@@ -307,8 +307,8 @@ latest_docs = mutated(LATEST) | JSON
 
 
 def _load_latest(doc: Any, run: Path) -> None:
-    from noisybolt.agents.checkpoints import latest_checkpoint
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.checkpoints import latest_checkpoint
+    from noisybolt.runs.rundir import RunDirectory
 
     (run / "checkpoints" / "latest.json").write_text(json.dumps(doc))
     before = _snapshot(run)

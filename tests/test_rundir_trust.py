@@ -6,7 +6,7 @@ Every test here failed on commit 0e550d5 and passes since:
 2. ``--resume`` without a usable checkpoint retrained from zero;
 3. bad input left config.json and command.txt behind, blocking the corrected command;
 4. tracebacks (exit 1) instead of named errors (exit 2); ``report`` on corrupt files;
-5. loading a run directory ran code from it (``tests/agents/test_safe_loading.py``);
+5. loading a run directory ran code from it (``tests/runs/test_safe_loading.py``);
 6. the wrapper stack was assembled in two places (``make_env`` now owns it).
 
 And valid runs are unchanged: a fixed-seed row of Table 1 gives the numbers it gave on
@@ -24,9 +24,9 @@ from pathlib import Path
 
 import pytest
 
-from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError, CorruptFileError
+from noisybolt.runs.training import DetectorConfig, TrainConfig, train
 
 
 def _quiet(_: str) -> None:
@@ -274,7 +274,7 @@ def test_a_pointer_outside_the_run_directory_is_refused(run_copy: Path, tmp_path
         train(_config(frames=2048), run_copy, resume=True, log=_quiet)
     (run_copy / "model.zip").unlink()  # evaluate would fall back to the latest checkpoint
     with pytest.raises(CorruptFileError, match="outside"):
-        from noisybolt.agents.run_evaluation import evaluate_run
+        from noisybolt.runs.run_evaluation import evaluate_run
 
         evaluate_run(run_copy, episodes=2)
 
@@ -283,8 +283,8 @@ def test_a_pointer_outside_the_run_directory_is_refused(run_copy: Path, tmp_path
 def test_make_env_owns_the_training_stack() -> None:
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from noisybolt.agents.environments import make_env
     from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.runs.environments import make_env
     from noisybolt.wrappers import BoltVecEnv
 
     config = _config(overrides={"n_steps": 64, "normalize_reward": True})
@@ -340,7 +340,7 @@ def test_a_fixed_seed_table1_row_gives_the_numbers_it_gave_before(tmp_path: Path
     assert not os.path.exists(trial / "vecnormalize.pkl")  # statistics are no pickle now
 
 
-@pytest.mark.parametrize("name", ["noisybolt.io", "noisybolt.rundir", "noisybolt.agents.config"])
+@pytest.mark.parametrize("name", ["noisybolt.io", "noisybolt.runs.rundir", "noisybolt.runs.config"])
 def test_docstring_examples_run(name: str) -> None:
     import doctest
     import importlib
@@ -371,7 +371,7 @@ def test_a_sweep_trial_killed_before_its_first_checkpoint_starts_over(tmp_path: 
     # A trial whose directory holds config.json but no checkpoint has nothing to resume
     # (a resume is refused): the sweep starts it over instead.
     from noisybolt.experiments.sweeps.trials import TrialTask, run_trial
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.rundir import RunDirectory
 
     config = _config(frames=512, eval_freq=0, checkpoint_freq=0)
     folder = tmp_path / "trial"
@@ -385,7 +385,7 @@ def test_a_sweep_trial_killed_before_its_first_checkpoint_starts_over(tmp_path: 
 def test_each_start_records_the_software_it_ran_on(tmp_path: Path) -> None:
     from importlib import metadata
 
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.rundir import RunDirectory
 
     run = RunDirectory(tmp_path / "run")
     run.path.mkdir()

@@ -19,11 +19,11 @@ from pathlib import Path
 
 import pytest
 
-from noisybolt.agents.config import TrainConfig
-from noisybolt.agents.trust import check_code_trusted, code_references
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError, DetectorFactoryError, UntrustedCodeError
-from noisybolt.rundir import RunDirectory
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.rundir import RunDirectory
+from noisybolt.runs.trust import check_code_trusted, code_references
 
 
 def _saved_config() -> dict[str, object]:
@@ -119,8 +119,8 @@ def test_resume_refuses_before_anything_runs(
 
 
 def test_the_python_doors_refuse_with_a_named_error(payload: Payload) -> None:
-    from noisybolt.agents.run_evaluation import evaluate_run
-    from noisybolt.agents.training import train
+    from noisybolt.runs.run_evaluation import evaluate_run
+    from noisybolt.runs.training import train
 
     with pytest.raises(UntrustedCodeError, match="trust_code=True") as info:
         evaluate_run(payload.run, episodes=2)
@@ -212,7 +212,7 @@ def test_resume_with_consent_follows_the_code(
 
 
 def test_the_python_api_consents_with_trust_code(payload: Payload) -> None:
-    from noisybolt.agents.run_evaluation import evaluate_run
+    from noisybolt.runs.run_evaluation import evaluate_run
 
     with pytest.raises(ConfigError) as info:
         evaluate_run(payload.run, episodes=2, trust_code=True)

@@ -17,8 +17,9 @@ Example:
 Layers, lowest first (a lower layer never imports a higher one):
 ``logic`` (LTLf → DFA), ``bolt`` (Algorithm 1 and reward timing), ``perception``
 (cameras, noise, fluent classifiers), ``envs`` (worlds and their true fluents),
-``wrappers``, ``agents``, ``experiments``, ``cli``. The names below are imported on
-first use, so ``import noisybolt.logic`` does not load Gymnasium or torch.
+``wrappers``, ``viz`` (episode GIFs, heat-maps), ``agents`` (the learner), ``runs``
+(config, training, checkpoints, evaluation), ``experiments``, ``cli``. The names below
+are imported on first use, so ``import noisybolt.logic`` does not load Gymnasium or torch.
 """
 
 from __future__ import annotations
@@ -26,7 +27,10 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from noisybolt import _moved
 from noisybolt.version import __version__
+
+_moved.install()  # old module paths of moved names, for one release
 
 # The public API: name -> module that defines it.
 _EXPORTS: dict[str, str] = {

@@ -300,7 +300,7 @@ class LargeCameraWarning(UserWarning):
 
 class RareFluentWarning(UserWarning):
     """A fluent some spec uses is true (or false) in only a few of the images a classifier
-    learns from (fewer than :data:`noisybolt.agents.detectors.RARE_FLUENT_IMAGES`): its
+    learns from (fewer than :data:`noisybolt.runs.detectors.RARE_FLUENT_IMAGES`): its
     validation accuracy rests on a handful of them, and the bolt may read it poorly."""
 
 

@@ -14,17 +14,17 @@ import numpy as np
 import pytest
 import torch
 
-from noisybolt.agents import models
-from noisybolt.agents.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
-from noisybolt.agents.environments import make_env
 from noisybolt.agents.extractor import BoltFeaturesExtractor
-from noisybolt.agents.models import compute_dtype, make_model, native_bfloat16, torch_device
-from noisybolt.agents.run_evaluation import load_run_model
-from noisybolt.agents.training import train
 from noisybolt.envs import make_world
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
-from noisybolt.rundir import RunDirectory
+from noisybolt.runs import models
+from noisybolt.runs.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
+from noisybolt.runs.environments import make_env
+from noisybolt.runs.models import compute_dtype, make_model, native_bfloat16, torch_device
+from noisybolt.runs.run_evaluation import load_run_model
+from noisybolt.runs.rundir import RunDirectory
+from noisybolt.runs.training import train
 
 #: Whether this CPU computes bfloat16 natively (AVX512-BF16 or AMX).
 NATIVE = native_bfloat16("cpu")

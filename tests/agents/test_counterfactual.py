@@ -15,19 +15,19 @@ from hypothesis import strategies as st
 from stable_baselines3 import DQN
 from stable_baselines3.common.buffers import DictReplayBuffer
 
-from noisybolt.agents.config import TrainConfig
 from noisybolt.agents.counterfactual import (
     BoltReplay,
     CounterfactualReplayBuffer,
     CounterfactualStates,
     bolted_env,
 )
-from noisybolt.agents.environments import make_env, prepare_bolt
-from noisybolt.agents.models import make_model
-from noisybolt.agents.training import DetectorConfig, train
 from noisybolt.bolt import REWARD_TIMINGS, ProgressShaping, RestrainingBolt, Spec
 from noisybolt.errors import ConfigError
 from noisybolt.logic import DFA
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.environments import make_env, prepare_bolt
+from noisybolt.runs.models import make_model
+from noisybolt.runs.training import DetectorConfig, train
 
 # The bolt tests' DFAs and strategies (tests/bolt is on the path only for its own tests).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bolt"))
@@ -293,9 +293,9 @@ def test_a_step_without_the_bolts_records_is_refused_by_name() -> None:
 
 
 def test_a_tiny_dqn_run_trains_checkpoints_and_resumes_with_its_copies(tmp_path: Path) -> None:
-    from noisybolt.agents.checkpoints import latest_checkpoint
-    from noisybolt.agents.run_evaluation import load_run_model
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.checkpoints import latest_checkpoint
+    from noisybolt.runs.run_evaluation import load_run_model
+    from noisybolt.runs.rundir import RunDirectory
 
     config = _config()
     result = train(config, tmp_path / "run", log=lambda _: None)

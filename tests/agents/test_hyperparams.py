@@ -61,8 +61,8 @@ def test_dqn_on_continuous_actions_is_refused_with_the_algorithms_that_take_them
     import numpy as np
     from gymnasium import spaces
 
-    from noisybolt.agents.config import TrainConfig
-    from noisybolt.agents.models import make_model
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.models import make_model
 
     config = TrainConfig.create(specs=["edge"], algo="dqn", reward="paper")
     env = SimpleNamespace(action_space=spaces.Box(-1.0, 1.0, (1,), np.float32))

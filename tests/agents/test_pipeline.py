@@ -18,13 +18,13 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.utils import obs_as_tensor
 from stable_baselines3.common.vec_env import VecNormalize
 
-from noisybolt.agents.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
-from noisybolt.agents.environments import make_env
-from noisybolt.agents.models import make_model
 from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds, grouped_below
 from noisybolt.envs.breakout import FLUENT_NAMES
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
+from noisybolt.runs.environments import make_env
+from noisybolt.runs.models import make_model
 
 N_ENVS, N_STEPS = 5, 24  # uneven groups (2 + 3)
 

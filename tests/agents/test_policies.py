@@ -18,15 +18,15 @@ from stable_baselines3 import DQN, PPO
 from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from noisybolt.agents import models
-from noisybolt.agents.evaluation import evaluate_bolted_policy
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import algorithm_class
-from noisybolt.agents.models import load_model, read_model_data
 from noisybolt.agents.policies import BoltActorCriticPolicy, BoltDQNPolicy, policy_class
-from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 from noisybolt.cli import main
 from noisybolt.errors import UnknownNameError
+from noisybolt.runs import models
+from noisybolt.runs.evaluation import evaluate_bolted_policy
+from noisybolt.runs.models import load_model, read_model_data
+from noisybolt.runs.training import DetectorConfig, TrainConfig, train
 
 NVEC = [3, 2, 4]
 
@@ -169,9 +169,9 @@ def test_a_run_saved_with_sb3s_own_policy_loads_evaluates_and_resumes(
     old_model = (DQN if algo == "dqn" else PPO).load(run / "model.zip", device="cpu")
     sb3_name = "MultiInputPolicy" if algo == "dqn" else "MultiInputActorCriticPolicy"
     assert type(old_model.policy).__name__ == sb3_name
-    from noisybolt.agents.environments import make_env
     from noisybolt.envs import make_world
     from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.runs.environments import make_env
 
     fluents = make_world(config.world, num_envs=1, seed=0).fluent_names
     env = make_env(config, OracleDetector(fluents), training=False, n_envs=4)

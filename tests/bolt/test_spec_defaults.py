@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from noisybolt.agents import specs as agent_specs
 from noisybolt.bolt import Spec
 from noisybolt.bolt.spec import DEFAULT_COST, DEFAULT_REWARD
+from noisybolt.runs import specs as agent_specs
 from noisybolt.wrappers._inputs import coerce_specs
 
 

@@ -11,11 +11,15 @@ from pathlib import Path
 import imageio.v3 as iio
 import pytest
 
-import noisybolt.agents.comparison as comparison_module
-from noisybolt.agents.comparison import BoltComparison, compare_bolted_unbolted, format_comparison
+import noisybolt.experiments.comparison as comparison_module
 from noisybolt.cli import main
 from noisybolt.cli.demo import DEMO_ALGO, DEMO_NOISE, DEMO_SPEC
 from noisybolt.errors import ConfigError
+from noisybolt.experiments.comparison import (
+    BoltComparison,
+    compare_bolted_unbolted,
+    format_comparison,
+)
 
 TOP_RIGHT = (4, 1)
 

@@ -62,9 +62,9 @@ def test_the_table_says_whether_the_actions_were_greedy_or_sampled() -> None:
 def test_evaluate_takes_at_least_one_episode_and_draws_as_many_in_its_heatmap(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
-    from noisybolt.agents import run_evaluation
-    from noisybolt.agents.evaluation import EpisodeRecord, summarise
     from noisybolt.cli import main
+    from noisybolt.runs import run_evaluation
+    from noisybolt.runs.evaluation import EpisodeRecord, summarise
 
     for bad in ("0", "-3", "many"):
         with pytest.raises(SystemExit) as exit_info:
@@ -128,8 +128,8 @@ def test_an_interrupt_before_the_run_is_set_up_says_nothing_was_saved(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     # A classifier training on the fly is interrupted: no run directory, and one line.
-    from noisybolt.agents import training
     from noisybolt.cli import main
+    from noisybolt.runs import training
 
     def interrupted(*args: Any, **kwargs: Any) -> Any:
         raise KeyboardInterrupt

@@ -11,9 +11,9 @@ from typing import Any
 
 import pytest
 
-from noisybolt.agents.config import TrainConfig, schema_paths
 from noisybolt.cli import build_parser, main
 from noisybolt.cli.train import FLAG_PATHS, train_overrides
+from noisybolt.runs.config import TrainConfig, schema_paths
 
 #: Options that do not describe the run (where it goes, what is resumed, files that
 #: resolve into the schema's values).
@@ -241,8 +241,8 @@ def test_the_scheme_line_follows_the_checks(
 
 
 def test_min_dwell_reaches_the_belief_bolt(tmp_path: Path) -> None:
-    from noisybolt.agents.environments import prepare_bolt
-    from noisybolt.agents.training import TrainConfig
+    from noisybolt.runs.environments import prepare_bolt
+    from noisybolt.runs.training import TrainConfig
 
     argv = ["train", "--spec", "edge", "--detector", "oracle", "--tracking", "belief"]
     argv += ["--min-dwell", "1", "--frames", "64", "--eval-freq", "0", "--eval-episodes", "1"]

@@ -8,8 +8,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from noisybolt.agents.config import LEGACY_DEFAULTS, TrainConfig
-from noisybolt.agents.environments import make_env
 from noisybolt.envs.breakout import (
     BRICK_ROWS,
     FLUENT_NAMES,
@@ -19,6 +17,8 @@ from noisybolt.envs.breakout import (
 )
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.config import LEGACY_DEFAULTS, TrainConfig
+from noisybolt.runs.environments import make_env
 
 
 def _world(**settings: Any) -> BreakoutWorld:

@@ -10,8 +10,6 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from noisybolt.agents.config import TrainConfig
-from noisybolt.agents.training import train
 from noisybolt.envs.breakout import (
     BRICK_COLUMNS,
     BRICK_ROWS,
@@ -19,6 +17,8 @@ from noisybolt.envs.breakout import (
     breakout_fluents,
     bricks_present,
 )
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.training import train
 
 #: Points per brick, top row first (Breakout's red, orange, yellow, green, aqua, blue).
 ROW_POINTS = np.array([7, 7, 4, 4, 1, 1])

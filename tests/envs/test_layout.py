@@ -7,9 +7,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from noisybolt.viz import record_episode, trajectory_heatmap, visit_counts
 
 import noisybolt
-from noisybolt.agents.visualize import record_episode, trajectory_heatmap, visit_counts
 from noisybolt.envs.gridworld import GridworldEnv
 from noisybolt.envs.layout import GridLayout
 from noisybolt.errors import ConfigError

@@ -17,14 +17,14 @@ import numpy as np
 import pytest
 import torch
 
-from noisybolt.agents.config import TrainConfig
-from noisybolt.agents.environments import make_env, make_run_world
 from noisybolt.envs.breakout import FLUENT_NAMES, BreakoutWorld, make_breakout_world
 from noisybolt.envs.registry import make_world
 from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import ConfigError, WorldWorkerError
 from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.environments import make_env, make_run_world
 from noisybolt.wrappers import BoltVecEnv
 
 SETTINGS: dict[str, Any] = {

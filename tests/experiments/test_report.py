@@ -36,7 +36,7 @@ PNG = b"\x89PNG\r\n\x1a\n"
 @pytest.fixture(scope="module")
 def sweep_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A finished trial with a GIF and a heat-map saved beside it, and a failed trial."""
-    import noisybolt.agents.training as training
+    import noisybolt.runs.training as training
 
     real_train = training.train
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import pytest
 
-from noisybolt.agents.specs import PAPER_SPECS
 from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS
 from noisybolt.errors import ConfigError
 from noisybolt.experiments.optimal import optimal_constrained_return
@@ -16,6 +15,7 @@ from noisybolt.experiments.spec_families import (
     pattern_formula,
 )
 from noisybolt.logic import compile_ltlf, holds
+from noisybolt.runs.specs import PAPER_SPECS
 
 
 def test_suite_is_seeded_distinct_feasible_and_half_constraining() -> None:

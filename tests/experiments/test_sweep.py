@@ -310,7 +310,7 @@ def test_running_again_reuses_finished_trials_untouched(grid_dir: Path) -> None:
 def test_crashing_trial_is_retried_then_reported_failed_while_others_are_kept(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import noisybolt.agents.training as training
+    import noisybolt.runs.training as training
 
     real_train = training.train
     calls: list[str] = []
@@ -353,7 +353,7 @@ def test_crashing_trial_is_retried_then_reported_failed_while_others_are_kept(
 
 
 def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
-    from noisybolt.agents.training import train
+    from noisybolt.runs.training import train
 
     sweep = _sweep(rows=[GRID["rows"][0]], seeds=1)
     (trial,) = sweep.trials

@@ -29,14 +29,14 @@ def classifiers() -> dict[str, Any]:
     """A small classifier per case-4 camera, cached where ``reproduce case4`` loads one."""
     import torch
 
-    from noisybolt.agents.training import (
+    from noisybolt.envs import make_world
+    from noisybolt.perception.dataset import collect_samples
+    from noisybolt.perception.training import TrainingConfig, train_classifier
+    from noisybolt.runs.training import (
         DetectorConfig,
         classifier_architecture,
         default_classifier_path,
     )
-    from noisybolt.envs import make_world
-    from noisybolt.perception.dataset import collect_samples
-    from noisybolt.perception.training import TrainingConfig, train_classifier
 
     torch.set_num_threads(1)
     detectors = {}
@@ -218,7 +218,7 @@ class _ScriptedAgent:
 def test_corner_counts_are_exact_when_every_episode_reaches_the_goal(
     case4_dir: Path, condition: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from noisybolt.agents import run_evaluation
+    from noisybolt.runs import run_evaluation
 
     episodes, n_envs = 24, 4
     agent = _ScriptedAgent(n_envs)

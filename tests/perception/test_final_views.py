@@ -18,15 +18,15 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from noisybolt.agents.config import LEGACY_DEFAULTS, TrainConfig
-from noisybolt.agents.detectors import classifier_architecture, default_classifier_path
-from noisybolt.agents.training import DetectorConfig, make_detector, train
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import world_fingerprint
 from noisybolt.errors import ConfigError, RareFluentWarning, UnlabelledEnvError, UnseenFluentError
 from noisybolt.perception import dataset
 from noisybolt.perception.dataset import collect_samples
 from noisybolt.perception.protocols import CameraSpec
+from noisybolt.runs.config import LEGACY_DEFAULTS, TrainConfig
+from noisybolt.runs.detectors import classifier_architecture, default_classifier_path
+from noisybolt.runs.training import DetectorConfig, make_detector, train
 
 WORLD = """
 import gymnasium as gym

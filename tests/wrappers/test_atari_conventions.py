@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from playback import PlaybackVecEnv
 
-from noisybolt.agents.specs import resolve_spec
 from noisybolt.envs import SB3VecEnv
 from noisybolt.envs.breakout import BreakoutWorld
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.specs import resolve_spec
 from noisybolt.wrappers import BoltVecEnv, ClipGameReward, LifeLossTerminal
 
 NOOP = 0

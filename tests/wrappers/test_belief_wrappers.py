@@ -11,13 +11,13 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3 import PPO
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
-from noisybolt.agents.specs import resolve_spec
 from noisybolt.bolt import BeliefSettings, RestrainingBolt
 from noisybolt.envs import SB3VecEnv
 from noisybolt.envs.gridworld import GridworldEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.errors import ConfidenceLevelError, UnknownNameError
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+from noisybolt.runs.specs import resolve_spec
 from noisybolt.wrappers import BoltVecEnv, RestrainingBoltWrapper
 
 SPECS = [resolve_spec("edge"), resolve_spec("one_corner_once")]

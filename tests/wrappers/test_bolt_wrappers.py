@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from noisybolt.agents.specs import resolve_spec
 from noisybolt.bolt import Spec
 from noisybolt.envs.gridworld import GridAction, GridworldEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.errors import IncompatibleError, UnknownFluentError
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+from noisybolt.runs.specs import resolve_spec
 from noisybolt.wrappers import BoltVecEnv, RestrainingBoltWrapper
 
 SPECS = [resolve_spec("edge"), resolve_spec("one_corner_once")]

@@ -14,15 +14,15 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecMonitor
 
-from noisybolt.agents.environments import make_env
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.policies import BoltActorCriticPolicy
-from noisybolt.agents.specs import resolve_spec
-from noisybolt.agents.training import DetectorConfig, TrainConfig
 from noisybolt.bolt import Spec
 from noisybolt.envs import SB3VecEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+from noisybolt.runs.environments import make_env
+from noisybolt.runs.specs import resolve_spec
+from noisybolt.runs.training import DetectorConfig, TrainConfig
 from noisybolt.wrappers import BoltVecEnv
 
 SPECS = [

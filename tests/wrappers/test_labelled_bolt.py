@@ -308,10 +308,10 @@ def test_a_world_without_a_camera_renders_nothing_and_refuses_a_classifier(
 ) -> None:
     # camera=False: a bolt that reads the truth needs no image, and a toy-text env's
     # render is most of its step. The env here cannot even render (render_mode None).
-    from noisybolt.agents.detectors import make_detector
-    from noisybolt.agents.training import DetectorConfig
     from noisybolt.envs import make_world
     from noisybolt.errors import ConfigError
+    from noisybolt.runs.detectors import make_detector
+    from noisybolt.runs.training import DetectorConfig
 
     plain = gym.make("FrozenLake-v1", is_slippery=False)
     blind = FluentLabels(plain, fluents=FLUENTS, camera=False, success="at_goal")

@@ -14,14 +14,14 @@ from hypothesis import strategies as st
 from playback import PlaybackVecEnv
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
-from noisybolt.agents.checkpoints import NORMALISER, load_normaliser, save_normaliser
-from noisybolt.agents.config import describe_scheme
-from noisybolt.agents.environments import make_env
 from noisybolt.agents.hyperparams import check_hyperparameter_values
-from noisybolt.agents.training import DetectorConfig, TrainConfig, train
 from noisybolt.envs import make_world
 from noisybolt.errors import ConfigError, CorruptFileError
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.checkpoints import NORMALISER, load_normaliser, save_normaliser
+from noisybolt.runs.config import describe_scheme
+from noisybolt.runs.environments import make_env
+from noisybolt.runs.training import DetectorConfig, TrainConfig, train
 from noisybolt.wrappers import SplitRewardNormalize
 
 GAMMA = 0.9

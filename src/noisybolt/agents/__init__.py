@@ -1,12 +1,18 @@
-"""Agents: the paper's policy body, Stable-Baselines3 PPO/A2C/DQN training and evaluation.
+"""The learner: the paper's policy network, hyperparameters, warm-startable SB3 algorithms
+and their extensions (overlapped rollouts, the Lagrange multiplier of the ``constrained``
+scheme, counterfactual experience for DQN).
 
-Recording GIFs and drawing heat-maps live in :mod:`noisybolt.agents.visualize` (it imports
-matplotlib, so it is not imported here).
+A run (its config, training loop, checkpoints, evaluation) is :mod:`noisybolt.runs`, one
+layer above; pictures are :mod:`noisybolt.viz`. The names that lived here before
+(``TrainConfig``, ``train``, ...) still resolve for one release, with a
+``DeprecationWarning`` that names their new home.
 """
 
 from __future__ import annotations
 
-from noisybolt.agents.evaluation import EpisodeRecord, EvalResult, evaluate_bolted_policy
+from typing import Any
+
+from noisybolt._moved import moved_attribute
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import (
     ALGORITHMS,
@@ -14,22 +20,15 @@ from noisybolt.agents.hyperparams import (
     load_hyperparams,
     parse_overrides,
 )
-from noisybolt.agents.specs import PAPER_SPECS, resolve_spec
-from noisybolt.agents.training import DetectorConfig, TrainConfig, TrainResult, train
 
 __all__ = [
     "ALGORITHMS",
-    "PAPER_SPECS",
     "BoltFeaturesExtractor",
-    "DetectorConfig",
-    "EpisodeRecord",
-    "EvalResult",
-    "TrainConfig",
-    "TrainResult",
     "algorithm_class",
-    "evaluate_bolted_policy",
     "load_hyperparams",
     "parse_overrides",
-    "resolve_spec",
-    "train",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    return moved_attribute(__name__, name)

@@ -43,7 +43,7 @@ wrong).
 :class:`CounterfactualReplayBuffer` stores the step as SB3 does, then each relabelled copy
 as one more row of the same buffer (the buffer's size counts copies: with ``k`` copies a
 buffer holds ``1 / (1 + k)`` as many of the world's steps). Nothing beside SB3's own arrays
-is stored, so a checkpoint's buffer (:mod:`noisybolt.agents.checkpoints`) resumes with
+is stored, so a checkpoint's buffer (:mod:`noisybolt.runs.checkpoints`) resumes with
 its copies. Its environment is a :class:`~noisybolt.wrappers.BoltVecEnv` built with
 ``transition_records=True`` (``noisybolt train`` does so for ``algorithm.counterfactual``).
 

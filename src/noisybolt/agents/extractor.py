@@ -184,7 +184,7 @@ class BoltFeaturesExtractor(BaseFeaturesExtractor):
 
     #: The dtype the convolutions and the projection compute in under autocast (None:
     #: float32, no autocast); set from ``algorithm.precision`` by
-    #: :func:`noisybolt.agents.models.set_precision`, not saved with the model.
+    #: :func:`noisybolt.runs.models.set_precision`, not saved with the model.
     compute_dtype: torch.dtype | None = None
 
     def __init__(

@@ -82,7 +82,7 @@ SPLIT = "split"
 #: Settings of the world that the per-world files give beside the hyperparameters, as RL
 #: Zoo's files give ``n_envs``: training environments and the Atari conventions
 #: (noisybolt.wrappers.atari, BreakoutWorld.fire_on_reset). A run's config holds them in
-#: its ``world`` section (:class:`~noisybolt.agents.config.WorldConfig`).
+#: its ``world`` section (:class:`~noisybolt.runs.config.WorldConfig`).
 WORLD_KEYS: frozenset[str] = frozenset(
     {"n_envs", "fire_on_reset", "clip_reward", "life_loss_terminal"}
 )

@@ -39,7 +39,7 @@ to float rounding).
 Example (the setting; a run uses it through ``noisybolt train --set world.workers=2
 --set world.overlap=true``):
 
-    >>> from noisybolt.agents.config import TrainConfig
+    >>> from noisybolt.runs.config import TrainConfig
     >>> TrainConfig.build({"world.name": "breakout-ram", "world.workers": 2,
     ...                    "world.overlap": True}).world_config.overlap
     True

@@ -8,7 +8,7 @@ policies are SB3's own, except that observations for a
 :meth:`~noisybolt.agents.extractor.BoltFeaturesExtractor.preprocess`: the same tensors,
 with one scatter for all DFA states. They add no parameters, so a model saved with SB3's
 ``MultiInputPolicy`` loads into them unchanged (its ``policy_class`` entry is rebuilt from
-the run's config, see :func:`noisybolt.agents.models.load_model`).
+the run's config, see :func:`noisybolt.runs.models.load_model`).
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ episode (as the DFA comes to accept, the engine's ``on_change`` timing, or at th
   so each letter closer to acceptance pays about ``scale / (d_max + 1)`` at once.
 
 Which discount: the bolt of ``noisybolt train`` uses ``gamma = 1``
-(:attr:`~noisybolt.agents.training.TrainConfig.progress_gamma`). The scheme's objective is
+(:attr:`~noisybolt.runs.training.TrainConfig.progress_gamma`). The scheme's objective is
 undiscounted (compliance first is a statement about whole episodes), and with ``gamma < 1``
 a state short of acceptance, whose potential is negative, pays ``(1 - gamma) * |Phi|`` for
 every step it is held (Ng's terms then take it back at the end): measured on

@@ -63,14 +63,14 @@ def _checked_detector(kind: str) -> str:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from noisybolt.agents.config import compliance_scale_choice, spec_worths
-    from noisybolt.agents.specs import load_specs_file
-    from noisybolt.agents.training import DetectorConfig, TrainConfig, prepare_bolt
     from noisybolt.envs.registry import DEFAULT_WORLD
     from noisybolt.errors import ConfigError, EstimatedBoundsWarning
     from noisybolt.experiments.checks import goal_feasibility, tabular_settings
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
+    from noisybolt.runs.config import compliance_scale_choice, spec_worths
+    from noisybolt.runs.specs import load_specs_file
+    from noisybolt.runs.training import DetectorConfig, TrainConfig, prepare_bolt
 
     args.world = args.world or DEFAULT_WORLD
     specs: list[Any] = list(args.spec)

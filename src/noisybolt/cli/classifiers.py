@@ -34,7 +34,7 @@ from noisybolt.perception.compat import camera_spec_to_dict
 from noisybolt.perception.dataset import collect_samples, load_dataset, save_dataset
 from noisybolt.perception.metrics import build_report
 from noisybolt.perception.training import TrainingConfig, train_classifier
-from noisybolt.rundir import CLASSIFIER_STAGES, RunDirectory
+from noisybolt.runs.rundir import CLASSIFIER_STAGES, RunDirectory
 
 __all__ = ["register"]
 
@@ -317,7 +317,7 @@ def _report(args: argparse.Namespace) -> int:
                 "report needs --world (or --dataset), or a run directory made by collect"
             )
         if args.world is None:  # read from the directory: its code is not followed unasked
-            from noisybolt.agents.trust import check_code_trusted
+            from noisybolt.runs.trust import check_code_trusted
 
             check_code_trusted(
                 {"world": {"name": world_name}},

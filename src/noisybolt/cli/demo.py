@@ -28,19 +28,19 @@ from typing import Any
 
 import numpy as np
 
-from noisybolt.agents.comparison import (
+from noisybolt.bolt import Band, confidence_bands
+from noisybolt.cli.train import parse_frames, whole_number
+from noisybolt.envs.gridworld import GridAction, GridworldEnv
+from noisybolt.errors import ConfigError, UnknownFluentError
+from noisybolt.experiments.comparison import (
     compare_bolted_unbolted,
     format_comparison,
     spec_text,
     verdict,
 )
-from noisybolt.agents.specs import PAPER_SPECS, resolve_spec
-from noisybolt.bolt import Band, confidence_bands
-from noisybolt.cli.train import parse_frames, whole_number
-from noisybolt.envs.gridworld import GridAction, GridworldEnv
-from noisybolt.errors import ConfigError, UnknownFluentError
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.detectors import BetaNoise, SyntheticDetector
+from noisybolt.runs.specs import PAPER_SPECS, resolve_spec
 from noisybolt.wrappers import RestrainingBoltWrapper
 
 __all__ = [
@@ -163,7 +163,7 @@ def run_training_demo(
     seed: int = 0,
     out: Path | None = None,
 ) -> int:
-    """Runs :func:`~noisybolt.agents.comparison.compare_bolted_unbolted` with the demo's
+    """Runs :func:`~noisybolt.experiments.comparison.compare_bolted_unbolted` with the demo's
     camera and prints the comparison; returns 0."""
     out = out or Path("runs") / time.strftime("demo-%Y%m%d-%H%M%S")
     resolved = resolve_spec(spec)

@@ -46,7 +46,7 @@ def parse_interval(text: str) -> int:
 
 
 #: Each ``noisybolt train`` flag as the schema path it overrides
-#: (:mod:`noisybolt.agents.config`). A flag given is an override of its path, a flag left
+#: (:mod:`noisybolt.runs.config`). A flag given is an override of its path, a flag left
 #: out leaves the schema's default; ``--set PATH=VALUE`` reaches every other path.
 FLAG_PATHS: dict[str, str] = {
     "--world": "world.name",
@@ -364,7 +364,7 @@ class _SpecSetAction(argparse.Action):
     ) -> None:
         import yaml
 
-        from noisybolt.agents.specs import BUILTIN_SPECS, SPEC_FILE_KEYS
+        from noisybolt.runs.specs import BUILTIN_SPECS, SPEC_FILE_KEYS
 
         specs = list(getattr(namespace, self.dest, None) or [])
         if not specs:
@@ -394,7 +394,7 @@ def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
     Raises:
         ConfigError: an unknown path, or a ``--hp``/``--set`` not of the form KEY=VALUE.
     """
-    from noisybolt.agents.specs import load_specs_file
+    from noisybolt.runs.specs import load_specs_file
 
     paths = set(FLAG_PATHS.values())
     overrides = {k: v for k, v in vars(args).items() if k in paths}
@@ -413,13 +413,13 @@ def train_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def config_assignments(assignments: Iterable[tuple[str, str]]) -> dict[str, Any]:
     """``{schema path: value}`` of ``(option, "PATH=VALUE")`` pairs, each value read as
-    the path's setting (:func:`~noisybolt.agents.config.value_from_text`), later pairs
+    the path's setting (:func:`~noisybolt.runs.config.value_from_text`), later pairs
     winning; ``option`` names the flag in errors.
 
     Raises:
         ConfigError: an item not of the form KEY=VALUE, or a value the path refuses.
     """
-    from noisybolt.agents.config import value_from_text
+    from noisybolt.runs.config import value_from_text
 
     out: dict[str, Any] = {}
     for option, item in assignments:
@@ -433,8 +433,8 @@ def config_assignments(assignments: Iterable[tuple[str, str]]) -> dict[str, Any]
 def _default_out(overrides: dict[str, Any]) -> Path:
     """``runs/<world>-<algo>-seed<seed>``, from the options given or the schema's
     defaults (a factory path's ``:`` made a ``.``: it names no folder well)."""
-    from noisybolt.agents.config import TrainConfig
-    from noisybolt.agents.schema import defaults
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.schema import defaults
 
     default = defaults(TrainConfig)
     world = str(overrides.get("world.name", default["world"]["name"]))
@@ -444,8 +444,8 @@ def _default_out(overrides: dict[str, Any]) -> Path:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from noisybolt.agents.training import TrainConfig, train
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.rundir import RunDirectory
+    from noisybolt.runs.training import TrainConfig, train
 
     overrides = train_overrides(args)
     if args.resume:  # the saved run's settings, with the ones given again on top
@@ -526,7 +526,7 @@ def format_eval_table(
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from noisybolt.agents.run_evaluation import evaluate_run
+    from noisybolt.runs.run_evaluation import evaluate_run
 
     overrides: dict[str, Any] = {}
     if args.noise is not None:

@@ -130,10 +130,10 @@ def measure_corners(
     """
     import torch
 
-    from noisybolt.agents.evaluation import EpisodeRecord, evaluate_bolted_policy
-    from noisybolt.agents.run_evaluation import load_run_model
-    from noisybolt.agents.training import TrainConfig, make_env, prepare_bolt
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.evaluation import EpisodeRecord, evaluate_bolted_policy
+    from noisybolt.runs.run_evaluation import load_run_model
+    from noisybolt.runs.rundir import RunDirectory
+    from noisybolt.runs.training import TrainConfig, make_env, prepare_bolt
 
     if episodes < 1:
         raise ConfigError(f"episodes must be >= 1, got {episodes}")
@@ -317,9 +317,9 @@ def reproduce_case4(
         What ``case4.json`` holds: per condition and seed the counts and shares, the
         pooled shares per condition, and the files written.
     """
-    from noisybolt.agents.visualize import trajectory_heatmap
     from noisybolt.experiments.sweeps import run_sweep
     from noisybolt.io import atomic_write_json, atomic_write_text
+    from noisybolt.viz import trajectory_heatmap
 
     sweep = case4_sweep(
         seeds=seeds,
@@ -413,7 +413,7 @@ _SHORTER_ROUTE = {
 
 
 def _markdown(data: dict[str, Any]) -> str:
-    from noisybolt.agents.specs import DEFAULT_COST
+    from noisybolt.runs.specs import DEFAULT_COST
 
     cost = data.get("low_confidence_cost")
     cost = DEFAULT_COST if cost is None else cost

@@ -92,7 +92,7 @@ __all__ = [
 SpecLike = str | Spec | DFA
 
 #: R^c_max as printed in the paper's Table 1, keyed by the names of
-#: :data:`noisybolt.agents.specs.PAPER_SPECS`.
+#: :data:`noisybolt.runs.specs.PAPER_SPECS`.
 PAPER_TABLE1_RC_MAX: dict[str, float] = {
     "edge": 94.0,
     "avoid_top_right": 82.0,
@@ -105,7 +105,7 @@ class SpecOptimum(NamedTuple):
     """One row of :func:`paper_spec_optima`.
 
     Attributes:
-        name: the spec's name in :data:`noisybolt.agents.specs.PAPER_SPECS`.
+        name: the spec's name in :data:`noisybolt.runs.specs.PAPER_SPECS`.
         formula: its LTLf formula.
         result: what :func:`optimal_constrained_return` computes for it alone.
         paper_value: the paper's R^c_max for it (:data:`PAPER_TABLE1_RC_MAX`).
@@ -221,7 +221,7 @@ def paper_spec_optima(
     Arguments are those of :func:`optimal_constrained_return`.
     """
     # Imported here: noisybolt.agents pulls in torch, which planning does not need.
-    from noisybolt.agents.specs import PAPER_SPECS
+    from noisybolt.runs.specs import PAPER_SPECS
 
     rows = []
     for name, paper_value in PAPER_TABLE1_RC_MAX.items():

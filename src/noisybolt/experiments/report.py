@@ -44,7 +44,7 @@ from noisybolt.experiments.reporting import (
 )
 from noisybolt.experiments.sweeps import SWEEP_FILE, TrialDirectory, collect_sweep
 from noisybolt.io import atomic_write_text, read_json
-from noisybolt.rundir import CLASSIFIER_STAGES, RunDirectory
+from noisybolt.runs.rundir import CLASSIFIER_STAGES, RunDirectory
 
 __all__ = [
     "ReportFiles",
@@ -140,7 +140,7 @@ def evaluation_table(
     ``train`` and ``evaluate`` print and what a run's report shows. ``greedy``: whether
     the policy's actions were its most likely ones or sampled (None: not said); the same
     policy can comply greedily and not when sampled, so the table says which."""
-    from noisybolt.agents.evaluation import describe_false_acceptance
+    from noisybolt.runs.evaluation import describe_false_acceptance
 
     episodes = str(final.get("n_episodes", "?"))
     if greedy is not None:
@@ -213,7 +213,7 @@ def run_report(
     """
     run = Path(run_dir)
     saved = read_json(run / "config.json", default=None)
-    from noisybolt.agents.config import nested_config  # the flat configs of older runs too
+    from noisybolt.runs.config import nested_config  # the flat configs of older runs too
 
     config = dict(saved if isinstance(saved, dict) else config or {})
     if not config:

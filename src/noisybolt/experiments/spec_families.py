@@ -162,12 +162,12 @@ def generate_spec_suite(
         ConfigError: fewer than ``n_specs`` specs qualified in ``max_draws`` draws.
     """
     # Imported here: the planner imports the gridworld, which pulls in MiniGrid.
-    from noisybolt.agents.specs import PAPER_SPECS
     from noisybolt.envs.gridworld import GRIDWORLD_FLUENTS
     from noisybolt.experiments.optimal import (
         optimal_constrained_return,
         optimal_unconstrained_return,
     )
+    from noisybolt.runs.specs import PAPER_SPECS
 
     shortest = optimal_unconstrained_return(require_goal=True)
     paper = [compile_ltlf(f, GRIDWORLD_FLUENTS) for f in PAPER_SPECS.values() if "brick" not in f]

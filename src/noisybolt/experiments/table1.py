@@ -101,7 +101,7 @@ class PaperNumbers:
 
 @dataclass(frozen=True)
 class Table1Row:
-    """A row to reproduce: a spec of :data:`~noisybolt.agents.specs.PAPER_SPECS` and an
+    """A row to reproduce: a spec of :data:`~noisybolt.runs.specs.PAPER_SPECS` and an
     algorithm, with the paper's numbers."""
 
     name: str
@@ -112,7 +112,7 @@ class Table1Row:
     @property
     def formula(self) -> str:
         """The spec's LTLf formula."""
-        from noisybolt.agents.specs import PAPER_SPECS
+        from noisybolt.runs.specs import PAPER_SPECS
 
         return PAPER_SPECS[self.spec]
 
@@ -203,7 +203,7 @@ def table1_sweep(
         cpus_per_trial: CPUs reserved per trial on Ray.
         keep_best: each seed's final model is its periodic evaluation with the best
             shaped return (env + bolt, as the bolt sees it; see
-            :class:`~noisybolt.agents.training.TrainConfig`), not its last.
+            :class:`~noisybolt.runs.training.TrainConfig`), not its last.
         stop_after: each seed stops once this many evaluations in a row have >= 95% of
             their episodes at the goal and complying (0: every seed trains its budget).
         tracking: the bolt's DFA tracking: ``threshold`` (Algorithm 1, the paper's) or
@@ -357,7 +357,7 @@ def _rc_max(formula: str, world_kwargs: dict[str, Any]) -> float | None:
 
 def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
     """The table's entries from a collected sweep (rows in the paper's order)."""
-    from noisybolt.agents.config import nested_config  # flat configs of older runs too
+    from noisybolt.runs.config import nested_config  # flat configs of older runs too
 
     by_group = {g.group: g for g in sweep_result.groups}
     entries = []
@@ -584,7 +584,7 @@ def write_table1(
 
 
 def _settings_from(root: Path, result: Any) -> dict[str, Any]:
-    from noisybolt.agents.config import nested_config
+    from noisybolt.runs.config import nested_config
 
     sweep = read_json(root / "sweep.json", default={})
     trials = sweep.get("trials") or [{}]

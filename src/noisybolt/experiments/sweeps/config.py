@@ -1,11 +1,11 @@
 """A sweep's grid: named rows and settings axes, each a set of overrides of one run config.
 
 The settings of ``base``, a row or an axis are paths of the run's config schema
-(:mod:`noisybolt.agents.config`: ``bolt.tracking``, ``world.kwargs.noise``,
+(:mod:`noisybolt.runs.config`: ``bolt.tracking``, ``world.kwargs.noise``,
 ``algorithm.hyperparams.gamma``), given dotted or as nested mappings; the flat names of
 older sweep files (``eval_freq``, ``world_kwargs.noise``, ``algo``) read as their paths.
 The schema types and checks them, and the sweep file's own keys are a frozen dataclass
-loaded by the same strict loader (:mod:`noisybolt.agents.schema`): no type table here.
+loaded by the same strict loader (:mod:`noisybolt.runs.schema`): no type table here.
 Seeds are an axis of their own (``seeds``), not a setting.
 """
 
@@ -26,7 +26,7 @@ import yaml
 from noisybolt.errors import ConfigError, NoisyboltError
 
 if TYPE_CHECKING:  # training pulls in torch: imported only where trials are built
-    from noisybolt.agents.training import TrainConfig
+    from noisybolt.runs.training import TrainConfig
 
 __all__ = ["SweepConfig", "Trial", "builtin_sweeps", "load_sweep"]
 
@@ -86,7 +86,7 @@ class _SweepFile:
 
 def _block(block: Mapping[str, Any], where: str) -> dict[str, Any]:
     """Settings as ``{schema path: value}``, each checked against its path's type."""
-    from noisybolt.agents.config import checked_value, override_paths
+    from noisybolt.runs.config import checked_value, override_paths
 
     try:
         paths = override_paths(block)
@@ -147,7 +147,7 @@ class SweepConfig:
         Raises:
             ConfigError: unknown keys, wrong types or impossible values, naming the row.
         """
-        from noisybolt.agents.schema import load
+        from noisybolt.runs.schema import load
 
         sweep = load(_SweepFile, data)
         sweep_name = sweep.name or name or "sweep"
@@ -236,9 +236,9 @@ def _slug(value: Any) -> str:
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
     """A trial's config, resolved as every door resolves one
-    (:func:`~noisybolt.agents.config.resolve`: the compliance scale a ``noisybolt train``
+    (:func:`~noisybolt.runs.config.resolve`: the compliance scale a ``noisybolt train``
     of the same settings pays, exact on a tabular product, unless the settings give one)."""
-    from noisybolt.agents.training import TrainConfig
+    from noisybolt.runs.training import TrainConfig
 
     if "bolt.specs" not in settings:
         raise ConfigError(f"{where}: no specs (set 'bolt.specs' in the row or in 'base')")

@@ -17,7 +17,7 @@ from noisybolt.experiments.sweeps.config import SweepConfig
 from noisybolt.experiments.sweeps.results import SweepResult, TrialRecord
 from noisybolt.experiments.sweeps.trials import TrialDirectory, TrialTask, attempt, run_trial
 from noisybolt.io import atomic_write_json, read_json
-from noisybolt.rundir import RunDirectory
+from noisybolt.runs.rundir import RunDirectory
 
 __all__ = ["BACKENDS", "SWEEP_FILE", "collect_sweep", "longest_first", "run_sweep"]
 
@@ -52,7 +52,7 @@ def run_sweep(
             holding a run with other settings; raised before any trial runs.
         BackendUnavailableError: Ray is needed (``ray``, or ``workers > 1``) and not installed.
     """
-    from noisybolt.agents.training import check_same_config
+    from noisybolt.runs.training import check_same_config
 
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; known backends: {list(BACKENDS)}")
@@ -145,7 +145,7 @@ def _tasks(root: Path, sweep: Mapping[str, Any], argv: Sequence[str] = ()) -> li
 
 def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -> None:
     """Trains each cached classifier once, before trials run in parallel."""
-    from noisybolt.agents.training import prepare_bolt
+    from noisybolt.runs.training import prepare_bolt
 
     configs = [t.config for t in tasks]
     for c in {repr((c.world, c.world_kwargs, c.detector)): c for c in configs}.values():

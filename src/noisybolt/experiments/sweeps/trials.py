@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING, Any
 from noisybolt.errors import CorruptFileError, NoCheckpointError
 from noisybolt.experiments.sweeps.results import TrialRecord
 from noisybolt.io import atomic_write_json, read_json
-from noisybolt.rundir import RunDirectory
+from noisybolt.runs.rundir import RunDirectory
 
 if TYPE_CHECKING:
-    from noisybolt.agents.config import TrainConfig
+    from noisybolt.runs.config import TrainConfig
 
 __all__ = ["TrialDirectory", "TrialTask", "attempt", "run_trial"]
 
@@ -57,7 +57,7 @@ class TrialDirectory(RunDirectory):
     def checkpoint_frames(self) -> int | None:
         """The frames of the run's latest checkpoint (None: it has none): a trial stopped
         mid-run (a signal, a lost machine) resumes from there when the sweep runs again."""
-        from noisybolt.agents.checkpoints import latest_checkpoint
+        from noisybolt.runs.checkpoints import latest_checkpoint
 
         try:
             return latest_checkpoint(self).frames
@@ -84,7 +84,7 @@ class TrialTask:
     @property
     def config(self) -> TrainConfig:
         """The trial's training config."""
-        from noisybolt.agents.config import TrainConfig
+        from noisybolt.runs.config import TrainConfig
 
         return TrainConfig.from_dict(self.trial["config"])
 
@@ -138,7 +138,7 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
     finished trial is left untouched; ``log`` defaults to the run's ``log.txt``."""
     import torch
 
-    from noisybolt.agents import run_evaluation, training
+    from noisybolt.runs import run_evaluation, training
 
     torch.set_num_threads(1)  # one thread per trial: parallel trials share the cores
     folder, config, start = TrialDirectory(task.run_dir), task.config, time.perf_counter()
@@ -160,8 +160,6 @@ def run_trial(task: TrialTask, *, log: Callable[[str], None] | None = None) -> T
     if task.final_eval_episodes > 0:
         # The run's config is the sweep's own (checked equal to it before any trial ran):
         # the code it names is the sweep's author's, given in the sweep file.
-        run_evaluation.evaluate_run(
-            folder.path, episodes=task.final_eval_episodes, trust_code=True
-        )
+        run_evaluation.evaluate_run(folder.path, episodes=task.final_eval_episodes, trust_code=True)
     folder.end(time.perf_counter() - start)
     return task.record()

@@ -1,0 +1,185 @@
+"""The world work behind resolving a run's config: what only playing the world can tell.
+
+:func:`noisybolt.runs.config.resolve` (the one resolver every door calls: ``train()``,
+``noisybolt train``, ``noisybolt check``, sweeps and ``reproduce``) asks two things of
+the world, answered here from its name and settings, never from the config object
+itself (a config is data; this module does not import it):
+
+- :func:`small_integer_image_top`: whether a user's world's uint8 "images" are small
+  integers (MiniGrid's symbolic grid) rather than pixels;
+- :func:`choose_compliance_scale`: the ``compliance`` scheme's scale: exact on the
+  product of a tabular world and the specs' DFAs (:mod:`noisybolt.bolt.product`), else
+  from the world's declared return bounds, else from bounds estimated by seeded random
+  play (with an :class:`~noisybolt.errors.EstimatedBoundsWarning`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, NamedTuple
+
+import gymnasium as gym
+import numpy as np
+
+from noisybolt.bolt import compliance_scale
+from noisybolt.bolt.product import exact_compliance_scale
+from noisybolt.envs import make_world
+from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
+from noisybolt.envs.gridworld_tabular import tabular_model
+from noisybolt.errors import EstimatedBoundsWarning
+from noisybolt.logic import compile_ltlf
+
+__all__ = [
+    "ESTIMATE_STEPS",
+    "EXACT_FLOOR_SHARE",
+    "SMALL_INTEGER_IMAGE_MAX",
+    "ScaleChoice",
+    "choose_compliance_scale",
+    "small_integer_image_top",
+]
+
+#: The largest value an image observation may show in random play and still be read as
+#: small integers (MiniGrid's symbolic grid: object, colour and state indices, <= 10),
+#: not as pixels.
+SMALL_INTEGER_IMAGE_MAX = 31
+#: Random-play steps (8 envs together) behind a world's estimated return bounds.
+ESTIMATE_STEPS = 4096
+#: The exact scale's floor, as a share of the width of the world's returns: what a spec
+#: the shortest route already follows is still paid for staying on it.
+EXACT_FLOOR_SHARE = 0.1
+
+
+def small_integer_image_top(world: str, world_kwargs: Mapping[str, Any]) -> int | None:
+    """The largest value a world's uint8 ``[H, W, C]`` image observation shows at reset
+    and in 64 steps of seeded random play (2 envs); None for any other observation.
+
+    SB3 takes any uint8 ``[H, W, C]`` Box for pixels and divides it by 255; MiniGrid's
+    symbolic grid divided so reaches the network as values under 0.04, and PPO then
+    barely learns (the MiniGrid example reached goal and compliance 100 % at 40k frames
+    with the integers kept). A top of at most :data:`SMALL_INTEGER_IMAGE_MAX` means the
+    integers should be kept.
+    """
+    probe: Any = make_world(world, num_envs=2, seed=0, **world_kwargs)
+    try:
+        space = probe.single_observation_space
+        if not (
+            isinstance(space, gym.spaces.Box) and space.dtype == np.uint8 and len(space.shape) == 3
+        ):
+            return None
+        obs, _ = probe.reset(seed=0)
+        probe.action_space.seed(0)
+        top = int(np.max(obs))
+        for _ in range(64):
+            obs, *_ = probe.step(probe.action_space.sample())
+            top = max(top, int(np.max(obs)))
+        return top
+    finally:
+        probe.close()
+
+
+class ScaleChoice(NamedTuple):
+    """The ``compliance`` scheme's scale for a run, and where it came from.
+
+    Attributes:
+        scale: what each spec's acceptance is worth.
+        bound: the scale from the world's return bounds (declared, or estimated by random
+            play): enough whatever the world, and the cap of the exact scale.
+        exact: ``scale`` was computed on the product of the tabular world and the specs'
+            DFAs (:func:`noisybolt.bolt.product.exact_compliance_scale`).
+        estimated: the bounds behind ``bound`` were estimated by random play.
+    """
+
+    scale: float
+    bound: float
+    exact: bool
+    estimated: bool
+
+
+def choose_compliance_scale(
+    world: str,
+    settings: Mapping[str, Any],
+    *,
+    formulas: Sequence[str],
+    gamma: float,
+    pay_on_change: bool,
+    clipped: bool = False,
+    check: Callable[[Any], None] | None = None,
+) -> ScaleChoice:
+    """The ``compliance`` scale of a run on ``world`` (built with ``settings``).
+
+    Exact on the product where the world is tabular (the gridworld) and a compliant
+    episode reaches its goal; else :func:`~noisybolt.bolt.compliance_scale` of the
+    world's declared return bounds; else of bounds estimated by seeded random play, with
+    an :class:`~noisybolt.errors.EstimatedBoundsWarning`.
+
+    With ``clipped`` (``world.clip_reward``) the learner is paid the game's rewards
+    clipped to their sign, so the bounds are those of the clipped return (Breakout: 0 to
+    216 bricks, not its 864 points), and the product (which plans on the world's own
+    rewards) is not used.
+
+    Args:
+        world: the world's name or factory path.
+        settings: what the world is built with (``world.kwargs`` and its conventions).
+        formulas: the specs' LTLf formulas.
+        gamma: the learner's discount (the exact scale makes its optimum comply).
+        pay_on_change: the scheme's timing (``bolt.pay_on_change``).
+        clipped: the learner is paid rewards clipped to their sign.
+        check: called with the built world before anything costly (random play, the
+            product): the run's cheap checks (:func:`~noisybolt.runs.world_checks.
+            check_world_fits`), so a spec or a space that cannot run is refused first.
+    """
+    probe: Any = make_world(world, num_envs=1, seed=0, **settings)
+    try:
+        if check is not None:
+            check(probe)
+        bounds = world_return_bounds(probe, clipped=clipped)
+        model = None if clipped else tabular_model(probe)
+        fluents = tuple(probe.fluent_names)
+    finally:
+        probe.close()
+    estimated = bounds is None
+    if bounds is None:
+        bounds = _estimated_bounds(world, settings, clipped=clipped)
+    bound = compliance_scale(bounds)
+    if model is None:
+        return ScaleChoice(scale=bound, bound=bound, exact=False, estimated=estimated)
+    exact = exact_compliance_scale(
+        model,
+        [compile_ltlf(formula, fluents) for formula in formulas],
+        gamma=gamma,
+        floor=EXACT_FLOOR_SHARE * bounds.width if bounds.width > 0 else 1.0,
+        cap=bound,
+        pay_on_change=pay_on_change,
+    )
+    if exact is None:  # no compliant episode reaches the goal: the bound stands
+        return ScaleChoice(scale=bound, bound=bound, exact=False, estimated=estimated)
+    return ScaleChoice(scale=exact, bound=bound, exact=True, estimated=estimated)
+
+
+def _estimated_bounds(world: str, settings: Mapping[str, Any], *, clipped: bool) -> Any:
+    """Bounds on a world's returns from seeded random play, said so in a warning.
+
+    A user's env rarely knows its bounds; refusing to train would send every new user to
+    a flag. Random play's returns are an estimate, said so, not a bound."""
+    env: Any = make_world(world, num_envs=8, seed=0, **settings)
+    try:
+        estimate = estimate_return_bounds(env, steps=ESTIMATE_STEPS, seed=0, clipped=clipped)
+    finally:
+        env.close()
+    if clipped:
+        what = "its episodes' returns with the rewards clipped to their sign (world.clip_reward)"
+        advice = "pass --reward-scale S (S above the widest gap between two episodes' "
+        advice += "clipped returns)"
+    else:
+        what = "its episodes' returns"
+        advice = "declare the bounds (FluentLabels(..., return_bounds=(least, most))) or "
+        advice += "pass --reward-scale S (S above the widest gap between two episodes' returns)"
+    warnings.warn(
+        f"the {world!r} world declares no bounds on {what}; the compliance scale "
+        f"{compliance_scale(estimate.bounds):g} rests on bounds {estimate.describe()}. A "
+        f"trained agent may return more than random play: {advice}",
+        EstimatedBoundsWarning,
+        stacklevel=4,
+    )
+    return estimate.bounds
