@@ -236,8 +236,8 @@ def setting_parts(
     name: str, seed: int, n_envs: int, breakout_world: str = "breakout-ram"
 ) -> tuple[Any, Any, tuple[Spec, ...], int, tuple[str, ...]]:
     """``(world, detector, specs, n_actions, monotone fluents)`` of a setting."""
-    from noisybolt.agents.training import DetectorConfig, make_detector
     from noisybolt.envs import make_world
+    from noisybolt.runs.training import DetectorConfig, make_detector
 
     if name.startswith("grid"):
         noise = "regional" if name == "grid-smudge" else "none"
@@ -255,7 +255,7 @@ def setting_parts(
                 log=lambda _: None,
             )
         return world, detector, GRID_SPECS, 3, ()
-    from noisybolt.agents.specs import expand_specs, resolve_spec
+    from noisybolt.runs.specs import expand_specs, resolve_spec
 
     noise = BREAKOUT_CAMERAS[name]
     kwargs: dict[str, Any] = {"noise": noise, "fire_on_reset": True}
@@ -281,10 +281,10 @@ def agent_play(run_dir: str, noise: str, seed: int, n_envs: int) -> tuple[Any, t
     it plays as it would with a bolt that never errs; the camera under test only watches.
     Actions are sampled, as the runs' evaluations do.
     """
-    from noisybolt.agents.run_evaluation import load_run_model
-    from noisybolt.agents.training import TrainConfig, make_env
     from noisybolt.perception.detectors import OracleDetector
-    from noisybolt.rundir import RunDirectory
+    from noisybolt.runs.run_evaluation import load_run_model
+    from noisybolt.runs.rundir import RunDirectory
+    from noisybolt.runs.training import TrainConfig, make_env
 
     run = RunDirectory(run_dir)
     config = TrainConfig.from_dict(run.read_config()).override({"world.kwargs.noise": noise})

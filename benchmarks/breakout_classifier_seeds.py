@@ -38,12 +38,12 @@ from typing import Any
 
 import numpy as np
 
-from noisybolt.agents.detectors import DetectorConfig, make_detector
-from noisybolt.agents.specs import expand_specs, resolve_spec
 from noisybolt.envs import make_world
 from noisybolt.perception.base_rates import belief_settings_from_play
 from noisybolt.perception.dataset import collect_samples
 from noisybolt.perception.metrics import build_report
+from noisybolt.runs.detectors import DetectorConfig, make_detector
+from noisybolt.runs.specs import expand_specs, resolve_spec
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its sibling, when loaded by path
 import belief_tracking as bt  # the recording and the replay

@@ -31,10 +31,10 @@ import numpy as np
 import torch
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor
 
-from noisybolt.agents.evaluation import evaluate_bolted_policy
-from noisybolt.agents.specs import expand_specs, resolve_spec
-from noisybolt.agents.training import DetectorConfig, make_detector
 from noisybolt.envs import SB3VecEnv, make_world
+from noisybolt.runs.evaluation import evaluate_bolted_policy
+from noisybolt.runs.specs import expand_specs, resolve_spec
+from noisybolt.runs.training import DetectorConfig, make_detector
 from noisybolt.wrappers import BoltVecEnv
 
 DEFAULT_NOISES = ("none", "gaussian:sigma=50", "gaussian:sigma=40+occlusion:count=2,size=0.25")

@@ -59,13 +59,13 @@ from stable_baselines3.common.vec_env import VecMonitor
 
 from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
-from noisybolt.agents.models import compute_dtype, set_precision
-from noisybolt.agents.specs import expand_specs, resolve_spec
-from noisybolt.agents.training import classifier_architecture
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.breakout import BreakoutWorld
 from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.models import compute_dtype, set_precision
+from noisybolt.runs.specs import expand_specs, resolve_spec
+from noisybolt.runs.training import classifier_architecture
 from noisybolt.wrappers import BoltVecEnv
 
 N_ENVS = 8

@@ -1,7 +1,7 @@
 """The gridworld's on-the-fly classifier: cheaper trunks against the current one.
 
 Each architecture is trained exactly as ``noisybolt train`` trains the cached classifier
-(:func:`noisybolt.agents.detectors.make_detector`: 4,000 images collected from the
+(:func:`noisybolt.runs.detectors.make_detector`: 4,000 images collected from the
 gridworld with its default ``regional`` noise by 16 environments, 30 epochs, data and
 training seeded by the detector's seed), for several seeds, then reported on a fresh
 test set of the same camera (its own seed): per fluent accuracy, AUROC, expected

@@ -3,7 +3,7 @@
 Generates the suite (:func:`noisybolt.experiments.spec_families.generate_spec_suite`:
 Dwyer et al.'s patterns over the gridworld's fluents, each with a compliant route to the
 goal, fixed by ``--suite-seed``), trains every (spec, algorithm, seed, scheme) with
-``noisybolt.agents.training.train`` and the built-in hyperparameters, the classifier bolt
+``noisybolt.runs.training.train`` and the built-in hyperparameters, the classifier bolt
 on the regionally smudged camera, and judges compliance from ground truth. Prints, per
 algorithm and scheme, per pattern family: specs followed (>= 95 % compliance in every
 seed), goal rate, mean return against R^c_max, N_frames; then one summary line per
@@ -58,8 +58,8 @@ SCHEMES = {
 
 
 def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> Any:
-    from noisybolt.agents.training import DetectorConfig, TrainConfig
     from noisybolt.experiments.checks import with_exact_scale
+    from noisybolt.runs.training import DetectorConfig, TrainConfig
 
     config = TrainConfig.create(
         world="gridworld",
@@ -90,7 +90,7 @@ def run_trial(
     """Trains one trial (unless finished) and returns its record (None: not run, collecting)."""
     import torch
 
-    from noisybolt.agents.training import train
+    from noisybolt.runs.training import train
 
     torch.set_num_threads(1)
     out = Path(args.out) / scheme / algo / spec.name / f"seed{seed}"
@@ -314,7 +314,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if (
         args.detector == "classifier" and not args.collect
     ):  # train the cached classifier once, not per worker
-        from noisybolt.agents.training import prepare_bolt
+        from noisybolt.runs.training import prepare_bolt
 
         prepare_bolt(trial_config(suite[0], algos[0], 0, schemes[0], args), seed=0)
     pairs = [(scheme, algo) for scheme in schemes for algo in algos]

@@ -249,10 +249,10 @@ class ImageOnly(VecEnvWrapper):
 
 
 def _noisybolt_env(bolted: bool, n_envs: int, seed: int, *, training: bool) -> VecEnv:
-    from noisybolt.agents.specs import resolve_spec
-    from noisybolt.agents.training import DetectorConfig, make_detector
     from noisybolt.bolt import RewardScheme
     from noisybolt.envs import SB3VecEnv, make_world
+    from noisybolt.runs.specs import resolve_spec
+    from noisybolt.runs.training import DetectorConfig, make_detector
     from noisybolt.wrappers import BoltVecEnv
 
     noise = "regional" if bolted else "none"
@@ -318,10 +318,10 @@ class _EvaluateEvery(BaseCallback):
 def run_noisybolt(bolted: bool, seed: int, budget: int, n_envs: int | None = None) -> Outcome:
     """noisybolt PPO, (a) unbolted or (c) with the classifier bolt, until solved; on
     ``n_envs`` environments (default: the tuned setting, 8)."""
-    from noisybolt.agents.evaluation import evaluate_bolted_policy
     from noisybolt.agents.extractor import BoltFeaturesExtractor
     from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
     from noisybolt.agents.policies import BoltActorCriticPolicy
+    from noisybolt.runs.evaluation import evaluate_bolted_policy
 
     params = load_hyperparams("gridworld", "ppo")
     env = VecNormalize(

@@ -2,7 +2,7 @@
 
 Each world of ``unseen_worlds.WORLDS`` (Gymnasium envs noisybolt was not written for,
 labelled as a user would label them, no return bounds declared unless said) is trained
-with ``noisybolt.agents.training.train`` exactly as ``noisybolt train --world
+with ``noisybolt.runs.training.train`` exactly as ``noisybolt train --world
 unseen_worlds:NAME --spec S`` trains it: the fallback hyperparameters
 (``configs/hyperparams/_default.yaml``), the default ``compliance`` reward scheme, a
 synthetic noisy detector (``--detector``; the classifier works too, slower), the model
@@ -43,9 +43,9 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
     """Trains one trial (unless finished) and returns its record (None: collecting only)."""
     import torch
 
-    from noisybolt.agents.config import nested_config
     from noisybolt.agents.hyperparams import parse_overrides
-    from noisybolt.agents.training import DetectorConfig, TrainConfig, train
+    from noisybolt.runs.config import nested_config
+    from noisybolt.runs.training import DetectorConfig, TrainConfig, train
 
     torch.set_num_threads(1)
     os.chdir(HERE)  # factory paths resolve from the folder holding unseen_worlds.py
@@ -102,7 +102,7 @@ WORLD_SPECS: dict[str, tuple[str, ...]] = {}
 
 def settings_from(texts: Sequence[str]) -> dict[str, Any]:
     """``--set PATH=VALUE`` as the schema paths and values ``TrainConfig.create`` takes."""
-    from noisybolt.agents.config import value_from_text
+    from noisybolt.runs.config import value_from_text
 
     settings: dict[str, Any] = {}
     for text in texts:

@@ -66,9 +66,9 @@ def _copy(source: Path, target: Path) -> None:
 def classifier_file(config: dict[str, Any]) -> Path | None:
     """The cached on-the-fly classifier a run's config uses (None: oracle, synthetic or a
     classifier file named in the config, which is kept wherever it is)."""
-    from noisybolt.agents import TrainConfig
-    from noisybolt.agents.training import classifier_architecture, default_classifier_path
     from noisybolt.envs import make_world
+    from noisybolt.runs import TrainConfig
+    from noisybolt.runs.training import classifier_architecture, default_classifier_path
 
     detector = config.get("detector") or {}
     if detector.get("kind", "classifier") != "classifier" or detector.get("path"):
@@ -253,7 +253,7 @@ def stop(pids: Path, *, wait_s: float = 600.0) -> list[int]:
 
 
 def _agent(config: dict[str, Any]) -> str:
-    from noisybolt.agents.config import nested_config
+    from noisybolt.runs.config import nested_config
 
     config = nested_config(config)  # the flat configs of older runs too
     world = str(config["world"].get("name", ""))
@@ -265,7 +265,7 @@ def _agent(config: dict[str, Any]) -> str:
 
 def summary_entry(run: Path) -> dict[str, Any] | None:
     """One run's entry of ``summary.json`` (None for a run with no evaluation yet)."""
-    from noisybolt.agents.config import nested_config
+    from noisybolt.runs.config import nested_config
 
     config = nested_config(json.loads((run / "config.json").read_text()))  # flat ones too
     metrics = (
@@ -302,7 +302,7 @@ def summary_entry(run: Path) -> dict[str, Any] | None:
 def _frames_before(run: Path) -> int:
     """Frames the run's network had trained before the run (``--init-from``: its source's,
     read from the copy ``init_model.zip``; 0 for a run from random weights)."""
-    from noisybolt.agents.models import read_model_data
+    from noisybolt.runs.models import read_model_data
 
     init = run / "init_model.zip"
     return int(read_model_data(init).get("num_timesteps", 0)) if init.exists() else 0

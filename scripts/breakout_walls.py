@@ -29,12 +29,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from noisybolt.agents.config import TrainConfig
-from noisybolt.agents.environments import make_env, prepare_bolt
-from noisybolt.agents.evaluation import episode_targets
-from noisybolt.agents.run_evaluation import load_run_model
 from noisybolt.envs.breakout import BRICK_ROWS, bricks_present
-from noisybolt.rundir import RunDirectory
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.environments import make_env, prepare_bolt
+from noisybolt.runs.evaluation import episode_targets
+from noisybolt.runs.run_evaluation import load_run_model
+from noisybolt.runs.rundir import RunDirectory
 
 #: The worlds whose games are Breakout's (the image agent's and the RAM agent's).
 BREAKOUT_WORLDS = ("breakout", "breakout-ram")
