@@ -24,6 +24,7 @@ __all__ = [
     "FluentFunctionError",
     "IncompatibleError",
     "LargeCameraWarning",
+    "MissingErrorModelError",
     "NoCheckpointError",
     "NoEvaluationWarning",
     "NoisyboltError",
@@ -208,6 +209,12 @@ class ConfidenceLevelError(ConfigError):
 class BaseRateError(ConfigError):
     """A fluent's base rate (its frequency in play or in a detector's training set) is not
     a number in [0, 1]."""
+
+
+class MissingErrorModelError(ConfigError):
+    """A compliance estimate was asked of a detector whose error rates were never measured
+    (no held-out measurements recorded with it) and no labelled images were given to
+    measure them on."""
 
 
 class RunLockedError(ConfigError):

@@ -332,6 +332,34 @@ def register(subparsers: Any) -> None:
         "factory path); only for a run whose author you trust. Without it such a run is "
         "refused before anything is imported",
     )
+    evaluate.add_argument(
+        "--no-ground-truth",
+        action="store_true",
+        help="read no ground truth: report each spec's compliance estimated from the bolt's "
+        "own evidence (its detector's outputs and measured error rates) with a 90%% "
+        "interval, and nothing judged from the truth",
+    )
+    evaluate.add_argument(
+        "--no-estimate",
+        action="store_true",
+        help="skip the compliance estimate (with ground truth it is printed beside the truth)",
+    )
+    evaluate.add_argument(
+        "--labelled",
+        type=Path,
+        default=None,
+        metavar="DATASET",
+        help="labelled images (a dataset file of `noisybolt classifiers collect`) to measure "
+        "the detector's error rates on; default: those its classifier recorded, else "
+        "images collected from the world",
+    )
+    evaluate.add_argument(
+        "--reliability",
+        type=Path,
+        default=None,
+        help="where to draw the estimate's reliability diagram (PNG; with ground truth); "
+        "default: compliance-reliability.png in the run directory",
+    )
     evaluate.set_defaults(func=_evaluate)
 
 
@@ -547,8 +575,17 @@ def _evaluate(args: argparse.Namespace) -> int:
         heatmap_episodes=args.episodes,
         overrides=overrides or None,
         trust_code=args.trust_code,
+        estimate=not args.no_estimate,
+        ground_truth=not args.no_ground_truth,
+        labelled=args.labelled,
+        reliability=args.reliability,
     )
-    print(format_eval_table(report.result.to_dict(), greedy=not args.stochastic))
+    print(format_eval_table(report.summary(), greedy=not args.stochastic))
+    if report.compliance is not None:
+        title = "compliance estimated from the bolt's evidence"
+        if report.ground_truth:
+            title += ", beside the truth"
+        print(f"\n{title}:\n{report.compliance.format_table()}")
     for label, path in report.files.items():
         print(f"{label}: {path}")
     return 0

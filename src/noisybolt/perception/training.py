@@ -41,6 +41,7 @@ from noisybolt.perception.classifier import (
     images_to_tensor,
 )
 from noisybolt.perception.dataset import FluentDataset, LabelCounts
+from noisybolt.perception.error_model import ERROR_MODEL_NOTE, measure_error_model
 from noisybolt.perception.metrics import ClassifierReport, build_report
 
 __all__ = [
@@ -286,6 +287,11 @@ def _train(
         "validation_accuracy": dict(
             zip(dataset.fluent_names, history[-1].validation_accuracy, strict=True)
         ),
+        # The confusion per confidence band on the same held-out images: what compliance
+        # estimates weigh the detector's outputs by (noisybolt.perception.error_model).
+        ERROR_MODEL_NOTE: measure_error_model(
+            val_probs, val_part.labels, fluent_names=dataset.fluent_names
+        ).to_dict(),
     }
     detector = ClassifierDetector(
         model=model.eval(),

@@ -158,6 +158,19 @@ def episode_targets(n_episodes: int, n_envs: int) -> np.ndarray:
     return np.array([(n_episodes + i) // n_envs for i in range(n_envs)], dtype=int)
 
 
+def _bolt_vec_env(env: VecEnv) -> Any:
+    """The :class:`~noisybolt.wrappers.BoltVecEnv` under ``env``'s VecEnv wrappers (its
+    ``reset_infos`` hold the episodes' first frames; a wrapper keeps its own)."""
+    from noisybolt.wrappers import BoltVecEnv
+
+    inner: Any = env
+    while not isinstance(inner, BoltVecEnv):
+        if not hasattr(inner, "venv"):
+            raise TypeError(f"{type(env).__name__} wraps no BoltVecEnv: no detector outputs")
+        inner = inner.venv
+    return inner
+
+
 def evaluate_bolted_policy(
     predict: Predict,
     env: VecEnv,
@@ -166,6 +179,7 @@ def evaluate_bolted_policy(
     spec_names: Sequence[str],
     on_step: Callable[[VecEnv, np.ndarray], None] | None = None,
     on_episode: Callable[[int, EpisodeRecord], None] | None = None,
+    traces: list[np.ndarray] | None = None,
 ) -> EvalResult:
     """Runs ``n_episodes`` on a bolted ``VecEnv`` and summarises them.
 
@@ -182,6 +196,10 @@ def evaluate_bolted_policy(
             ``(env, dones)``: to follow what the episodes go through (e.g. positions).
         on_episode: called with ``(env_index, record)`` for every episode recorded, in
             the order of the result's ``episodes``.
+        traces: a list to which every recorded episode's detector probabilities are
+            appended (float64 ``[T, n_fluents]``, row 0 its first observation), in the
+            order of the result's ``episodes``: what a compliance estimate reads
+            (:mod:`noisybolt.runs.compliance`).
     """
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
@@ -195,6 +213,10 @@ def evaluate_bolted_policy(
     lengths = np.zeros(n_envs, dtype=int)
     episodes: list[EpisodeRecord] = []
     obs = env.reset()
+    bolt_env = _bolt_vec_env(env) if traces is not None else None
+    frames: list[list[np.ndarray]] = [[] for _ in range(n_envs)]
+    if bolt_env is not None:
+        frames = [[np.asarray(info["fluent_probs"])] for info in bolt_env.reset_infos]
     if on_step is not None:
         on_step(env, np.zeros(n_envs, dtype=bool))
     while (counts < targets).any():
@@ -206,6 +228,8 @@ def evaluate_bolted_policy(
             env_ret[i] += info["env_reward"]
             bolt_ret[i] += info["bolt_reward"]
             lengths[i] += 1
+            if bolt_env is not None:
+                frames[i].append(np.asarray(info["fluent_probs"]))
             if not dones[i]:
                 continue
             if counts[i] < targets[i]:
@@ -223,6 +247,10 @@ def evaluate_bolted_policy(
                 )
                 if on_episode is not None:
                     on_episode(i, episodes[-1])
+                if traces is not None:
+                    traces.append(np.stack(frames[i]).astype(np.float64))
                 counts[i] += 1
             env_ret[i] = bolt_ret[i] = lengths[i] = 0
+            if bolt_env is not None:
+                frames[i] = [np.asarray(bolt_env.reset_infos[i]["fluent_probs"])]
     return summarise(episodes, spec_names)

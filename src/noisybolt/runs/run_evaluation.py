@@ -19,18 +19,20 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
-from noisybolt.runs.environments import BoltSetup
-from noisybolt.runs.evaluation import EvalResult, evaluate_bolted_policy
-from noisybolt.runs.training import TrainConfig, make_env, prepare_bolt
 from noisybolt.bolt import Thresholds
 from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import make_single_world, world_display
 from noisybolt.errors import ConfigError
 from noisybolt.io import atomic_write_json
+from noisybolt.runs.compliance import ComplianceReport
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.environments import BoltSetup, make_env, prepare_bolt
+from noisybolt.runs.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.runs.rundir import RunDirectory
 
 __all__ = ["RunEvaluation", "evaluate_run", "load_run_model"]
@@ -38,10 +40,28 @@ __all__ = ["RunEvaluation", "evaluate_run", "load_run_model"]
 
 @dataclass(frozen=True)
 class RunEvaluation:
-    """The evaluation of a run and the files it wrote (label → path)."""
+    """The evaluation of a run and the files it wrote (label → path).
+
+    ``compliance`` is the compliance estimated from the bolt's evidence (None when not
+    asked for); ``ground_truth`` says whether the truth was read: without it,
+    ``result``'s compliance, success and false acceptances are not reported.
+    """
 
     result: EvalResult
     files: dict[str, Path] = field(default_factory=dict)
+    compliance: ComplianceReport | None = None
+    ground_truth: bool = True
+
+    def summary(self) -> dict[str, Any]:
+        """What ``evaluation.json`` holds of the result: without ground truth, nothing
+        judged from it (compliance, goal and success, false acceptances)."""
+        data = self.result.to_dict()
+        if not self.ground_truth:
+            for key in ("compliance", "false_acceptance", "success_rate", "goal_rate"):
+                data.pop(key, None)
+        if self.compliance is not None:
+            data["compliance_estimate"] = self.compliance.to_dict()
+        return data
 
 
 def load_run_model(
@@ -163,6 +183,10 @@ def evaluate_run(
     heatmap_episodes: int = 30,
     overrides: Mapping[str, Any] | None = None,
     trust_code: bool = False,
+    estimate: bool = True,
+    ground_truth: bool = True,
+    labelled: str | os.PathLike[str] | None = None,
+    reliability: str | os.PathLike[str] | None = None,
 ) -> RunEvaluation:
     """Evaluates a saved run (see the module docstring).
 
@@ -181,6 +205,14 @@ def evaluate_run(
             is the user's: it is followed.
         trust_code: follow every code reference the run's config names (a world or
             detector factory path): only for a run whose author you trust.
+        estimate: estimate each spec's compliance from the bolt's evidence
+            (:mod:`noisybolt.runs.compliance`).
+        ground_truth: read the truth: False reports no compliance, goal or success
+            judged from it, only the estimate (which it forces on).
+        labelled: a labelled dataset file to measure the detector's error model on
+            (default: the one its classifier recorded, else images from the world).
+        reliability: where to draw the estimate's reliability diagram (PNG), with ground
+            truth; None: ``compliance-reliability.png`` in the run directory.
 
     Raises:
         UntrustedCodeError: the run names code neither ``trust_code`` nor ``overrides``
@@ -207,6 +239,10 @@ def evaluate_run(
             heatmap=heatmap,
             heatmap_episodes=heatmap_episodes,
             overrides=overrides,
+            estimate=estimate or not ground_truth,
+            ground_truth=ground_truth,
+            labelled=labelled,
+            reliability=reliability,
         )
 
 
@@ -221,6 +257,10 @@ def _evaluate(
     heatmap: str | os.PathLike[str] | None,
     heatmap_episodes: int,
     overrides: Mapping[str, Any] | None,
+    estimate: bool = True,
+    ground_truth: bool = True,
+    labelled: str | os.PathLike[str] | None = None,
+    reliability: str | os.PathLike[str] | None = None,
 ) -> RunEvaluation:
     torch.set_num_threads(1)
     config = TrainConfig.from_dict(saved).override(overrides or {})
@@ -245,23 +285,43 @@ def _evaluate(
         letters=setup.letters,
         belief=setup.belief,
     )
+    spec_names = [s.name for s in config.spec_objects()]
+    traces: list[Any] | None = [] if estimate else None
     result = evaluate_bolted_policy(
         lambda obs: model.predict(obs, deterministic=deterministic)[0],
         env,
         n_episodes=episodes,
-        spec_names=[s.name for s in config.spec_objects()],
+        spec_names=spec_names,
+        traces=traces,
     )
     files: dict[str, Path] = {}
     record: dict[str, Any] = {"episodes": episodes, "seed": seed, "deterministic": deterministic}
-    name = "evaluation.json"
+    suffix = ""
     if overrides:
         # Another camera (or other settings) than the run's own: kept beside, not over,
         # the run's evaluation, and named by what changed.
         record["overrides"] = dict(overrides)
         digest = hashlib.sha256(json.dumps(record["overrides"], sort_keys=True).encode())
-        name = f"evaluation-{digest.hexdigest()[:8]}.json"
-    out = run.file(name)
-    atomic_write_json(out, {**record, **result.to_dict()})
+        suffix = f"-{digest.hexdigest()[:8]}"
+    if not ground_truth:
+        suffix += "-no-ground-truth"
+    compliance = None
+    if traces is not None:
+        compliance = _estimate(
+            config, setup, traces, result, spec_names, seed, labelled, ground_truth
+        )
+        if ground_truth:
+            path = (
+                reliability
+                if reliability is not None
+                else run.file(f"compliance-reliability{suffix}.png")
+            )
+            files["reliability"] = _draw_reliability(compliance, path, config)
+    evaluation = RunEvaluation(
+        result=result, compliance=compliance, ground_truth=ground_truth, files=files
+    )
+    out = run.file(f"evaluation{suffix}.json")
+    atomic_write_json(out, {**record, **evaluation.summary()})
     files["evaluation"] = out
     if gif is not None or heatmap is not None:
         from noisybolt.viz import save_episode_gif, trajectory_heatmap
@@ -285,4 +345,45 @@ def _evaluate(
                 path=heatmap,
                 title=f"{config.algo.upper()} under {', '.join(names)}",
             )
-    return RunEvaluation(result=result, files=files)
+    return evaluation
+
+
+def _estimate(
+    config: TrainConfig,
+    setup: BoltSetup,
+    traces: list[Any],
+    result: EvalResult,
+    spec_names: list[str],
+    seed: int,
+    labelled: str | os.PathLike[str] | None,
+    ground_truth: bool,
+) -> ComplianceReport:
+    from noisybolt.runs.compliance import compliance_report, run_error_model
+
+    model, source = run_error_model(config, setup.detector, seed=seed + 1, labelled=labelled)
+    truth = None
+    if ground_truth:
+        truth = np.array([e.compliant for e in result.episodes], dtype=bool)
+    return compliance_report(
+        dict(zip(spec_names, setup.dfas, strict=True)),
+        setup.fluents,
+        traces,
+        model,
+        source=source,
+        truth=truth,
+        seed=seed,
+    )
+
+
+def _draw_reliability(
+    report: ComplianceReport, path: str | os.PathLike[str], config: TrainConfig
+) -> Path:
+    from noisybolt.viz.calibration import reliability_diagram
+
+    groups = {
+        name: (report.estimates[name].per_episode, outcomes)
+        for name, outcomes in report.outcomes.items()
+    }
+    return reliability_diagram(
+        groups, path, title=f"compliance estimates, {config.world}: per-episode reliability"
+    )

@@ -359,6 +359,16 @@ class BoltVecEnv(VecEnvWrapper):
             self.bolt.reset(full, env_mask=dones)
             if self._records:
                 self._truth.reset(first_truth, env_mask=dones)
+                # The new episodes' first letters, as reset() records them: the step's
+                # info describes the ended episodes' last (a compliance estimate needs
+                # every frame of an episode, its first included).
+                first_bands = confidence_bands(first_probs, self._thresholds)
+                for j, row in enumerate(ended.tolist()):
+                    self.reset_infos[row] = {
+                        "true_fluents": first_truth[row],
+                        "fluent_probs": first_probs[j],
+                        "confidence_bands": first_bands[j],
+                    }
         return self._obs(obs, dfa_view(self.bolt)), rewards.astype(np.float32), dones, infos
 
 

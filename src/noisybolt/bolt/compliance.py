@@ -1,0 +1,554 @@
+"""How often a policy truly complies, estimated from the bolt's own evidence.
+
+Without ground truth a deployed bolt has its detector's outputs only. This module turns
+an episode's whole sequence of them into ``P(the spec is truly satisfied | what the bolt
+saw)``, and a set of episodes into a compliance rate with an interval.
+
+The model (a hidden Markov model, filtered forward exactly)
+-----------------------------------------------------------
+* **The error model** (:class:`ErrorModel`): per fluent, how the detector's probability
+  falls into confidence bands when the fluent is false and when it is true, counted on
+  held-out labelled images. A frame's evidence is the band it falls in, weighed by
+  ``P(band | truth)``: the detector's own probability is not trusted, only how its
+  bands behaved on images whose truth was known (so a classifier that reads 0.6 on every
+  true positive under a smudge, and 0.6 on almost no negative, is believed exactly as
+  much as it was right). The counts are Dirichlet posteriors (a Jeffreys prior, 0.5 per
+  cell): few held-out positives mean uncertain rates, and :meth:`ErrorModel.sample` draws
+  them.
+* **The fluents' dynamics** (:class:`FluentDynamics`): each fluent's truth is a two-state
+  Markov chain (``P(true)`` on the first frame, ``P(on | off)`` and ``P(off | on)`` per
+  step), the fluents independent. The chain is what lets a world's persistence speak: the
+  gridworld's position fluents hold for several frames, so one doubtful frame among clear
+  ones is a glitch, not a visit. :func:`fit_dynamics` learns the chains from the
+  unlabelled episodes themselves (Baum-Welch with the error model's emissions held
+  fixed): no ground truth is needed.
+* **The DFA** moves on the hidden truth (the trace starts at the first observation, as
+  the bolt's does): the hidden state is the pair ``(q, sigma)``, the DFA state and the
+  truth of the fluents the spec depends on, and the filter is exact over it.
+
+An episode's estimate is the probability that its last hidden DFA state accepts, given
+every frame; it is averaged over draws of the error model (the posterior predictive), so
+the rates' uncertainty is in it.
+
+Aggregating (:func:`aggregate_compliance`)
+------------------------------------------
+The compliance rate is the mean of the episodes' estimates. Its interval draws, many
+times: error rates from their posterior, each episode's truth from its probability under
+them, and Bayesian-bootstrap weights over the episodes (Rubin 1981); the rate's 5 % and
+95 % quantiles are the 90 % interval for *the policy's* compliance rate. ``episodes_low``
+and ``episodes_high`` leave the bootstrap out: an interval for the share of *these*
+episodes that complied. Where the camera cannot tell, the episodes' probabilities sit
+away from 0 and 1 and the drawn truths vary: the interval widens.
+
+What the model leaves out, and what that costs: a detector's errors on successive frames
+of one view are correlated (a smudge reads alike for as long as the agent stays under
+it), while the filter takes each frame's band as fresh evidence given the truth; a
+fluent's truth may depend on another's (a corner is on the edge). Both make the
+estimate surer than it should be where they bite (``benchmarks/compliance_estimates.py``
+measures how much).
+
+Example:
+    >>> from noisybolt.logic import DFA
+    >>> f_x = DFA.from_function(["x"], n_states=2, initial_state=0,
+    ...     accepting=[False, True], delta=lambda q, m: 1 if q == 1 or m & 1 else 0)
+    >>> # Bands: p < 0.5 and p >= 0.5. Right 9 times in 10 on both sides.
+    >>> model = ErrorModel(fluent_names=("x",), edges=(0.5,),
+    ...                    counts=np.array([[[90.0, 10.0], [10.0, 90.0]]]), pseudo_count=0.0)
+    >>> still = FluentDynamics(start=np.array([0.5]), on=np.array([0.0]), off=np.array([0.0]))
+    >>> p = satisfaction_probabilities(f_x, ("x",), [np.array([[0.7]])], model.rates()[None],
+    ...                                still)
+    >>> round(float(p[0, 0]), 3)  # one frame, "x" seen: 0.5 * 0.9 / (0.5 * 0.9 + 0.5 * 0.1)
+    0.9
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from noisybolt.errors import ConfigError, UnknownFluentError
+from noisybolt.logic.dfa import DFA
+
+__all__ = [
+    "DEFAULT_EDGES",
+    "ComplianceEstimate",
+    "ErrorModel",
+    "FluentDynamics",
+    "aggregate_compliance",
+    "estimate_compliance",
+    "fit_dynamics",
+    "satisfaction_probabilities",
+]
+
+#: The band edges an error model counts in by default: the paper's two thresholds (0.5,
+#: 0.9) and 0.1, which splits "absent" into a clear no and a doubtful one (on the smudged
+#: gridworld camera the corner's positives that fall below 0.5 fall mostly above 0.1).
+DEFAULT_EDGES: tuple[float, ...] = (0.1, 0.5, 0.9)
+# Transition probabilities are kept this far from 0 and 1 when learnt: an event the
+# episodes never showed is improbable, not impossible.
+_FLOOR = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class ErrorModel:
+    """A detector's confusion per fluent and confidence band, counted on labelled images.
+
+    Band ``b`` holds the probabilities ``edges[b - 1] <= p < edges[b]`` (band 0 those
+    below ``edges[0]``, the last those at or above ``edges[-1]``).
+
+    Attributes:
+        fluent_names: the fluents, in the order of ``counts``' first axis.
+        edges: the band edges, increasing, inside (0, 1).
+        counts: float64 ``[n_fluents, 2, n_bands]``: labelled images per fluent, truth
+            (0: false, 1: true) and band.
+        pseudo_count: the Dirichlet prior's count per cell (0.5: Jeffreys'), added to
+            ``counts`` for the rates and their draws.
+
+    Raises:
+        ConfigError: edges not increasing inside (0, 1), counts of the wrong shape or
+            negative, a fluent with no image of one of its truth values and no prior.
+
+    Example:
+        >>> model = ErrorModel(fluent_names=("x",), edges=(0.5,),
+        ...                    counts=np.array([[[8.0, 2.0], [1.0, 9.0]]]))
+        >>> model.rates().round(3).tolist()  # P(band | x false), P(band | x true)
+        [[[0.773, 0.227], [0.136, 0.864]]]
+        >>> model.bands(np.array([[0.3], [0.5]])).tolist()
+        [[0], [1]]
+    """
+
+    fluent_names: tuple[str, ...]
+    edges: tuple[float, ...]
+    counts: np.ndarray
+    pseudo_count: float = 0.5
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "fluent_names", tuple(self.fluent_names))
+        object.__setattr__(self, "edges", tuple(float(e) for e in self.edges))
+        edges = np.array(self.edges)
+        if edges.size == 0 or not (np.all(np.diff(edges) > 0) and edges[0] > 0 and edges[-1] < 1):
+            raise ConfigError(f"band edges must increase inside (0, 1), got {list(self.edges)}")
+        counts = np.array(self.counts, dtype=np.float64)
+        shape = (len(self.fluent_names), 2, edges.size + 1)
+        if counts.shape != shape:
+            raise ConfigError(
+                f"counts must have shape {shape} [fluents, truth, band], got {counts.shape}"
+            )
+        if not np.all(np.isfinite(counts)) or np.any(counts < 0):
+            raise ConfigError("counts must be finite and >= 0")
+        if self.pseudo_count < 0:
+            raise ConfigError(f"pseudo_count must be >= 0, got {self.pseudo_count}")
+        empty = counts.sum(axis=2) + self.pseudo_count * shape[2] <= 0
+        if empty.any():
+            f, t = map(int, np.argwhere(empty)[0])
+            raise ConfigError(
+                f"no labelled image shows {self.fluent_names[f]!r} {'true' if t else 'false'}:"
+                " its error rates are unknown; measure the detector on images that show both"
+            )
+        counts.setflags(write=False)
+        object.__setattr__(self, "counts", counts)
+
+    @property
+    def n_bands(self) -> int:
+        """The number of bands."""
+        return len(self.edges) + 1
+
+    def bands(self, probs: np.ndarray) -> np.ndarray:
+        """int64 band indices of ``probs`` (any shape)."""
+        return np.searchsorted(np.array(self.edges), np.asarray(probs, np.float64), side="right")
+
+    def rates(self) -> np.ndarray:
+        """float64 ``[n_fluents, 2, n_bands]``: the posterior mean of ``P(band | truth)``."""
+        alpha = self.counts + self.pseudo_count
+        return alpha / alpha.sum(axis=2, keepdims=True)
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """float64 ``[n, n_fluents, 2, n_bands]``: ``n`` draws of the rates from their
+        Dirichlet posteriors."""
+        alpha = np.broadcast_to(self.counts + self.pseudo_count, (n, *self.counts.shape))
+        draws = rng.gamma(np.maximum(alpha, 1e-12))
+        # A cell with neither count nor prior stays at 0 (the gamma of ~0 is ~0).
+        draws = np.where(alpha > 0, draws, 0.0)
+        return draws / draws.sum(axis=3, keepdims=True)
+
+    def restrict(self, fluents: Sequence[str], *, what: str = "the estimate") -> ErrorModel:
+        """The model of ``fluents`` only, in that order.
+
+        Raises:
+            UnknownFluentError: a fluent the model has no measurements of.
+        """
+        missing = tuple(f for f in fluents if f not in self.fluent_names)
+        if missing:
+            raise UnknownFluentError(
+                f"{what} needs the detector's error rates of {list(missing)}, which its error "
+                f"model (fluents {list(self.fluent_names)}) lacks: measure the detector on "
+                "labelled images that include them "
+                "(noisybolt.perception.error_model.measure_error_model)",
+                unknown=missing,
+                known=self.fluent_names,
+            )
+        rows = [self.fluent_names.index(f) for f in fluents]
+        return ErrorModel(
+            fluent_names=tuple(fluents),
+            edges=self.edges,
+            counts=self.counts[rows],
+            pseudo_count=self.pseudo_count,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-able dict (what a classifier file keeps in its training notes)."""
+        return {
+            "fluent_names": list(self.fluent_names),
+            "edges": list(self.edges),
+            "counts": {
+                name: {"false": row[0].tolist(), "true": row[1].tolist()}
+                for name, row in zip(self.fluent_names, self.counts, strict=True)
+            },
+            "pseudo_count": self.pseudo_count,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ErrorModel:
+        """The model :meth:`to_dict` wrote.
+
+        Raises:
+            ConfigError: not such a dict.
+        """
+        try:
+            names = tuple(str(n) for n in data["fluent_names"])
+            counts = [[data["counts"][n]["false"], data["counts"][n]["true"]] for n in names]
+            return cls(
+                fluent_names=names,
+                edges=tuple(data["edges"]),
+                counts=np.array(counts, dtype=np.float64),
+                pseudo_count=float(data.get("pseudo_count", 0.5)),
+            )
+        except (KeyError, TypeError, ValueError) as error:
+            if isinstance(error, ConfigError):
+                raise
+            raise ConfigError(f"not an error model ({type(error).__name__}: {error})") from error
+
+
+class FluentDynamics(NamedTuple):
+    """Each fluent's truth as a two-state Markov chain (float64 ``[n_fluents]`` each).
+
+    Attributes:
+        start: ``P(true)`` on an episode's first frame.
+        on: ``P(true at t + 1 | false at t)``.
+        off: ``P(false at t + 1 | true at t)``.
+    """
+
+    start: np.ndarray
+    on: np.ndarray
+    off: np.ndarray
+
+
+def _padded(bands: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """int64 ``[n, T, k]`` bands padded with 0, and int64 ``[n]`` lengths."""
+    lengths = np.array([len(b) for b in bands], dtype=np.int64)
+    if lengths.size == 0 or lengths.min() < 1:
+        raise ConfigError("every episode needs at least one frame")
+    k = bands[0].shape[1]
+    out = np.zeros((len(bands), int(lengths.max()), k), dtype=np.int64)
+    for i, b in enumerate(bands):
+        out[i, : len(b)] = b
+    return out, lengths
+
+
+def fit_dynamics(
+    bands: Sequence[np.ndarray], rates: np.ndarray, *, iterations: int = 40
+) -> FluentDynamics:
+    """Each fluent's chain learnt from unlabelled episodes (Baum-Welch, emissions fixed).
+
+    Args:
+        bands: per episode, int ``[T, n_fluents]``: the band of each frame and fluent.
+        rates: float ``[n_fluents, 2, n_bands]``: ``P(band | truth)`` (the error model).
+        iterations: EM iterations.
+
+    Returns:
+        The :class:`FluentDynamics` of maximum likelihood found (from a start at rate 0.1
+        of switching and ``P(true) = 0.5``).
+
+    Example:
+        >>> rates = np.array([[[0.9, 0.1], [0.1, 0.9]]])  # right 9 times in 10
+        >>> episodes = [np.repeat([[0], [1]], 20, axis=0)] * 10  # off 20 frames, then on
+        >>> d = fit_dynamics(episodes, rates)
+        >>> round(float(d.start[0]), 2), round(float(d.on[0]), 2), round(float(d.off[0]), 3)
+        (0.0, 0.05, 0.0)
+    """
+    x, lengths = _padded([np.asarray(b, dtype=np.int64) for b in bands])
+    n, t_max, k = x.shape
+    fluent = np.arange(k)
+    # emit[i, t, f, s]: P(band of frame t | fluent f's truth s)
+    emit = rates[fluent[None, None, :, None], np.arange(2)[None, None, None, :], x[..., None]]
+    valid = np.arange(t_max)[None, :] < lengths[:, None]  # [n, T]
+    start = np.full(k, 0.5)
+    on = np.full(k, 0.1)
+    off = np.full(k, 0.1)
+    for _ in range(iterations):
+        a = np.stack([np.stack([1 - on, on], -1), np.stack([off, 1 - off], -1)], 1)  # [k,2,2]
+        alpha = np.zeros((n, t_max, k, 2))
+        scale = np.ones((n, t_max, k))
+        first = np.stack([1 - start, start], -1)[None] * emit[:, 0]
+        scale[:, 0] = first.sum(-1)
+        alpha[:, 0] = first / scale[:, 0, :, None]
+        for t in range(1, t_max):
+            pred = np.einsum("nfi,fij->nfj", alpha[:, t - 1], a) * emit[:, t]
+            c = pred.sum(-1)
+            live = valid[:, t, None]
+            scale[:, t] = np.where(live, c, 1.0)
+            alpha[:, t] = np.where(live[..., None], pred / c[..., None], alpha[:, t - 1])
+        beta = np.ones((n, t_max, k, 2))
+        for t in range(t_max - 2, -1, -1):
+            nxt = emit[:, t + 1] * beta[:, t + 1] / scale[:, t + 1, :, None]
+            back = np.einsum("fij,nfj->nfi", a, nxt)
+            beta[:, t] = np.where(valid[:, t + 1, None, None], back, beta[:, t + 1])
+        gamma = alpha * beta
+        gamma /= gamma.sum(-1, keepdims=True)
+        # xi[n, t, f, i, j] for the transitions t -> t + 1 inside each episode
+        nxt = emit[:, 1:] * beta[:, 1:] / scale[:, 1:, :, None]  # [n, T-1, k, 2]
+        xi = alpha[:, :-1, :, :, None] * a[None, None] * nxt[:, :, :, None, :]
+        xi *= valid[:, 1:, None, None, None]
+        moves = xi.sum(axis=(0, 1))  # [k, 2, 2]
+        start = np.clip(gamma[:, 0, :, 1].mean(0), _FLOOR, 1 - _FLOOR)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            on = moves[:, 0, 1] / moves[:, 0].sum(-1)
+            off = moves[:, 1, 0] / moves[:, 1].sum(-1)
+        on = np.clip(np.nan_to_num(on, nan=0.0), _FLOOR, 1 - _FLOOR)
+        off = np.clip(np.nan_to_num(off, nan=0.0), _FLOOR, 1 - _FLOOR)
+    return FluentDynamics(start=start, on=on, off=off)
+
+
+def satisfaction_probabilities(
+    dfa: DFA,
+    fluents: Sequence[str],
+    episodes: Sequence[np.ndarray],
+    rates: np.ndarray,
+    dynamics: FluentDynamics,
+    *,
+    edges: Sequence[float] = (0.5,),
+) -> np.ndarray:
+    """``P(the DFA accepts the true trace | the frames)`` per error-model draw and episode.
+
+    Args:
+        dfa: the spec's DFA (its relevant fluents among ``fluents``).
+        fluents: the column order of the episodes' probabilities, of ``rates`` and
+            ``dynamics``.
+        episodes: per episode, the detector's probabilities float ``[T, n_fluents]``
+            (row 0: the first observation), or int band indices of the same shape.
+        rates: float ``[n_draws, n_fluents, 2, n_bands]``: ``P(band | truth)`` per draw.
+        dynamics: the fluents' chains.
+        edges: the band edges of float ``episodes`` (ignored for band indices).
+
+    Returns:
+        float64 ``[n_draws, n_episodes]``.
+    """
+    fluents = tuple(fluents)
+    cols = [fluents.index(f) for f in dfa.relevant_fluents]
+    m = len(cols)
+    n_configs, n_q = 1 << m, dfa.n_states
+    configs = np.arange(n_configs, dtype=np.int64)
+    bits = (configs[:, None] >> np.arange(m)) & 1  # [C, m]
+    positions = np.array([dfa.fluents.index(fluents[c]) for c in cols], dtype=np.int64)
+    letters = (bits << positions).sum(axis=1) if m else np.zeros(1, dtype=np.int64)
+    states = np.repeat(np.arange(n_q), n_configs)
+    nxt, _ = dfa.step_batch(states, np.tile(letters, n_q).astype(np.uint64))
+    nxt = np.asarray(nxt, dtype=np.int64).reshape(n_q, n_configs)
+    # The truth chain over configurations, then the DFA's move on the new configuration.
+    on, off = dynamics.on[cols], dynamics.off[cols]
+    chain = np.ones((n_configs, n_configs))
+    for j in range(m):
+        a = np.array([[1 - on[j], on[j]], [off[j], 1 - off[j]]])
+        chain *= a[bits[:, j][:, None], bits[:, j][None, :]]
+    cells = n_q * n_configs
+    move = np.zeros((cells, cells))
+    for q in range(n_q):
+        for c in range(n_configs):
+            np.add.at(move[q * n_configs + c], nxt[q] * n_configs + configs, chain[c])
+    start_p = dynamics.start[cols]
+    prior = np.prod(np.where(bits == 1, start_p, 1 - start_p), axis=1) if m else np.ones(1)
+    start = np.zeros(cells)
+    np.add.at(start, nxt[dfa.initial_state] * n_configs + configs, prior)
+    accepting = np.repeat(np.asarray(dfa.accepting, dtype=np.float64), n_configs)
+    # The evidence: per draw, episode and cell, the product over the spec's fluents.
+    arrays = [np.asarray(e) for e in episodes]
+    if arrays and np.issubdtype(arrays[0].dtype, np.floating):
+        grid = np.array(edges, dtype=np.float64)
+        arrays = [np.searchsorted(grid, a, side="right") for a in arrays]
+    x, lengths = _padded(arrays)
+    log_rates = np.log(np.maximum(rates[:, cols], 1e-300))  # [S, m, 2, B]
+    n_draws = rates.shape[0]
+
+    def evidence(t: int) -> np.ndarray:  # [S, N, cells]
+        total = np.zeros((n_draws, len(arrays), n_configs))
+        for j in range(m):
+            # [S, 2, N] -> the cell's truth of fluent j
+            per_truth = log_rates[:, j][:, :, x[:, t, cols[j]]]
+            total += per_truth[:, bits[:, j], :].transpose(0, 2, 1)
+        total -= total.max(axis=2, keepdims=True)
+        return np.tile(np.exp(total), (1, 1, n_q))
+
+    def normalise(b: np.ndarray) -> np.ndarray:
+        return b / b.sum(axis=2, keepdims=True)
+
+    belief = normalise(start[None, None, :] * evidence(0))
+    for t in range(1, int(lengths.max())):
+        live = (lengths > t)[None, :, None]
+        updated = normalise(np.matmul(belief, move) * evidence(t))
+        belief = np.where(live, updated, belief)
+    out: np.ndarray = belief @ accepting
+    return out
+
+
+@dataclass(frozen=True)
+class ComplianceEstimate:
+    """A spec's estimated compliance rate over a set of episodes, never ground truth.
+
+    Attributes:
+        rate: the mean of the episodes' probabilities of compliance.
+        low: the interval's lower end, for the policy's compliance rate (sample and error
+            model).
+        high: its upper end.
+        episodes_low: the lower end for the share of *these* episodes that complied
+            (error model and the episodes' unknown truths; no resampling of episodes).
+        episodes_high: its upper end.
+        level: the intervals' probability (0.9).
+        per_episode: float64 ``[n_episodes]``: each episode's ``P(complied | evidence)``.
+    """
+
+    rate: float
+    low: float
+    high: float
+    episodes_low: float
+    episodes_high: float
+    level: float
+    per_episode: np.ndarray = field(repr=False, compare=False)
+
+    @property
+    def n_episodes(self) -> int:
+        """How many episodes it is over."""
+        return int(self.per_episode.size)
+
+    def to_dict(self, *, with_episodes: bool = False) -> dict[str, Any]:
+        """A JSON-able dict (the episodes' probabilities only when asked)."""
+        out: dict[str, Any] = {
+            "rate": self.rate,
+            "low": self.low,
+            "high": self.high,
+            "episodes_low": self.episodes_low,
+            "episodes_high": self.episodes_high,
+            "level": self.level,
+            "n_episodes": self.n_episodes,
+        }
+        if with_episodes:
+            out["per_episode"] = self.per_episode.tolist()
+        return out
+
+
+def aggregate_compliance(
+    draws: np.ndarray,
+    *,
+    rng: np.random.Generator,
+    level: float = 0.9,
+    n_resamples: int = 4000,
+) -> ComplianceEstimate:
+    """The compliance rate and its intervals from per-draw episode probabilities.
+
+    Args:
+        draws: float ``[n_draws, n_episodes]``: each episode's probability of compliance
+            under each draw of the error model.
+        rng: seeds the resampling.
+        level: the intervals' probability.
+        n_resamples: draws of the rate.
+
+    Example:
+        >>> sure = np.ones((4, 100))  # every episode surely complied
+        >>> e = aggregate_compliance(sure, rng=np.random.default_rng(0))
+        >>> e.rate, e.episodes_low, e.episodes_high, e.high
+        (1.0, 1.0, 1.0, 1.0)
+    """
+    draws = np.asarray(draws, dtype=np.float64)
+    if draws.ndim != 2 or draws.shape[1] == 0:
+        raise ConfigError(f"draws must be [n_draws, n_episodes >= 1], got {draws.shape}")
+    if not 0 < level < 1:
+        raise ConfigError(f"level must be in (0, 1), got {level}")
+    n_draws, n = draws.shape
+    which = rng.integers(0, n_draws, size=n_resamples)
+    truth = rng.random((n_resamples, n)) < draws[which]  # each episode's truth, drawn
+    weights = rng.dirichlet(np.ones(n), size=n_resamples)
+    policy = np.clip((weights * truth).sum(axis=1), 0.0, 1.0)
+    these = truth.mean(axis=1)
+    tail = (1 - level) / 2
+    per_episode = draws.mean(axis=0)
+    return ComplianceEstimate(
+        rate=float(per_episode.mean()),
+        low=float(np.quantile(policy, tail)),
+        high=float(np.quantile(policy, 1 - tail)),
+        episodes_low=float(np.quantile(these, tail)),
+        episodes_high=float(np.quantile(these, 1 - tail)),
+        level=level,
+        per_episode=per_episode,
+    )
+
+
+def estimate_compliance(
+    dfas: Mapping[str, DFA],
+    fluents: Sequence[str],
+    episodes: Sequence[np.ndarray],
+    error_model: ErrorModel,
+    *,
+    dynamics: FluentDynamics | None = None,
+    n_draws: int = 64,
+    level: float = 0.9,
+    seed: int = 0,
+) -> dict[str, ComplianceEstimate]:
+    """Each spec's estimated compliance rate over ``episodes`` (see the module docstring).
+
+    Args:
+        dfas: the specs' DFAs by name.
+        fluents: the column order of the episodes' probabilities.
+        episodes: per episode, the detector's probabilities float ``[T, n_fluents]``.
+        error_model: the detector's error model (it must cover the specs' fluents).
+        dynamics: the fluents' chains (over ``fluents``); None: learnt from ``episodes``
+            (:func:`fit_dynamics`).
+        n_draws: draws of the error model.
+        level: the intervals' probability.
+        seed: seeds the draws.
+
+    Raises:
+        UnknownFluentError: a spec's fluent the episodes' columns or the error model lack.
+        ConfigError: no episodes, or episodes of another width.
+    """
+    fluents = tuple(fluents)
+    needed = sorted({f for dfa in dfas.values() for f in dfa.relevant_fluents})
+    absent = tuple(f for f in needed if f not in fluents)
+    if absent:
+        raise UnknownFluentError(
+            f"the specs use {list(absent)}, which the detector's outputs {list(fluents)} lack:"
+            " use a detector that predicts every fluent the specs name",
+            unknown=absent,
+            known=fluents,
+        )
+    if not episodes:
+        raise ConfigError("estimating compliance needs at least one episode")
+    arrays = [np.asarray(e, dtype=np.float64) for e in episodes]
+    if any(a.ndim != 2 or a.shape[1] != len(fluents) or len(a) == 0 for a in arrays):
+        raise ConfigError(f"every episode must be [T >= 1, {len(fluents)}] probabilities")
+    used = tuple(f for f in fluents if f in needed)
+    model = error_model.restrict(used, what="the compliance estimate")
+    cols = [fluents.index(f) for f in used]
+    bands = [model.bands(a[:, cols]) for a in arrays]
+    if dynamics is None:
+        dynamics = fit_dynamics(bands, model.rates())
+    else:
+        dynamics = FluentDynamics(*(np.asarray(d)[cols] for d in dynamics))
+    rng = np.random.default_rng(seed)
+    rates = model.sample(rng, n_draws)
+    out = {}
+    for name, dfa in dfas.items():
+        draws = satisfaction_probabilities(dfa, used, bands, rates, dynamics)
+        out[name] = aggregate_compliance(draws, rng=rng, level=level)
+    return out
