@@ -124,6 +124,8 @@ class ErrorModel:
     edges: tuple[float, ...]
     counts: np.ndarray
     pseudo_count: float = 0.5
+    pair_counts: np.ndarray | None = None
+    pair_prior: float = 2.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "fluent_names", tuple(self.fluent_names))
@@ -150,6 +152,25 @@ class ErrorModel:
             )
         counts.setflags(write=False)
         object.__setattr__(self, "counts", counts)
+        if self.pair_counts is not None:
+            pairs = np.array(self.pair_counts, dtype=np.float64)
+            pair_shape = (shape[0], 2, 2, shape[2], shape[2])
+            if pairs.shape != pair_shape:
+                raise ConfigError(
+                    f"pair_counts must have shape {pair_shape} [fluents, truth before, truth "
+                    f"now, band before, band now], got {pairs.shape}"
+                )
+            if not np.all(np.isfinite(pairs)) or np.any(pairs < 0):
+                raise ConfigError("pair_counts must be finite and >= 0")
+            pairs.setflags(write=False)
+            object.__setattr__(self, "pair_counts", pairs)
+        if not self.pair_prior > 0:
+            raise ConfigError(f"pair_prior must be > 0, got {self.pair_prior}")
+
+    @property
+    def temporal(self) -> bool:
+        """Whether it holds successive frames' confusion (``pair_counts``)."""
+        return self.pair_counts is not None
 
     @property
     def n_bands(self) -> int:
@@ -174,6 +195,26 @@ class ErrorModel:
         draws = np.where(alpha > 0, draws, 0.0)
         return draws / draws.sum(axis=3, keepdims=True)
 
+    def pair_rates(self, rates: np.ndarray) -> np.ndarray | None:
+        """float64 ``[..., n_fluents, 2, 2, n_bands, n_bands]``: ``P(band now | band before,
+        truth before, truth now)``, the posterior mean given marginal ``rates`` (``[...,
+        n_fluents, 2, n_bands]``, e.g. draws of :meth:`sample`) as the prior's centre; None
+        without ``pair_counts``."""
+        if self.pair_counts is None:
+            return None
+        alpha = self.pair_counts + self.pair_prior * rates[..., None, :, None, :]
+        return alpha / alpha.sum(axis=-1, keepdims=True)
+
+    def sample_pairs(self, rng: np.random.Generator, rates: np.ndarray) -> np.ndarray | None:
+        """Draws of :meth:`pair_rates`, one per draw of ``rates`` (``[n, n_fluents, 2,
+        n_bands]``): Dirichlet, centred on that draw's marginal rates (a hierarchical
+        prior: where successive frames were rarely seen, the marginal confusion speaks)."""
+        if self.pair_counts is None:
+            return None
+        alpha = self.pair_counts + self.pair_prior * rates[:, :, None, :, None, :]
+        draws = rng.gamma(np.maximum(alpha, 1e-12))
+        return draws / draws.sum(axis=-1, keepdims=True)
+
     def restrict(self, fluents: Sequence[str], *, what: str = "the estimate") -> ErrorModel:
         """The model of ``fluents`` only, in that order.
 
@@ -196,6 +237,8 @@ class ErrorModel:
             edges=self.edges,
             counts=self.counts[rows],
             pseudo_count=self.pseudo_count,
+            pair_counts=None if self.pair_counts is None else self.pair_counts[rows],
+            pair_prior=self.pair_prior,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -208,6 +251,11 @@ class ErrorModel:
                 for name, row in zip(self.fluent_names, self.counts, strict=True)
             },
             "pseudo_count": self.pseudo_count,
+            **(
+                {}
+                if self.pair_counts is None
+                else {"pair_counts": self.pair_counts.tolist(), "pair_prior": self.pair_prior}
+            ),
         }
 
     @classmethod
@@ -225,6 +273,10 @@ class ErrorModel:
                 edges=tuple(data["edges"]),
                 counts=np.array(counts, dtype=np.float64),
                 pseudo_count=float(data.get("pseudo_count", 0.5)),
+                pair_counts=None
+                if data.get("pair_counts") is None
+                else np.array(data["pair_counts"], dtype=np.float64),
+                pair_prior=float(data.get("pair_prior", 2.0)),
             )
         except (KeyError, TypeError, ValueError) as error:
             if isinstance(error, ConfigError):
@@ -258,14 +310,41 @@ def _padded(bands: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return out, lengths
 
 
+def _step_emissions(
+    x: np.ndarray, t: int, rates: np.ndarray, pairs: np.ndarray | None
+) -> np.ndarray:
+    """float64 ``[S, n, k, 2, 2]``: ``P(band of frame t | truth before, truth now)`` per
+    draw, episode and fluent (row 0: the first frame, its truth before irrelevant).
+
+    ``x``: int ``[n, T, k]`` bands; ``rates``: ``[S, k, 2, B]``; ``pairs``: ``[S, k, 2, 2,
+    B, B]`` or None (each frame's band independent of the last's, given the truth).
+    """
+    k = x.shape[2]
+    fluent = np.arange(k)[None, :]
+    now = x[:, t]  # [n, k]
+    if pairs is None or t == 0:
+        marginal = rates[:, fluent, :, now]  # [n, k, S, 2] (advanced indices first)
+        marginal = marginal.transpose(2, 0, 1, 3)  # [S, n, k, 2]
+        return np.broadcast_to(marginal[:, :, :, None, :], (*marginal.shape[:3], 2, 2))
+    before = x[:, t - 1]
+    table = pairs[:, fluent, :, :, before, now]  # [n, k, S, 2, 2]
+    return table.transpose(2, 0, 1, 3, 4)
+
+
 def fit_dynamics(
-    bands: Sequence[np.ndarray], rates: np.ndarray, *, iterations: int = 40
+    bands: Sequence[np.ndarray],
+    rates: np.ndarray,
+    *,
+    pair_rates: np.ndarray | None = None,
+    iterations: int = 40,
 ) -> FluentDynamics:
     """Each fluent's chain learnt from unlabelled episodes (Baum-Welch, emissions fixed).
 
     Args:
         bands: per episode, int ``[T, n_fluents]``: the band of each frame and fluent.
         rates: float ``[n_fluents, 2, n_bands]``: ``P(band | truth)`` (the error model).
+        pair_rates: float ``[n_fluents, 2, 2, n_bands, n_bands]``: ``P(band | band before,
+            truth before, truth now)`` (:meth:`ErrorModel.pair_rates`), or None.
         iterations: EM iterations.
 
     Returns:
@@ -281,9 +360,9 @@ def fit_dynamics(
     """
     x, lengths = _padded([np.asarray(b, dtype=np.int64) for b in bands])
     n, t_max, k = x.shape
-    fluent = np.arange(k)
-    # emit[i, t, f, s]: P(band of frame t | fluent f's truth s)
-    emit = rates[fluent[None, None, :, None], np.arange(2)[None, None, None, :], x[..., None]]
+    pairs = None if pair_rates is None else pair_rates[None]
+    # emit[:, t, f, i, j]: P(band of frame t | truth i before, j now)
+    emit = np.stack([_step_emissions(x, t, rates[None], pairs)[0] for t in range(t_max)], 1)
     valid = np.arange(t_max)[None, :] < lengths[:, None]  # [n, T]
     start = np.full(k, 0.5)
     on = np.full(k, 0.1)
@@ -292,28 +371,32 @@ def fit_dynamics(
         a = np.stack([np.stack([1 - on, on], -1), np.stack([off, 1 - off], -1)], 1)  # [k,2,2]
         alpha = np.zeros((n, t_max, k, 2))
         scale = np.ones((n, t_max, k))
-        first = np.stack([1 - start, start], -1)[None] * emit[:, 0]
+        first = np.stack([1 - start, start], -1)[None] * emit[:, 0, :, 0, :]
         scale[:, 0] = first.sum(-1)
         alpha[:, 0] = first / scale[:, 0, :, None]
         for t in range(1, t_max):
-            pred = np.einsum("nfi,fij->nfj", alpha[:, t - 1], a) * emit[:, t]
+            pred = np.einsum("nfi,fij,nfij->nfj", alpha[:, t - 1], a, emit[:, t])
             c = pred.sum(-1)
             live = valid[:, t, None]
             scale[:, t] = np.where(live, c, 1.0)
             alpha[:, t] = np.where(live[..., None], pred / c[..., None], alpha[:, t - 1])
         beta = np.ones((n, t_max, k, 2))
         for t in range(t_max - 2, -1, -1):
-            nxt = emit[:, t + 1] * beta[:, t + 1] / scale[:, t + 1, :, None]
-            back = np.einsum("fij,nfj->nfi", a, nxt)
+            back = np.einsum("fij,nfij,nfj->nfi", a, emit[:, t + 1], beta[:, t + 1])
+            back /= scale[:, t + 1, :, None]
             beta[:, t] = np.where(valid[:, t + 1, None, None], back, beta[:, t + 1])
-        gamma = alpha * beta
+        gamma = alpha[:, 0] * beta[:, 0]
         gamma /= gamma.sum(-1, keepdims=True)
         # xi[n, t, f, i, j] for the transitions t -> t + 1 inside each episode
-        nxt = emit[:, 1:] * beta[:, 1:] / scale[:, 1:, :, None]  # [n, T-1, k, 2]
-        xi = alpha[:, :-1, :, :, None] * a[None, None] * nxt[:, :, :, None, :]
+        xi = (
+            alpha[:, :-1, :, :, None]
+            * a[None, None]
+            * emit[:, 1:]
+            * (beta[:, 1:] / scale[:, 1:, :, None])[:, :, :, None, :]
+        )
         xi *= valid[:, 1:, None, None, None]
         moves = xi.sum(axis=(0, 1))  # [k, 2, 2]
-        start = np.clip(gamma[:, 0, :, 1].mean(0), _FLOOR, 1 - _FLOOR)
+        start = np.clip(gamma[:, :, 1].mean(0), _FLOOR, 1 - _FLOOR)
         with np.errstate(invalid="ignore", divide="ignore"):
             on = moves[:, 0, 1] / moves[:, 0].sum(-1)
             off = moves[:, 1, 0] / moves[:, 1].sum(-1)
@@ -329,6 +412,7 @@ def satisfaction_probabilities(
     rates: np.ndarray,
     dynamics: FluentDynamics,
     *,
+    pair_rates: np.ndarray | None = None,
     edges: Sequence[float] = (0.5,),
 ) -> np.ndarray:
     """``P(the DFA accepts the true trace | the frames)`` per error-model draw and episode.
@@ -341,6 +425,9 @@ def satisfaction_probabilities(
             (row 0: the first observation), or int band indices of the same shape.
         rates: float ``[n_draws, n_fluents, 2, n_bands]``: ``P(band | truth)`` per draw.
         dynamics: the fluents' chains.
+        pair_rates: float ``[n_draws, n_fluents, 2, 2, n_bands, n_bands]``: ``P(band |
+            band before, truth before, truth now)`` per draw, or None (frames independent
+            given the truth).
         edges: the band edges of float ``episodes`` (ignored for band indices).
 
     Returns:
@@ -363,43 +450,42 @@ def satisfaction_probabilities(
     for j in range(m):
         a = np.array([[1 - on[j], on[j]], [off[j], 1 - off[j]]])
         chain *= a[bits[:, j][:, None], bits[:, j][None, :]]
-    cells = n_q * n_configs
-    move = np.zeros((cells, cells))
-    for q in range(n_q):
-        for c in range(n_configs):
-            np.add.at(move[q * n_configs + c], nxt[q] * n_configs + configs, chain[c])
+    move = np.zeros((n_q, n_configs, n_q))  # [q, c', q'] = [delta(q, c') = q']
+    move[np.repeat(np.arange(n_q), n_configs), np.tile(configs, n_q), nxt.ravel()] = 1.0
     start_p = dynamics.start[cols]
     prior = np.prod(np.where(bits == 1, start_p, 1 - start_p), axis=1) if m else np.ones(1)
-    start = np.zeros(cells)
-    np.add.at(start, nxt[dfa.initial_state] * n_configs + configs, prior)
-    accepting = np.repeat(np.asarray(dfa.accepting, dtype=np.float64), n_configs)
-    # The evidence: per draw, episode and cell, the product over the spec's fluents.
+    accepting = np.asarray(dfa.accepting, dtype=np.float64)
     arrays = [np.asarray(e) for e in episodes]
     if arrays and np.issubdtype(arrays[0].dtype, np.floating):
         grid = np.array(edges, dtype=np.float64)
         arrays = [np.searchsorted(grid, a, side="right") for a in arrays]
     x, lengths = _padded(arrays)
-    log_rates = np.log(np.maximum(rates[:, cols], 1e-300))  # [S, m, 2, B]
-    n_draws = rates.shape[0]
+    x = x[:, :, cols]
+    rates = rates[:, cols]
+    pairs = None if pair_rates is None else pair_rates[:, cols]
+    n_draws, n = rates.shape[0], len(arrays)
 
-    def evidence(t: int) -> np.ndarray:  # [S, N, cells]
-        total = np.zeros((n_draws, len(arrays), n_configs))
+    def evidence(t: int) -> np.ndarray:  # [S, n, C, C']: P(frame t | config before, now)
+        emit = _step_emissions(x, t, rates, pairs)  # [S, n, m, 2, 2]
+        total = np.ones((n_draws, n, n_configs, n_configs))
         for j in range(m):
-            # [S, 2, N] -> the cell's truth of fluent j
-            per_truth = log_rates[:, j][:, :, x[:, t, cols[j]]]
-            total += per_truth[:, bits[:, j], :].transpose(0, 2, 1)
-        total -= total.max(axis=2, keepdims=True)
-        return np.tile(np.exp(total), (1, 1, n_q))
+            total *= emit[:, :, j][:, :, bits[:, j][:, None], bits[:, j][None, :]]
+        return total
 
-    def normalise(b: np.ndarray) -> np.ndarray:
-        return b / b.sum(axis=2, keepdims=True)
-
-    belief = normalise(start[None, None, :] * evidence(0))
+    # belief [S, n, q, c]: after the first frame (the trace's first letter)
+    first = evidence(0)[:, :, 0, :] * prior  # [S, n, C]
+    belief = np.einsum("snc,cr->snrc", first, move[dfa.initial_state])
+    belief /= belief.sum(axis=(2, 3), keepdims=True)
     for t in range(1, int(lengths.max())):
-        live = (lengths > t)[None, :, None]
-        updated = normalise(np.matmul(belief, move) * evidence(t))
+        live = (lengths > t)[None, :, None, None]
+        weights = chain * evidence(t)  # [S, n, C, C']
+        moved = np.einsum("snqc,sncd,qdr->snrd", belief, weights, move)
+        total = moved.sum(axis=(2, 3), keepdims=True)
+        # Evidence that every hypothesis forbids (a rate drawn at 0): keep the belief.
+        ok = total > 0
+        updated = np.where(ok, moved / np.where(ok, total, 1.0), belief)
         belief = np.where(live, updated, belief)
-    out: np.ndarray = belief @ accepting
+    out: np.ndarray = belief.sum(axis=3) @ accepting
     return out
 
 
@@ -542,13 +628,15 @@ def estimate_compliance(
     cols = [fluents.index(f) for f in used]
     bands = [model.bands(a[:, cols]) for a in arrays]
     if dynamics is None:
-        dynamics = fit_dynamics(bands, model.rates())
+        mean = model.rates()
+        dynamics = fit_dynamics(bands, mean, pair_rates=model.pair_rates(mean))
     else:
         dynamics = FluentDynamics(*(np.asarray(d)[cols] for d in dynamics))
     rng = np.random.default_rng(seed)
     rates = model.sample(rng, n_draws)
+    pairs = model.sample_pairs(rng, rates)
     out = {}
     for name, dfa in dfas.items():
-        draws = satisfaction_probabilities(dfa, used, bands, rates, dynamics)
+        draws = satisfaction_probabilities(dfa, used, bands, rates, dynamics, pair_rates=pairs)
         out[name] = aggregate_compliance(draws, rng=rng, level=level)
     return out

@@ -10,8 +10,12 @@ estimate is all that is reported: it is never presented as the truth.
 The detector's error model comes from, in order: labelled images the caller gives (a
 dataset saved by ``noisybolt classifiers collect``), the measurements a classifier
 recorded on its held-out images when it was trained, or fresh labelled images collected
-from the world's random play (as the classifier's own were), which is how a classifier
-file saved before error models were recorded, or a user's detector, gets one.
+from the world (as the classifier's own were), which is how a classifier file saved
+before error models were recorded, or a user's detector, gets one. How successive
+frames' bands follow each other (a smudge that reads "maybe" keeps reading it while the
+agent stays under it, whatever the truth) is counted on labelled episodes of the world's
+seeded random play: the simulator labels them as it labelled the classifier's images;
+the evaluation's own episodes are never read for it.
 
 Example:
     >>> from noisybolt.bolt.compliance import ErrorModel
@@ -44,6 +48,7 @@ from noisybolt.logic.dfa import DFA
 from noisybolt.perception.metrics import expected_calibration_error
 
 __all__ = [
+    "LABELLED_EPISODES",
     "LABELLED_SAMPLES",
     "ComplianceReport",
     "compliance_report",
@@ -53,6 +58,8 @@ __all__ = [
 #: Labelled images collected from the world to measure a detector that recorded no error
 #: model (as many as a classifier's held-out check uses).
 LABELLED_SAMPLES = 2000
+#: Labelled episodes of random play that successive frames' confusion is counted on.
+LABELLED_EPISODES = 100
 
 
 @dataclass(frozen=True)
@@ -158,50 +165,72 @@ def run_error_model(
     seed: int,
     labelled: str | Path | None = None,
     samples: int = LABELLED_SAMPLES,
+    episodes: int = LABELLED_EPISODES,
 ) -> tuple[ErrorModel, str]:
     """The run's detector's error model and a line on where it came from (see the
     module docstring).
 
+    Besides the confusion of single frames (from ``labelled``, else recorded with the
+    classifier, else ``samples`` images collected from the world), how successive frames'
+    bands follow each other is counted on ``episodes`` labelled episodes of the world's
+    seeded random play (none: frames are taken as independent given the truth, which
+    over-counts a detector's repeated errors).
+
     Args:
         config: the run's resolved :class:`~noisybolt.runs.config.TrainConfig`.
         detector: the run's detector.
-        seed: seeds the collection of labelled images, where needed.
+        seed: seeds the collection of labelled images and episodes.
         labelled: a labelled dataset file to measure the detector on.
         samples: labelled images to collect where needed.
+        episodes: labelled episodes of random play to count successive frames on.
 
     Raises:
         UnknownFluentError: the dataset lacks labels of some of the detector's fluents.
         IncompatibleError: the dataset comes from another camera.
     """
-    from noisybolt.perception.error_model import error_model_of, recorded_error_model
-
-    if labelled is not None:
-        from noisybolt.perception.dataset import load_dataset
-
-        data = load_dataset(labelled)
-        model = error_model_of(detector, labelled=data)
-        return model, f"measured on {len(data.labels):,} labelled images from {labelled}"
-    recorded = recorded_error_model(detector)
-    if recorded is not None:
-        total = int(recorded.counts[0].sum())
-        return recorded, f"recorded with the classifier ({total:,} held-out images)"
     from noisybolt.envs import make_world
-    from noisybolt.perception.dataset import collect_samples
-    from noisybolt.perception.error_model import measure_error_model
-
-    world: Any = make_world(config.world, num_envs=16, seed=seed, **config.world_settings)
-    try:
-        data = collect_samples(world, num_samples=samples, seed=seed, progress=False)
-    finally:
-        close = getattr(world, "close", None)
-        if callable(close):
-            close()
-    names = tuple(detector.fluent_names)
-    columns = [data.fluent_names.index(f) for f in names]
-    truth = np.asarray(data.labels, dtype=bool)[:, columns]
-    probs = detector.predict(data.images, truth=truth if detector.needs_truth else None)
-    model = measure_error_model(probs, truth, fluent_names=names)
-    return model, (
-        f"measured on {len(truth):,} labelled images collected from the world "
-        f"(seed {seed}); the detector recorded none"
+    from noisybolt.perception.dataset import collect_samples, load_dataset
+    from noisybolt.perception.error_model import (
+        error_model_of,
+        record_labelled_play,
+        recorded_error_model,
     )
+
+    def world() -> Any:
+        return make_world(config.world, num_envs=16, seed=seed, **config.world_settings)
+
+    sequences: list[Any] = []
+    if episodes > 0:
+        player = world()
+        try:
+            sequences = record_labelled_play(
+                player, detector, episodes=episodes, seed=seed, max_frames=100 * episodes
+            )
+        finally:
+            _close(player)
+    plays = f"; successive frames from {len(sequences)} labelled episodes of random play"
+    if labelled is not None:
+        data: Any = load_dataset(labelled)
+        source = f"measured on {len(data.labels):,} labelled images from {labelled}"
+    elif recorded_error_model(detector) is not None:
+        data = None
+        total = int(recorded_error_model(detector).counts[0].sum())  # type: ignore[union-attr]
+        source = f"recorded with the classifier ({total:,} held-out images)"
+    else:
+        collector = world()
+        try:
+            data = collect_samples(collector, num_samples=samples, seed=seed, progress=False)
+        finally:
+            _close(collector)
+        source = (
+            f"measured on {len(data.labels):,} labelled images collected from the world "
+            f"(seed {seed}; the detector recorded none)"
+        )
+    model = error_model_of(detector, labelled=data, sequences=sequences)
+    return model, source + (plays if sequences else "")
+
+
+def _close(world: Any) -> None:
+    close = getattr(world, "close", None)
+    if callable(close):
+        close()
