@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import noisybolt.perception.noise as noise
+import noisybolt.perception.noise_base as noise_base
 from noisybolt.envs.gridworld import GridworldCamera
 from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.perception.noise import (
@@ -214,10 +215,11 @@ def _regional_channels_last(
         smudge += ((1.0 - model.contrast) * mean).reshape(n, channels, 1, 1)
         smudge = smudge.transpose(0, 2, 3, 1)
         if model.sigma > 0:
-            smudge += noise._scaled_quantiles(model.sigma).take(noise._uniform16(rng, clean.shape))
+            draws = noise_base.uniform16(rng, clean.shape)
+            smudge += noise_base.scaled_quantiles(model.sigma).take(draws)
         if model.strength < 1.0:
             smudge = (1.0 - model.strength) * clean.astype(np.float32) + model.strength * smudge
-        out[:, r0:r1, c0:c1] = noise._to_uint8(smudge)
+        out[:, r0:r1, c0:c1] = noise_base.to_uint8(smudge)
     return out
 
 
