@@ -1,62 +1,51 @@
-"""Labelled bolt images: collecting them from a world, and saving them to one file.
+"""Labelled bolt images: collecting them from a world (and, re-exported here, the dataset,
+its file and its label counts).
 
-A :class:`FluentDataset` holds uint8 images ``[n, H, W, C]`` from a bolt camera, their
-ground-truth fluents ``[n, k]``, the fluent names and the :class:`CameraSpec` they came
-from. :func:`collect_samples` gathers one from any world meeting
-:class:`~noisybolt.perception.protocols.BoltObservable`: it explores with random actions
-and, where the world offers it (:class:`SupportsCollectionStates`), with scripted jumps to
-diverse states, then picks a subset balanced between positives and negatives of every
-fluent as far as the pool allows. Random play keeps the state each step reaches and, for
-an episode the step ends, its last state too (read from the step's ``final_info``: a
-vector world has already moved on to the next episode), so that a fluent true only as an
+:func:`collect_samples` gathers a :class:`~noisybolt.perception.fluent_dataset.FluentDataset`
+from any world meeting :class:`~noisybolt.perception.protocols.BoltObservable`: it
+explores with random actions and, where the world offers it
+(:class:`SupportsCollectionStates`), with scripted jumps to diverse states, then picks a
+subset balanced between positives and negatives of every fluent as far as the pool allows
+(:func:`balanced_subset`). Random play keeps the state each step reaches and, for an
+episode the step ends, its last state too (read from the step's ``final_info``: a vector
+world has already moved on to the next episode), so that a fluent true only as an
 episode ends (a goal reached, a hole fallen in) is shown to the classifier.
 
-File format (``.npz``, zip-deflated, written atomically): ``images`` (uint8 ``[n,H,W,C]``),
-``labels`` (bool ``[n,k]``) and ``header``, the UTF-8 bytes (uint8 array) of a JSON object
-with ``format`` (``"noisybolt.fluent_dataset"``), ``version`` (1), ``fluent_names``,
-``camera_spec``, ``seed`` and ``metadata``. Nothing is pickled.
+The dataset and its file format (:func:`save_dataset`, :func:`load_dataset`) are
+:mod:`noisybolt.perception.fluent_dataset`'s; how often it shows each fluent, and the
+refusal of images a spec's fluent is never true or never false in,
+:mod:`noisybolt.perception.label_counts`'s. This module names them all.
 
 Example:
-    >>> import numpy as np, tempfile, pathlib
-    >>> from noisybolt.perception.protocols import CameraSpec
-    >>> data = FluentDataset(
-    ...     images=np.zeros((2, 4, 4, 3), np.uint8), labels=np.array([[True], [False]]),
-    ...     fluent_names=("t",), camera_spec=CameraSpec("toy", 4, 4))
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "d.npz"
-    >>> save_dataset(data, path)
-    >>> load_dataset(path).labels[:, 0].tolist()
-    [True, False]
+    >>> labels = np.array([[True]] * 2 + [[False]] * 6)
+    >>> picked = balanced_subset(labels, 4, np.random.default_rng(0))
+    >>> int(labels[picked].sum()), len(picked)
+    (2, 4)
 """
 
 from __future__ import annotations
 
-import io
-import json
 import math
-import warnings
-import zipfile
-import zlib
-from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, NamedTuple, Protocol, runtime_checkable
+from collections.abc import Mapping
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from tqdm.auto import tqdm
 
-from noisybolt.errors import (
-    ConfigError,
-    CorruptFileError,
-    RareFluentWarning,
-    UnknownFluentError,
-    UnlabelledEnvError,
-    UnseenFluentError,
+from noisybolt.errors import ConfigError, UnlabelledEnvError
+from noisybolt.perception.fluent_dataset import (
+    DATASET_FORMAT,
+    DATASET_VERSION,
+    DatasetSplit,
+    FluentDataset,
+    load_dataset,
+    save_dataset,
 )
-from noisybolt.io import atomic_write_bytes
-from noisybolt.perception.compat import (
-    camera_spec_from_dict,
-    camera_spec_to_dict,
-    check_compatible,
+from noisybolt.perception.label_counts import (
+    RARE_FLUENT_IMAGES,
+    LabelCounts,
+    check_fluents_shown,
+    refuse_unseen,
 )
 from noisybolt.perception.protocols import (
     BOLT_IMAGE_KEY,
@@ -82,9 +71,6 @@ __all__ = [
     "save_dataset",
 ]
 
-DATASET_FORMAT = "noisybolt.fluent_dataset"
-DATASET_VERSION = 1
-
 
 @runtime_checkable
 class SupportsCollectionStates(Protocol):
@@ -99,338 +85,6 @@ class SupportsCollectionStates(Protocol):
     def sample_collection_states(self, rng: np.random.Generator) -> None:
         """Moves each environment of the batch to a state drawn with ``rng``."""
         ...
-
-
-class LabelCounts(NamedTuple):
-    """How many images a dataset holds and in how many of them each fluent is true.
-
-    A classifier saves them with its ``training`` notes
-    (:func:`noisybolt.perception.training.train_classifier`), so that a cached one can be
-    checked, when used again, for fluents it never saw true or never saw false.
-    """
-
-    images: int
-    positives: dict[str, int]
-
-    @classmethod
-    def of(cls, dataset: FluentDataset) -> LabelCounts:
-        """The counts of ``dataset``."""
-        return cls(images=len(dataset), positives=dataset.positives)
-
-    def negatives(self, fluent: str) -> int:
-        """Images in which ``fluent`` was false."""
-        return self.images - self.positives[fluent]
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON-able form kept in a classifier's ``training`` notes."""
-        return {"images": self.images, "positives": dict(self.positives)}
-
-    @classmethod
-    def from_dict(cls, data: Any, fluent_names: Sequence[str]) -> LabelCounts | None:
-        """The counts :meth:`to_dict` wrote for ``fluent_names``; None where ``data`` is
-        not such a form (absent from a file written before the counts were saved)."""
-        if not isinstance(data, dict):
-            return None
-        images, positives = data.get("images"), data.get("positives")
-        if (
-            not isinstance(images, int)
-            or not isinstance(positives, dict)
-            or set(positives) != set(fluent_names)
-            or not all(isinstance(n, int) and 0 <= n <= images for n in positives.values())
-        ):
-            return None
-        return cls(images=images, positives={name: positives[name] for name in fluent_names})
-
-
-#: A fluent some spec uses that is true, or false, in fewer than this many of the images a
-#: classifier learns from gets a :class:`~noisybolt.errors.RareFluentWarning`. Why 20: a
-#: fifth of them are its validation part (``TrainingConfig.validation_fraction``), so
-#: fewer leave about four or fewer there, and the validation table's accuracy and AUROC
-#: for the fluent rest on a handful of images; the held-out accuracy that restarts compare
-#: counts both values alike, so a classifier that reads 10 positives in 4,000 images all
-#: as false still scores 0.9975 on that fluent.
-RARE_FLUENT_IMAGES = 20
-
-
-def check_fluents_shown(
-    counts: LabelCounts,
-    spec_fluents: Collection[str],
-    *,
-    source: str,
-    what_to_do: str,
-    if_rare: str,
-) -> None:
-    """Refuses images to learn a classifier from in which a fluent some spec uses is never
-    true, or never false; warns where it is true or false in only a few of them.
-
-    Args:
-        counts: the images and each fluent's positives among them.
-        spec_fluents: the fluents the run's specs depend on; no other is checked (a world
-            may name fluents its specs do not need).
-        source: what the images are, for the messages ("the 4,000 images collected ...").
-        what_to_do: the refusal's advice, in the caller's terms (command-line options or
-            keyword arguments).
-        if_rare: the warning's advice, likewise.
-
-    Raises:
-        UnseenFluentError: naming every such fluent, the images and what to do.
-
-    Warns:
-        RareFluentWarning: a spec's fluent true, or false, in fewer than
-            :data:`RARE_FLUENT_IMAGES` of the images.
-
-    Example:
-        >>> counts = LabelCounts(images=800, positives={"has_key": 401, "at_goal": 0})
-        >>> advice = {"what_to_do": "Collect more.", "if_rare": "collect more"}
-        >>> check_fluents_shown(counts, ["has_key"], source="the images", **advice)
-        >>> check_fluents_shown(counts, ["at_goal"], source="the images", **advice)
-        Traceback (most recent call last):
-        ...
-        noisybolt.errors.UnseenFluentError: the images never show 'at_goal' true, and a spec ...
-    """
-    refuse_unseen(counts, spec_fluents, source=source, what_to_do=what_to_do)
-    rare = [
-        name
-        for name in spec_fluents
-        if min(counts.positives[name], counts.negatives(name)) < RARE_FLUENT_IMAGES
-    ]
-    if rare:
-        shown = ", ".join(
-            f"{name!r} true in {counts.positives[name]:,} and false in {counts.negatives(name):,}"
-            for name in rare
-        )
-        warnings.warn(
-            f"{source} show {shown}: fewer than {RARE_FLUENT_IMAGES} of one value, so the "
-            "classifier's accuracy on it rests on a handful of images and the bolt may "
-            f"misread it; {if_rare}",
-            RareFluentWarning,
-            stacklevel=2,
-        )
-
-
-def refuse_unseen(
-    counts: LabelCounts, spec_fluents: Collection[str], *, source: str, what_to_do: str
-) -> None:
-    """The refusal of :func:`check_fluents_shown` alone (no warning), for images collected
-    before a classifier is chosen: its warnings wait for the classifier kept."""
-    unknown = tuple(name for name in spec_fluents if name not in counts.positives)
-    if unknown:
-        raise UnknownFluentError(
-            f"spec fluent(s) {list(unknown)} are not among the classifier's "
-            f"{sorted(counts.positives)}",
-            unknown=unknown,
-            known=tuple(counts.positives),
-        )
-    unseen = {
-        name: "true" if counts.positives[name] == 0 else "false"
-        for name in spec_fluents
-        if counts.positives[name] == 0 or counts.negatives(name) == 0
-    }
-    if not unseen:
-        return
-    one = len(unseen) == 1
-    them, they = ("it", "it holds") if one else ("them", "they hold")
-    raise UnseenFluentError(
-        f"{source} never show "
-        + " or ".join(f"{name!r} {value}" for name, value in unseen.items())
-        + f", and a spec uses {them}: the classifier could not learn to tell when {they}, "
-        f"so the bolt would read {them} the same whatever the agent does and the spec "
-        f"could not steer it. {what_to_do}",
-        fluents=tuple(unseen),
-        images=counts.images,
-    )
-
-
-class DatasetSplit(NamedTuple):
-    """A dataset cut in two disjoint parts."""
-
-    train: FluentDataset
-    validation: FluentDataset
-
-
-@dataclass(frozen=True, eq=False)
-class FluentDataset:
-    """Bolt images with their ground-truth fluents.
-
-    Attributes:
-        images: uint8 ``[n, H, W, C]`` bolt images (noise included).
-        labels: bool ``[n, k]`` ground-truth fluents.
-        fluent_names: the ``k`` fluent names, in column order.
-        camera_spec: the camera the images come from; ``(H, W, C)`` must match its shape.
-        seed: the seed the samples were collected with, if known.
-        metadata: JSON-able notes on how the dataset was made.
-    """
-
-    images: np.ndarray
-    labels: np.ndarray
-    fluent_names: tuple[str, ...]
-    camera_spec: CameraSpec
-    seed: int | None = None
-    metadata: dict[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "fluent_names", tuple(self.fluent_names))
-        images, labels = self.images, self.labels
-        if not isinstance(images, np.ndarray) or images.dtype != np.uint8 or images.ndim != 4:
-            raise ValueError("images must be a uint8 array [n, H, W, C]")
-        if not isinstance(labels, np.ndarray) or labels.dtype != np.bool_ or labels.ndim != 2:
-            raise ValueError("labels must be a bool array [n, k]")
-        if labels.shape[0] != images.shape[0]:
-            raise ValueError(f"{images.shape[0]} images but {labels.shape[0]} label rows")
-        if labels.shape[1] != len(self.fluent_names):
-            raise ValueError(
-                f"labels have {labels.shape[1]} columns for {len(self.fluent_names)} fluents"
-            )
-        if len(set(self.fluent_names)) != len(self.fluent_names):
-            raise ValueError(f"fluent names repeat: {self.fluent_names}")
-        if images.shape[1:] != self.camera_spec.shape:
-            raise ValueError(
-                f"images are {images.shape[1:]} but the camera spec says {self.camera_spec.shape}"
-            )
-
-    def __len__(self) -> int:
-        return int(self.images.shape[0])
-
-    @property
-    def positives(self) -> dict[str, int]:
-        """Number of positive samples of each fluent."""
-        counts = self.labels.sum(axis=0)
-        return {name: int(c) for name, c in zip(self.fluent_names, counts, strict=True)}
-
-    def subset(self, indices: np.ndarray) -> FluentDataset:
-        """The samples at ``indices`` (same names, camera, seed and metadata)."""
-        return FluentDataset(
-            images=self.images[indices],
-            labels=self.labels[indices],
-            fluent_names=self.fluent_names,
-            camera_spec=self.camera_spec,
-            seed=self.seed,
-            metadata=dict(self.metadata),
-        )
-
-    def split(self, validation_fraction: float, *, seed: int) -> DatasetSplit:
-        """A seeded random split into training and validation parts.
-
-        Raises:
-            ConfigError: if ``validation_fraction`` is not in (0, 1) or a part is empty.
-        """
-        if not 0.0 < validation_fraction < 1.0:
-            raise ConfigError(f"validation_fraction must be in (0, 1), got {validation_fraction}")
-        n_val = round(len(self) * validation_fraction)
-        if n_val < 1 or n_val >= len(self):
-            raise ConfigError(
-                f"a validation fraction of {validation_fraction} leaves an empty part of "
-                f"{len(self)} samples; collect more samples"
-            )
-        order = np.random.default_rng(seed).permutation(len(self))
-        return DatasetSplit(self.subset(order[n_val:]), self.subset(order[:n_val]))
-
-    def check_compatible(
-        self, *, fluent_names: Sequence[str], camera_spec: CameraSpec, what: str = "dataset"
-    ) -> None:
-        """Raises :class:`~noisybolt.errors.IncompatibleError` unless made for this world."""
-        check_compatible(
-            what,
-            fluent_names=self.fluent_names,
-            camera_spec=self.camera_spec,
-            expected_fluents=fluent_names,
-            expected_camera=camera_spec,
-        )
-
-
-def save_dataset(dataset: FluentDataset, path: str | Path) -> None:
-    """Writes ``dataset`` to ``path`` as a compressed ``.npz``, atomically.
-
-    Example: see the module docstring.
-    """
-    header = {
-        "format": DATASET_FORMAT,
-        "version": DATASET_VERSION,
-        "fluent_names": list(dataset.fluent_names),
-        "camera_spec": camera_spec_to_dict(dataset.camera_spec),
-        "seed": dataset.seed,
-        "metadata": dataset.metadata,
-        "n_samples": len(dataset),
-    }
-    header_bytes = np.frombuffer(json.dumps(header, sort_keys=True).encode("utf-8"), np.uint8)
-    buffer = io.BytesIO()
-    np.savez_compressed(buffer, images=dataset.images, labels=dataset.labels, header=header_bytes)
-    atomic_write_bytes(path, buffer.getvalue())
-
-
-def load_dataset(
-    path: str | Path,
-    *,
-    world: BoltObservable | None = None,
-    fluent_names: Sequence[str] | None = None,
-    camera_spec: CameraSpec | None = None,
-) -> FluentDataset:
-    """Reads a dataset written by :func:`save_dataset`.
-
-    Args:
-        path: the ``.npz`` file.
-        world: the world it will be used with; the same as passing its ``fluent_names``
-            and ``camera_spec``.
-        fluent_names: if given with ``camera_spec``, the world's fluents: the dataset must
-            have been collected for exactly these fluents and camera.
-        camera_spec: the world's camera.
-
-    Raises:
-        FileNotFoundError: if there is no such file.
-        CorruptFileError: if the file is truncated, corrupt or not a noisybolt dataset.
-        IncompatibleError: if the dataset does not match the given fluents and camera.
-    """
-    if world is not None:
-        if fluent_names is not None or camera_spec is not None:
-            raise ValueError("give world, or fluent_names and camera_spec, not both")
-        fluent_names, camera_spec = tuple(world.fluent_names), world.camera_spec
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no dataset file at {path}")
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            if set(archive.files) != {"images", "labels", "header"}:
-                raise ValueError(f"unexpected members {sorted(archive.files)}")
-            header = json.loads(archive["header"].tobytes().decode("utf-8"))
-            images = archive["images"]
-            labels = archive["labels"]
-        if not isinstance(header, dict) or header.get("format") != DATASET_FORMAT:
-            raise ValueError("not a noisybolt fluent dataset")
-        if header.get("version") != DATASET_VERSION:
-            raise ValueError(f"unsupported version {header.get('version')!r}")
-        if header.get("n_samples") != images.shape[0]:
-            raise ValueError(
-                f"header says {header.get('n_samples')} samples, file has {images.shape[0]}"
-            )
-        dataset = FluentDataset(
-            images=images,
-            labels=labels,
-            fluent_names=tuple(header["fluent_names"]),
-            camera_spec=camera_spec_from_dict(header["camera_spec"]),
-            seed=header["seed"],
-            metadata=header["metadata"],
-        )
-    except (
-        OSError,
-        EOFError,
-        ValueError,
-        KeyError,
-        TypeError,
-        zipfile.BadZipFile,
-        zlib.error,
-        UnicodeDecodeError,
-    ) as error:
-        raise CorruptFileError(
-            f"dataset file {path} is truncated or corrupt ({type(error).__name__}: {error}); "
-            "collect it again (noisybolt classifiers collect)"
-        ) from error
-    if (fluent_names is None) != (camera_spec is None):
-        raise ValueError("give both fluent_names and camera_spec, or neither")
-    if fluent_names is not None and camera_spec is not None:
-        dataset.check_compatible(
-            fluent_names=fluent_names, camera_spec=camera_spec, what=f"dataset {path}"
-        )
-    return dataset
 
 
 def balanced_subset(
