@@ -569,12 +569,15 @@ def aggregate_compliance(
     these = truth.mean(axis=1)
     tail = (1 - level) / 2
     per_episode = draws.mean(axis=0)
+    rate = float(per_episode.mean())
+    # The drawn truths are whole episodes: where every episode is all but sure, their
+    # quantiles may sit a rounding error beyond the mean of the probabilities.
     return ComplianceEstimate(
-        rate=float(per_episode.mean()),
-        low=float(np.quantile(policy, tail)),
-        high=float(np.quantile(policy, 1 - tail)),
-        episodes_low=float(np.quantile(these, tail)),
-        episodes_high=float(np.quantile(these, 1 - tail)),
+        rate=rate,
+        low=min(rate, float(np.quantile(policy, tail))),
+        high=max(rate, float(np.quantile(policy, 1 - tail))),
+        episodes_low=min(rate, float(np.quantile(these, tail))),
+        episodes_high=max(rate, float(np.quantile(these, 1 - tail))),
         level=level,
         per_episode=per_episode,
     )
