@@ -237,7 +237,8 @@ def setting_parts(
 ) -> tuple[Any, Any, tuple[Spec, ...], int, tuple[str, ...]]:
     """``(world, detector, specs, n_actions, monotone fluents)`` of a setting."""
     from noisybolt.envs import make_world
-    from noisybolt.runs.training import DetectorConfig, make_detector
+    from noisybolt.runs import DetectorConfig
+    from noisybolt.runs.detectors import make_detector
 
     if name.startswith("grid"):
         noise = "regional" if name == "grid-smudge" else "none"
@@ -282,9 +283,10 @@ def agent_play(run_dir: str, noise: str, seed: int, n_envs: int) -> tuple[Any, t
     Actions are sampled, as the runs' evaluations do.
     """
     from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.runs import TrainConfig
+    from noisybolt.runs.environments import make_env
     from noisybolt.runs.run_evaluation import load_run_model
     from noisybolt.runs.rundir import RunDirectory
-    from noisybolt.runs.training import TrainConfig, make_env
 
     run = RunDirectory(run_dir)
     config = TrainConfig.from_dict(run.read_config()).override({"world.kwargs.noise": noise})

@@ -32,9 +32,10 @@ import torch
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecMonitor
 
 from noisybolt.envs import SB3VecEnv, make_world
+from noisybolt.runs import DetectorConfig
+from noisybolt.runs.detectors import make_detector
 from noisybolt.runs.evaluation import evaluate_bolted_policy
 from noisybolt.runs.specs import expand_specs, resolve_spec
-from noisybolt.runs.training import DetectorConfig, make_detector
 from noisybolt.wrappers import BoltVecEnv
 
 DEFAULT_NOISES = ("none", "gaussian:sigma=50", "gaussian:sigma=40+occlusion:count=2,size=0.25")

@@ -63,9 +63,9 @@ from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.breakout import BreakoutWorld
 from noisybolt.perception.classifier import ClassifierDetector
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs.detectors import classifier_architecture
 from noisybolt.runs.models import compute_dtype, set_precision
 from noisybolt.runs.specs import expand_specs, resolve_spec
-from noisybolt.runs.training import classifier_architecture
 from noisybolt.wrappers import BoltVecEnv
 
 N_ENVS = 8

@@ -110,7 +110,7 @@ def trial_config(
 ) -> Any:
     from noisybolt.agents.hyperparams import parse_overrides
     from noisybolt.cli.train import config_assignments
-    from noisybolt.runs.training import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig
 
     config = TrainConfig.create(
         world=args.world,
@@ -139,7 +139,7 @@ def run_trial(
     ``args.warm_start`` a bolted run starts from an unbolted one of those frames."""
     import torch
 
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     torch.set_num_threads(1)
     sys.path.insert(0, str(ROOT))  # the world's module, in a fresh worker

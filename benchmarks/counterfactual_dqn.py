@@ -37,7 +37,7 @@ def run_trial(spec: Any, seed: int, arm: str, args: argparse.Namespace) -> dict[
     """Trains one trial (unless finished) and returns its record."""
     import torch
 
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     torch.set_num_threads(1)
     out = Path(args.out) / arm / spec.name / f"seed{seed}"

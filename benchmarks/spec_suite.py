@@ -59,7 +59,7 @@ SCHEMES = {
 
 def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> Any:
     from noisybolt.experiments.checks import with_exact_scale
-    from noisybolt.runs.training import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig
 
     config = TrainConfig.create(
         world="gridworld",
@@ -90,7 +90,7 @@ def run_trial(
     """Trains one trial (unless finished) and returns its record (None: not run, collecting)."""
     import torch
 
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     torch.set_num_threads(1)
     out = Path(args.out) / scheme / algo / spec.name / f"seed{seed}"
@@ -314,7 +314,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if (
         args.detector == "classifier" and not args.collect
     ):  # train the cached classifier once, not per worker
-        from noisybolt.runs.training import prepare_bolt
+        from noisybolt.runs.environments import prepare_bolt
 
         prepare_bolt(trial_config(suite[0], algos[0], 0, schemes[0], args), seed=0)
     pairs = [(scheme, algo) for scheme in schemes for algo in algos]

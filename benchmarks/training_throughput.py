@@ -37,8 +37,9 @@ from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.agents.hyperparams import META_KEYS, WORLD_KEYS, load_hyperparams
 from noisybolt.agents.policies import BoltActorCriticPolicy
 from noisybolt.envs import SB3VecEnv, make_world
+from noisybolt.runs import DetectorConfig
+from noisybolt.runs.detectors import make_detector
 from noisybolt.runs.specs import resolve_spec
-from noisybolt.runs.training import DetectorConfig, make_detector
 from noisybolt.wrappers import BoltVecEnv
 
 PAPER_STACK_FPS = (1100, 1700)

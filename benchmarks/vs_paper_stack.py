@@ -251,8 +251,9 @@ class ImageOnly(VecEnvWrapper):
 def _noisybolt_env(bolted: bool, n_envs: int, seed: int, *, training: bool) -> VecEnv:
     from noisybolt.bolt import RewardScheme
     from noisybolt.envs import SB3VecEnv, make_world
+    from noisybolt.runs import DetectorConfig
+    from noisybolt.runs.detectors import make_detector
     from noisybolt.runs.specs import resolve_spec
-    from noisybolt.runs.training import DetectorConfig, make_detector
     from noisybolt.wrappers import BoltVecEnv
 
     noise = "regional" if bolted else "none"

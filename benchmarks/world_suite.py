@@ -44,8 +44,8 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
     import torch
 
     from noisybolt.agents.hyperparams import parse_overrides
-    from noisybolt.runs.config import nested_config
-    from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+    from noisybolt.runs import DetectorConfig, TrainConfig, train
+    from noisybolt.runs.legacy import nested_config
 
     torch.set_num_threads(1)
     os.chdir(HERE)  # factory paths resolve from the folder holding unseen_worlds.py

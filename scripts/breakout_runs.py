@@ -68,7 +68,7 @@ def classifier_file(config: dict[str, Any]) -> Path | None:
     classifier file named in the config, which is kept wherever it is)."""
     from noisybolt.envs import make_world
     from noisybolt.runs import TrainConfig
-    from noisybolt.runs.training import classifier_architecture, default_classifier_path
+    from noisybolt.runs.detectors import classifier_architecture, default_classifier_path
 
     detector = config.get("detector") or {}
     if detector.get("kind", "classifier") != "classifier" or detector.get("path"):
@@ -253,7 +253,7 @@ def stop(pids: Path, *, wait_s: float = 600.0) -> list[int]:
 
 
 def _agent(config: dict[str, Any]) -> str:
-    from noisybolt.runs.config import nested_config
+    from noisybolt.runs.legacy import nested_config
 
     config = nested_config(config)  # the flat configs of older runs too
     world = str(config["world"].get("name", ""))
@@ -265,7 +265,7 @@ def _agent(config: dict[str, Any]) -> str:
 
 def summary_entry(run: Path) -> dict[str, Any] | None:
     """One run's entry of ``summary.json`` (None for a run with no evaluation yet)."""
-    from noisybolt.runs.config import nested_config
+    from noisybolt.runs.legacy import nested_config
 
     config = nested_config(json.loads((run / "config.json").read_text()))  # flat ones too
     metrics = (

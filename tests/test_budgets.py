@@ -57,7 +57,7 @@ def test_a_budget_of_one_rollout_or_update_is_kept(settings: dict[str, object]) 
 
 
 def test_the_python_door_refuses_before_anything_is_written(tmp_path: Path) -> None:
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     config = TrainConfig.build({**BASE, "frames": 100})
     with pytest.raises(ConfigError, match="rollout"):

@@ -26,7 +26,7 @@ import pytest
 
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError, CorruptFileError
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs import DetectorConfig, TrainConfig, train
 
 
 def _quiet(_: str) -> None:

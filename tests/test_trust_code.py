@@ -119,8 +119,8 @@ def test_resume_refuses_before_anything_runs(
 
 
 def test_the_python_doors_refuse_with_a_named_error(payload: Payload) -> None:
+    from noisybolt.runs import train
     from noisybolt.runs.run_evaluation import evaluate_run
-    from noisybolt.runs.training import train
 
     with pytest.raises(UntrustedCodeError, match="trust_code=True") as info:
         evaluate_run(payload.run, episodes=2)

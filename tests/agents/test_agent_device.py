@@ -18,13 +18,13 @@ from noisybolt.agents.extractor import BoltFeaturesExtractor
 from noisybolt.envs import make_world
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
-from noisybolt.runs import models
-from noisybolt.runs.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
+from noisybolt.runs import models, train
+from noisybolt.runs.config import RESUMABLE_KEYS, TrainConfig
 from noisybolt.runs.environments import make_env
+from noisybolt.runs.legacy import LEGACY_DEFAULTS
 from noisybolt.runs.models import compute_dtype, make_model, native_bfloat16, torch_device
 from noisybolt.runs.run_evaluation import load_run_model
 from noisybolt.runs.rundir import RunDirectory
-from noisybolt.runs.training import train
 
 #: Whether this CPU computes bfloat16 natively (AVX512-BF16 or AMX).
 NATIVE = native_bfloat16("cpu")

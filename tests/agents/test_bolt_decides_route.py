@@ -145,7 +145,7 @@ def test_only_the_spec_makes_the_agent_detour(timing: str, reward: float, seed: 
 def test_a2c_detours_only_with_the_bolt(tmp_path: Path) -> None:
     # End to end through train(): the same config and seed with and without the bolt's
     # rewards (bolted=False keeps the DFA in the observation and tracks compliance).
-    from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+    from noisybolt.runs import DetectorConfig, TrainConfig, train
 
     results = {}
     for bolted in (True, False):

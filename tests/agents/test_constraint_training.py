@@ -17,7 +17,7 @@ from noisybolt.agents.pipeline import GroupedVecEnv
 from noisybolt.bolt import CostLimit
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs import DetectorConfig, TrainConfig, train
 from noisybolt.wrappers import EPISODE_COST_KEY
 
 # FrozenLake 4x4 (SFFF / FHFH / FFFH / HFFG); actions 0 left, 1 down, 2 right, 3 up.

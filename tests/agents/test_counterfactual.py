@@ -24,10 +24,10 @@ from noisybolt.agents.counterfactual import (
 from noisybolt.bolt import REWARD_TIMINGS, ProgressShaping, RestrainingBolt, Spec
 from noisybolt.errors import ConfigError
 from noisybolt.logic import DFA
+from noisybolt.runs import DetectorConfig, train
 from noisybolt.runs.config import TrainConfig
 from noisybolt.runs.environments import make_env, prepare_bolt
 from noisybolt.runs.models import make_model
-from noisybolt.runs.training import DetectorConfig, train
 
 # The bolt tests' DFAs and strategies (tests/bolt is on the path only for its own tests).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bolt"))

@@ -22,8 +22,9 @@ from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds, grouped_below
 from noisybolt.envs.breakout import FLUENT_NAMES
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
-from noisybolt.runs.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
+from noisybolt.runs.config import RESUMABLE_KEYS, TrainConfig
 from noisybolt.runs.environments import make_env
+from noisybolt.runs.legacy import LEGACY_DEFAULTS
 from noisybolt.runs.models import make_model
 
 N_ENVS, N_STEPS = 5, 24  # uneven groups (2 + 3)

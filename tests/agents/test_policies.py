@@ -23,10 +23,9 @@ from noisybolt.agents.hyperparams import algorithm_class
 from noisybolt.agents.policies import BoltActorCriticPolicy, BoltDQNPolicy, policy_class
 from noisybolt.cli import main
 from noisybolt.errors import UnknownNameError
-from noisybolt.runs import models
+from noisybolt.runs import DetectorConfig, TrainConfig, models, train
 from noisybolt.runs.evaluation import evaluate_bolted_policy
 from noisybolt.runs.models import load_model, read_model_data
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
 
 NVEC = [3, 2, 4]
 

@@ -8,7 +8,7 @@ from types import ModuleType
 
 import pytest
 
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs import DetectorConfig, TrainConfig, train
 
 BOTH_CORNERS = "F(top_right_corner) & F(bottom_left_corner)"  # a 16-step detour, not 7
 

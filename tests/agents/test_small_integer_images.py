@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from noisybolt.errors import SmallIntegerImagesWarning
-from noisybolt.runs.training import DetectorConfig, TrainConfig
+from noisybolt.runs import DetectorConfig, TrainConfig
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 ROOM = "minigrid_empty:make_room"

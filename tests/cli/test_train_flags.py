@@ -241,8 +241,8 @@ def test_the_scheme_line_follows_the_checks(
 
 
 def test_min_dwell_reaches_the_belief_bolt(tmp_path: Path) -> None:
+    from noisybolt.runs import TrainConfig
     from noisybolt.runs.environments import prepare_bolt
-    from noisybolt.runs.training import TrainConfig
 
     argv = ["train", "--spec", "edge", "--detector", "oracle", "--tracking", "belief"]
     argv += ["--min-dwell", "1", "--frames", "64", "--eval-freq", "0", "--eval-episodes", "1"]

@@ -17,8 +17,9 @@ from noisybolt.envs.breakout import (
 )
 from noisybolt.errors import ConfigError
 from noisybolt.perception.detectors import OracleDetector
-from noisybolt.runs.config import LEGACY_DEFAULTS, TrainConfig
+from noisybolt.runs.config import TrainConfig
 from noisybolt.runs.environments import make_env
+from noisybolt.runs.legacy import LEGACY_DEFAULTS
 
 
 def _world(**settings: Any) -> BreakoutWorld:

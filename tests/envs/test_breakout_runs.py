@@ -166,7 +166,7 @@ def _wait_for(pid: int, log: Path, timeout_s: float = 300.0) -> None:
 def test_resume_restores_a_kept_run_and_continues_it_in_the_background(
     script: ModuleType, tmp_path: Path
 ) -> None:
-    from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+    from noisybolt.runs import DetectorConfig, TrainConfig, train
 
     runs = tmp_path / "runs"
     config = TrainConfig.create(

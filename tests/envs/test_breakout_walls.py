@@ -17,8 +17,8 @@ from noisybolt.envs.breakout import (
     breakout_fluents,
     bricks_present,
 )
+from noisybolt.runs import train
 from noisybolt.runs.config import TrainConfig
-from noisybolt.runs.training import train
 
 #: Points per brick, top row first (Breakout's red, orange, yellow, green, aqua, blue).
 ROW_POINTS = np.array([7, 7, 4, 4, 1, 1])

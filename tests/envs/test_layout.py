@@ -7,13 +7,13 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
-from noisybolt.viz import record_episode, trajectory_heatmap, visit_counts
 
 import noisybolt
 from noisybolt.envs.gridworld import GridworldEnv
 from noisybolt.envs.layout import GridLayout
 from noisybolt.errors import ConfigError
 from noisybolt.perception.protocols import GRID_POSITION_KEY
+from noisybolt.viz import record_episode, trajectory_heatmap, visit_counts
 
 
 def _lake_cell(env: object) -> tuple[int, int]:

@@ -353,7 +353,7 @@ def test_crashing_trial_is_retried_then_reported_failed_while_others_are_kept(
 
 
 def test_interrupted_trial_resumes_from_its_checkpoint(tmp_path: Path) -> None:
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     sweep = _sweep(rows=[GRID["rows"][0]], seeds=1)
     (trial,) = sweep.trials

@@ -32,11 +32,8 @@ def classifiers() -> dict[str, Any]:
     from noisybolt.envs import make_world
     from noisybolt.perception.dataset import collect_samples
     from noisybolt.perception.training import TrainingConfig, train_classifier
-    from noisybolt.runs.training import (
-        DetectorConfig,
-        classifier_architecture,
-        default_classifier_path,
-    )
+    from noisybolt.runs import DetectorConfig
+    from noisybolt.runs.detectors import classifier_architecture, default_classifier_path
 
     torch.set_num_threads(1)
     detectors = {}

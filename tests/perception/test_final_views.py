@@ -24,9 +24,10 @@ from noisybolt.errors import ConfigError, RareFluentWarning, UnlabelledEnvError,
 from noisybolt.perception import dataset
 from noisybolt.perception.dataset import collect_samples
 from noisybolt.perception.protocols import CameraSpec
-from noisybolt.runs.config import LEGACY_DEFAULTS, TrainConfig
-from noisybolt.runs.detectors import classifier_architecture, default_classifier_path
-from noisybolt.runs.training import DetectorConfig, make_detector, train
+from noisybolt.runs import DetectorConfig, train
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.detectors import classifier_architecture, default_classifier_path, make_detector
+from noisybolt.runs.legacy import LEGACY_DEFAULTS
 
 WORLD = """
 import gymnasium as gym

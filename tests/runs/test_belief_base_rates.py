@@ -12,17 +12,21 @@ from noisybolt.perception.dataset import FluentDataset
 from noisybolt.perception.protocols import CameraSpec
 from noisybolt.perception.training import TrainingConfig, train_classifier
 from noisybolt.runs.config import DetectorConfig, TrainConfig
-from noisybolt.runs.environments import BASE_RATE_PLAY, make_env, prepare_bolt
+from noisybolt.runs.environments import make_env, prepare_bolt
+from noisybolt.runs.play import BASE_RATE_PLAY
+from noisybolt.runs.resolution import resolve
 
 
 def _config(kind: str = "synthetic", **kwargs: object) -> TrainConfig:
-    return TrainConfig.create(
-        world="gridworld",
-        specs=["edge"],
-        detector=DetectorConfig(kind=kind),
-        frames=64,
-        progress_bar=False,
-        **kwargs,  # type: ignore[arg-type]
+    return resolve(
+        TrainConfig.create(
+            world="gridworld",
+            specs=["edge"],
+            detector=DetectorConfig(kind=kind),
+            frames=64,
+            progress_bar=False,
+            **kwargs,  # type: ignore[arg-type]
+        )
     )
 
 
@@ -118,13 +122,15 @@ def test_a_trained_classifier_records_the_prior_its_probabilities_carry() -> Non
 def test_a_world_declaring_monotone_fluents_has_them_believed_monotone() -> None:
     # Breakout's bricks gone stay gone: the run's belief is told so, fluent by fluent; the
     # gridworld declares none (an agent leaves a corner).
-    breakout = TrainConfig.create(
-        world="breakout-ram",
-        specs=["left_row5", "clear_left_column"],
-        detector=DetectorConfig(kind="oracle"),
-        tracking="belief",
-        frames=64,
-        progress_bar=False,
+    breakout = resolve(
+        TrainConfig.create(
+            world="breakout-ram",
+            specs=["left_row5", "clear_left_column"],
+            detector=DetectorConfig(kind="oracle"),
+            tracking="belief",
+            frames=64,
+            progress_bar=False,
+        )
     )
     lines: list[str] = []
     setup = prepare_bolt(breakout, seed=0, log=lines.append)

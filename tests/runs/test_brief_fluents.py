@@ -18,8 +18,10 @@ import pytest
 from noisybolt.bolt import BeliefSettings
 from noisybolt.bolt.belief import frames_to_believe
 from noisybolt.errors import BriefFluentWarning
-from noisybolt.runs.environments import prepare_bolt, true_runs, warn_of_brief_runs
-from noisybolt.runs.training import DetectorConfig, TrainConfig
+from noisybolt.runs import DetectorConfig, TrainConfig
+from noisybolt.runs.environments import prepare_bolt
+from noisybolt.runs.play import true_runs, warn_of_brief_runs
+from noisybolt.runs.resolution import resolve
 
 LAKE = """
 import gymnasium as gym
@@ -92,8 +94,10 @@ def test_a_goal_true_only_as_the_episode_ends_is_seen_by_random_play(
 
     world_module("brieflake", LAKE)
     oracle = DetectorConfig(kind="oracle")
-    config = TrainConfig.create(
-        world="brieflake:make", specs=["F(goal)"], detector=oracle, tracking="belief"
+    config = resolve(
+        TrainConfig.create(
+            world="brieflake:make", specs=["F(goal)"], detector=oracle, tracking="belief"
+        )
     )
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -113,8 +117,10 @@ def test_a_run_on_a_world_of_one_frame_visits_is_warned_at_set_up(
     oracle = DetectorConfig(kind="oracle")
 
     def set_up(**settings: object) -> list[str]:
-        config = TrainConfig.create(
-            world="brieflake:make", specs=["F(second)"], detector=oracle, **settings
+        config = resolve(
+            TrainConfig.create(
+                world="brieflake:make", specs=["F(second)"], detector=oracle, **settings
+            )
         )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")

@@ -14,8 +14,8 @@ import pytest
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import world_fingerprint
 from noisybolt.errors import ConfigError
-from noisybolt.runs.detectors import best_of_restarts, restart_seed
-from noisybolt.runs.training import DetectorConfig, TrainConfig, make_detector, train
+from noisybolt.runs import DetectorConfig, TrainConfig, train
+from noisybolt.runs.detectors import best_of_restarts, make_detector, restart_seed
 
 WORLD = """
 import gymnasium as gym
@@ -190,8 +190,8 @@ def test_restart_seeds_start_at_the_seed_and_differ() -> None:
 
 
 def test_restarts_key_the_cache_from_two_on_and_legacy_runs_had_one() -> None:
-    from noisybolt.runs.config import LEGACY_DEFAULTS
     from noisybolt.runs.detectors import classifier_architecture, default_classifier_path
+    from noisybolt.runs.legacy import LEGACY_DEFAULTS
 
     names = {}
     for world in ("breakout-ram", "gridworld"):

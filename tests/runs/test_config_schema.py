@@ -11,19 +11,17 @@ import pytest
 
 from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.runs.config import (
-    FLAT_PATHS,
-    SCHEMA_VERSION,
     AlgorithmConfig,
     BoltConfig,
     EvaluationConfig,
     FrozenDict,
     TrainConfig,
     WorldConfig,
-    nested_config,
     override_paths,
     schema_paths,
     value_from_text,
 )
+from noisybolt.runs.legacy import FLAT_PATHS, SCHEMA_VERSION, nested_config
 
 
 @pytest.fixture(scope="module")
@@ -178,7 +176,7 @@ def test_create_with_flat_keywords_is_build_with_paths() -> None:
 
 def test_a_detector_kind_alone_is_that_detector_with_its_defaults() -> None:
     from noisybolt.errors import UnknownNameError
-    from noisybolt.runs.training import DetectorConfig
+    from noisybolt.runs import DetectorConfig
 
     by_kind = TrainConfig.create(specs=["edge"], detector="synthetic")
     assert by_kind == TrainConfig.create(specs=["edge"], detector=DetectorConfig(kind="synthetic"))

@@ -10,13 +10,8 @@ import pytest
 
 from noisybolt.agents.hyperparams import WORLD_KEYS
 from noisybolt.errors import ConfigError
-from noisybolt.runs.config import (
-    FLAT_PATHS,
-    LEGACY_DEFAULTS,
-    TrainConfig,
-    nested_config,
-    schema_paths,
-)
+from noisybolt.runs.config import TrainConfig, schema_paths
+from noisybolt.runs.legacy import FLAT_PATHS, LEGACY_DEFAULTS, nested_config
 from noisybolt.runs.rundir import RunDirectory
 from noisybolt.runs.schema import flatten
 from noisybolt.runs.training import check_same_config
@@ -112,8 +107,8 @@ def _paths(config: dict[str, object]) -> dict[str, object]:
 
 
 def test_a_run_saved_with_a_flat_config_resumes_and_evaluates(tmp_path: Path) -> None:
+    from noisybolt.runs import train
     from noisybolt.runs.run_evaluation import evaluate_run
-    from noisybolt.runs.training import train
 
     config = TrainConfig.build(
         {"bolt.specs": ["edge"], "bolt.reward": "paper", "detector.kind": "oracle",
@@ -135,3 +130,14 @@ def test_a_run_saved_with_a_flat_config_resumes_and_evaluates(tmp_path: Path) ->
             resume=True,
             log=lambda _: None,
         )
+
+
+def test_the_flat_names_of_old_files_are_the_configs_read_only_attributes() -> None:
+    # Two lists by design (the keys old files hold; the attributes today's code may read),
+    # held equal here so that neither drifts.
+    attributes = {
+        name: value.path for name, value in vars(TrainConfig).items() if hasattr(value, "path")
+    }
+    assert attributes == FLAT_PATHS
+    config = TrainConfig.create(specs=["edge"], reward="paper", eval_freq=7)
+    assert config.eval_freq == config.evaluation.freq == 7

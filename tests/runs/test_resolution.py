@@ -19,9 +19,10 @@ from noisybolt.envs import gridworld_tabular
 from noisybolt.errors import ConfigError
 from noisybolt.experiments.optimal import exact_compliance_scale
 from noisybolt.experiments.sweeps import SweepConfig
-from noisybolt.runs import resolution
-from noisybolt.runs.config import TrainConfig, compliance_scale_choice, nested_config, resolve
-from noisybolt.runs.training import train
+from noisybolt.runs import resolution, train
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.legacy import nested_config
+from noisybolt.runs.resolution import compliance_scale_choice, resolve
 
 RESULTS = Path(__file__).resolve().parents[2] / "results"
 BOTH = "F(top_right_corner) & F(bottom_left_corner)"
@@ -56,7 +57,7 @@ def _quiet(_: str) -> None:
 def test_every_door_pays_the_same_config_the_exact_scale(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    built = TrainConfig.build(TINY)
+    built = resolve(TrainConfig.build(TINY))
     # F(t) & F(b) on the gridworld: the scale computed on its product, far below the bound
     # from its return range (345.95, what Python's train() paid before one resolver).
     gamma = float(built.hyperparams.get("gamma", 0.99))
@@ -64,7 +65,7 @@ def test_every_door_pays_the_same_config_the_exact_scale(
     assert exact is not None and built.reward_scale is not None
     assert built.reward_scale == pytest.approx(exact)
     assert round(exact, 2) == 58.45 and round(compliance_scale_choice(built).bound, 2) == 345.95
-    scales: dict[str, float] = {"TrainConfig.build": built.reward_scale}
+    scales: dict[str, float] = {"resolve(TrainConfig.build)": built.reward_scale}
 
     # Python: train() on the built config, and on the same config left unresolved.
     train(built, tmp_path / "python", log=_quiet)
@@ -106,29 +107,27 @@ def test_every_door_pays_the_same_config_the_exact_scale(
 
 
 def test_resolving_is_idempotent_and_keeps_what_a_config_names() -> None:
-    config = TrainConfig.build(TINY)
+    config = resolve(TrainConfig.build(TINY))
     assert resolve(config) is config  # a resolved config comes back unchanged
     named = TrainConfig.build({**TINY, "bolt.reward_scale": 7.0})
     assert named.reward_scale == 7.0 and resolve(named) is named
     paper = TrainConfig.build({**TINY, "bolt.reward": "paper"})
     assert paper.reward_scale is None and resolve(paper) is paper
-    # Unresolved (a scale set back to None): resolve() gives what build() gave.
+    # Unresolved (a scale set back to None): resolve() gives what it gave before.
     again = config.override({"bolt.reward_scale": None})
     assert again.reward_scale is None and resolve(again) == config
 
 
 def test_a_config_is_data_building_one_plays_no_world(monkeypatch: pytest.MonkeyPatch) -> None:
-    built = TrainConfig.build(TINY)
-    data = built.to_dict()
-    data["bolt"]["reward_scale"] = None
-
     def refuse(*args: Any, **kwargs: Any) -> None:
         raise AssertionError("a world was built")
 
     monkeypatch.setattr(resolution, "make_world", refuse)
-    config = TrainConfig.from_dict(data)  # validated, not resolved: no world built
+    built = TrainConfig.build(TINY)  # validated whole, not resolved: no world built
+    data = built.to_dict()
+    config = TrainConfig.from_dict(data)
     assert config.reward_scale is None and config.specs == built.specs
-    with pytest.raises(ConfigError, match=r"not resolved yet: resolve\(config\)"):
+    with pytest.raises(ConfigError, match=r"not resolved yet: noisybolt.runs.resolve\(config\)"):
         config.spec_objects()
     with pytest.raises(AssertionError, match="a world was built"):
         resolve(config)

@@ -21,30 +21,28 @@ from noisybolt.errors import (
     UnnormalizedRewardWarning,
     UnsatisfiableSpecError,
 )
-from noisybolt.runs.config import warn_of_unnormalized_rewards
+from noisybolt.runs import DetectorConfig, TrainConfig, train
+from noisybolt.runs.environments import build_bolted_env, prepare_bolt
+from noisybolt.runs.presentation import warn_of_unnormalized_rewards
+from noisybolt.runs.resolution import resolve
 from noisybolt.runs.specs import load_specs_file
-from noisybolt.runs.training import (
-    DetectorConfig,
-    TrainConfig,
-    build_bolted_env,
-    prepare_bolt,
-    train,
-)
 
 ORACLE = DetectorConfig(kind="oracle")
 
 
 def _config(specs: list, **kwargs: object) -> TrainConfig:
     kwargs.setdefault("detector", ORACLE)
-    return TrainConfig.create(
-        specs=specs,
-        frames=64,
-        eval_freq=0,
-        checkpoint_freq=0,
-        eval_episodes=1,
-        progress_bar=False,
-        n_envs=2,
-        **kwargs,
+    return resolve(
+        TrainConfig.create(
+            specs=specs,
+            frames=64,
+            eval_freq=0,
+            checkpoint_freq=0,
+            eval_episodes=1,
+            progress_bar=False,
+            n_envs=2,
+            **kwargs,
+        )
     )
 
 
@@ -65,7 +63,7 @@ def _lake_module(folder: Path, monkeypatch: pytest.MonkeyPatch, name: str, label
 
 
 def test_compliance_is_the_default_with_a_scale_exact_on_the_gridworlds_product() -> None:
-    from noisybolt.runs.config import compliance_scale_choice
+    from noisybolt.runs.resolution import compliance_scale_choice
 
     config = _config(["avoid_top_right"])
     bounds = world_return_bounds(make_world("gridworld"))
@@ -103,9 +101,9 @@ def test_a_learner_paid_clipped_rewards_is_scaled_from_the_clipped_return(
     # A world that declares only its score's bounds: random play, clipped, with a warning.
     world = _lake_module(tmp_path, monkeypatch, "clipped_lake", "return_bounds=(0, 1)")
     lake = {"world": world, "specs": ["F(at_goal)"]}
-    assert TrainConfig.create(**lake).reward_scale == pytest.approx(1.1)
+    assert resolve(TrainConfig.create(**lake)).reward_scale == pytest.approx(1.1)
     with pytest.warns(EstimatedBoundsWarning, match=r"clipped to their sign.*--reward-scale"):
-        clipped = TrainConfig.create(**lake, overrides={"clip_reward": True})
+        clipped = resolve(TrainConfig.create(**lake, overrides={"clip_reward": True}))
     assert clipped.reward_scale == pytest.approx(1.65)  # as random play's 0 or 1 above
 
 
@@ -312,18 +310,20 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from noisybolt.errors import EstimatedBoundsWarning
-    from noisybolt.runs.training import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig
 
     _lake_module(tmp_path, monkeypatch, "bare_lake")
     common = {"world": "bare_lake:make", "specs": ["F(at_goal)"]}
     with pytest.warns(EstimatedBoundsWarning, match=r"declare the bounds.*--reward-scale"):
-        config = TrainConfig.create(**common, detector=DetectorConfig(kind="oracle"))
+        config = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
     assert config.reward == "compliance" and config.reward_scale == pytest.approx(1.65)
     # The estimate is seeded: the same scale again; a given scale is taken as it is.
     with pytest.warns(EstimatedBoundsWarning):
-        again = TrainConfig.create(**common, detector=DetectorConfig(kind="oracle"))
+        again = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
     assert again.reward_scale == config.reward_scale
-    given = TrainConfig.create(**common, reward_scale=3.0, detector=DetectorConfig(kind="oracle"))
+    given = resolve(
+        TrainConfig.create(**common, reward_scale=3.0, detector=DetectorConfig(kind="oracle"))
+    )
     assert given.reward_scale == 3.0
 
 

@@ -20,7 +20,7 @@ import pytest
 
 from noisybolt.cli import main
 from noisybolt.errors import CorruptFileError
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs import DetectorConfig, TrainConfig, train
 
 
 def _quiet(_: str) -> None:

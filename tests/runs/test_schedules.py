@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from noisybolt.agents.hyperparams import frame_schedules, load_hyperparams
 from noisybolt.errors import ConfigError
+from noisybolt.runs.resolution import resolve
 
 
 @pytest.mark.parametrize(
@@ -49,25 +50,27 @@ def test_the_frame_keys_are_known_hyperparameters() -> None:
 
 
 def _config(algo: str, frames: int, overrides: dict[str, object], checkpoint_freq: int = 0) -> Any:
-    from noisybolt.runs.training import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig
 
-    return TrainConfig.create(
-        specs=["edge"],
-        algo=algo,
-        detector=DetectorConfig(kind="oracle"),
-        frames=frames,
-        eval_freq=0,
-        eval_episodes=2,
-        checkpoint_freq=checkpoint_freq,
-        progress_bar=False,
-        overrides=overrides,
+    return resolve(
+        TrainConfig.create(
+            specs=["edge"],
+            algo=algo,
+            detector=DetectorConfig(kind="oracle"),
+            frames=frames,
+            eval_freq=0,
+            eval_episodes=2,
+            checkpoint_freq=checkpoint_freq,
+            progress_bar=False,
+            overrides=overrides,
+        )
     )
 
 
 def _train(
     tmp_path: Path, algo: str, frames: int, overrides: dict[str, object], name: str = ""
 ) -> Path:
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     run = tmp_path / f"{algo}-{frames}{name}"
     train(_config(algo, frames, overrides), run, log=lambda _: None)
@@ -183,7 +186,7 @@ def test_dqn_learning_rate_moves_every_train_freq(tmp_path: Path) -> None:
 def test_a_resumed_run_continues_the_schedule_in_frames(tmp_path: Path) -> None:
     from stable_baselines3 import PPO
 
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     overrides = {
         "n_steps": 64,
@@ -245,15 +248,17 @@ def test_bad_zoo_schedules_are_named_errors(params: dict[str, object], message: 
 def test_bad_schedules_are_refused_by_the_config(
     algo: str, overrides: dict[str, object], message: str
 ) -> None:
-    from noisybolt.runs.training import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig
 
     with pytest.raises(ConfigError, match=message):
-        TrainConfig.create(
-            specs=["edge"],
-            algo=algo,
-            detector=DetectorConfig(kind="oracle"),
-            frames=1024,
-            overrides=overrides,
+        resolve(
+            TrainConfig.create(
+                specs=["edge"],
+                algo=algo,
+                detector=DetectorConfig(kind="oracle"),
+                frames=1024,
+                overrides=overrides,
+            )
         )
 
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from noisybolt.errors import UnknownFluentError
+from noisybolt.runs import TrainConfig
+from noisybolt.runs.resolution import resolve
 from noisybolt.runs.specs import SPEC_GROUPS, expand_specs, resolve_spec
-from noisybolt.runs.training import TrainConfig
 
 
 def test_groups_expand_in_place_and_leave_the_rest() -> None:
@@ -35,7 +36,7 @@ def test_milestone_specs_pay_once_per_brick() -> None:
 
 
 def test_a_group_names_breakout_specs_in_a_training_config() -> None:
-    config = TrainConfig.create(world="breakout", specs=["left_column_milestones"])
+    config = resolve(TrainConfig.create(world="breakout", specs=["left_column_milestones"]))
     assert [s.name for s in config.spec_objects()] == list(SPEC_GROUPS["left_column_milestones"])
 
 

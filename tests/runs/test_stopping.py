@@ -158,7 +158,7 @@ def _scripted_success(monkeypatch: pytest.MonkeyPatch, rates: list[float]) -> li
 
 
 def _stopping_config(**kwargs: Any) -> Any:
-    from noisybolt.runs.training import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig
 
     settings: dict[str, Any] = {
         "specs": ["edge"],
@@ -180,7 +180,7 @@ def test_train_stops_after_exactly_k_solved_evaluations(
 ) -> None:
     import json
 
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     seen = _scripted_success(monkeypatch, [0.0, 1.0, 0.95, 0.5, 1.0, 0.96, 1.0, 1.0])
     result = train(_stopping_config(), tmp_path / "run", log=lambda _: None)
@@ -196,7 +196,7 @@ def test_train_stops_after_exactly_k_solved_evaluations(
 def test_train_without_the_rule_trains_its_whole_budget(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from noisybolt.runs.training import train
+    from noisybolt.runs import train
 
     seen = _scripted_success(monkeypatch, [1.0] * 10)
     result = train(

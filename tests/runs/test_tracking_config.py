@@ -15,16 +15,19 @@ from noisybolt.errors import ConfidenceLevelError, UnknownNameError
 from noisybolt.perception.detectors import OracleDetector
 from noisybolt.runs.config import DetectorConfig, TrainConfig
 from noisybolt.runs.environments import make_env
+from noisybolt.runs.resolution import resolve
 
 
 def _config(**kwargs: object) -> TrainConfig:
-    return TrainConfig.create(
-        world="gridworld",
-        specs=["edge"],
-        detector=DetectorConfig(kind="oracle"),
-        frames=64,
-        progress_bar=False,
-        **kwargs,  # type: ignore[arg-type]
+    return resolve(
+        TrainConfig.create(
+            world="gridworld",
+            specs=["edge"],
+            detector=DetectorConfig(kind="oracle"),
+            frames=64,
+            progress_bar=False,
+            **kwargs,  # type: ignore[arg-type]
+        )
     )
 
 

@@ -15,7 +15,8 @@ import torch
 
 from noisybolt.cli import main
 from noisybolt.errors import ConfigError, IncompatibleError, UnknownFluentError, UnknownNameError
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs import DetectorConfig, TrainConfig, train
+from noisybolt.runs.resolution import resolve
 
 
 def _config(**kwargs: object) -> TrainConfig:
@@ -30,7 +31,7 @@ def _config(**kwargs: object) -> TrainConfig:
         "overrides": {"n_steps": 64},
     }
     defaults.update(kwargs)
-    return TrainConfig.create(**defaults)  # type: ignore[arg-type]
+    return resolve(TrainConfig.create(**defaults))  # type: ignore[arg-type]
 
 
 def _quiet(_: str) -> None:
@@ -151,11 +152,13 @@ def test_life_loss_terminal_in_a_world_without_lives_is_refused(tmp_path: Path) 
 
 def test_atari_conventions_reach_the_training_envs_only() -> None:
     from noisybolt.perception.detectors import OracleDetector
-    from noisybolt.runs.training import build_bolted_env
+    from noisybolt.runs.environments import build_bolted_env
     from noisybolt.wrappers import ClipGameReward
 
-    config = TrainConfig.create(
-        world="breakout", specs=["left_row5"], detector=DetectorConfig(kind="oracle")
+    config = resolve(
+        TrainConfig.create(
+            world="breakout", specs=["left_row5"], detector=DetectorConfig(kind="oracle")
+        )
     )
     assert config.world_config.clip_reward and config.world_config.fire_on_reset
     detector = OracleDetector(("brick_clear_left", *(f"left_gone_row{r}" for r in range(6))))
@@ -409,7 +412,7 @@ def test_the_best_model_survives_a_resume(
 
 
 def test_a_linear_schedule_moves_linearly_and_stops_at_its_end() -> None:
-    from noisybolt.runs.training import LinearSchedule
+    from noisybolt.runs.callbacks import LinearSchedule
 
     schedule = LinearSchedule("ent_coef", 0.05, 0.01, 1000)
     assert schedule.value(0) == pytest.approx(0.05)
@@ -444,12 +447,17 @@ def test_an_unknown_cnn_is_refused_before_anything_is_written(tmp_path: Path) ->
 
 def test_breakout_agents_get_the_2013_dqn_network() -> None:
     from noisybolt.perception.detectors import OracleDetector
+    from noisybolt.runs.environments import build_bolted_env
     from noisybolt.runs.models import make_model
-    from noisybolt.runs.training import build_bolted_env
 
     for algo in ("ppo", "a2c", "dqn"):
-        config = TrainConfig.create(
-            world="breakout", algo=algo, specs=["left_row5"], detector=DetectorConfig(kind="oracle")
+        config = resolve(
+            TrainConfig.create(
+                world="breakout",
+                algo=algo,
+                specs=["left_row5"],
+                detector=DetectorConfig(kind="oracle"),
+            )
         )
         assert config.hyperparams["cnn"] == "atari2013"
         detector = OracleDetector(("brick_clear_left", *(f"left_gone_row{r}" for r in range(6))))

@@ -22,8 +22,9 @@ from noisybolt.envs import make_world
 from noisybolt.errors import ConfigError, RareFluentWarning, UnseenFluentError
 from noisybolt.perception.classifier import load_classifier
 from noisybolt.perception.dataset import LabelCounts, collect_samples
+from noisybolt.runs import DetectorConfig, TrainConfig, train
 from noisybolt.runs.detectors import RARE_FLUENT_IMAGES, check_fluents_shown, make_detector
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs.resolution import resolve
 
 WORLD = """
 import gymnasium as gym
@@ -77,8 +78,10 @@ def _cached_files(root: Path) -> list[Path]:
 def test_a_spec_over_a_fluent_never_collected_true_is_refused_and_nothing_is_written(
     lake: Any, tmp_path: Path
 ) -> None:
-    config = TrainConfig.create(
-        world=NAME, specs=["F(off_lake)"], detector=SMALL, frames=1024, eval_freq=0
+    config = resolve(
+        TrainConfig.create(
+            world=NAME, specs=["F(off_lake)"], detector=SMALL, frames=1024, eval_freq=0
+        )
     )
     with pytest.raises(UnseenFluentError) as caught:
         train(config, tmp_path / "run", log=lambda line: None)
@@ -172,8 +175,10 @@ def test_a_detector_reading_the_truth_warns_of_a_spec_fluent_random_play_never_s
     from noisybolt.runs.environments import prepare_bolt
 
     def warned(spec: str) -> list[str]:
-        config = TrainConfig.create(
-            world=NAME, specs=[spec], detector=DetectorConfig(kind="oracle"), reward=reward
+        config = resolve(
+            TrainConfig.create(
+                world=NAME, specs=[spec], detector=DetectorConfig(kind="oracle"), reward=reward
+            )
         )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")

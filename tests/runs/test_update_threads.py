@@ -16,8 +16,8 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.policies import ActorCriticPolicy
 
 from noisybolt.errors import ConfigError
+from noisybolt.runs import TrainConfig, train
 from noisybolt.runs.callbacks import UpdateThreads
-from noisybolt.runs.training import TrainConfig, train
 
 
 def _config(*, workers: int, algo: str = "ppo") -> TrainConfig:

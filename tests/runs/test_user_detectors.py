@@ -25,9 +25,9 @@ from noisybolt.perception.detectors import (
     SyntheticDetector,
     match_fluents,
 )
+from noisybolt.runs import DetectorConfig
 from noisybolt.runs.detectors import user_detector
 from noisybolt.runs.specs import resolve_spec
-from noisybolt.runs.training import DetectorConfig
 from noisybolt.wrappers import RestrainingBoltWrapper
 
 SPECS = [resolve_spec("edge"), resolve_spec("one_corner_once")]

@@ -19,9 +19,9 @@ import pytest
 import torch
 
 from noisybolt.errors import ConfigError, CorruptFileError, IncompatibleError, NoCheckpointError
-from noisybolt.runs import training
-from noisybolt.runs.config import LEGACY_DEFAULTS, RESUMABLE_KEYS, TrainConfig
-from noisybolt.runs.training import train
+from noisybolt.runs import train, training
+from noisybolt.runs.config import RESUMABLE_KEYS, TrainConfig
+from noisybolt.runs.legacy import LEGACY_DEFAULTS
 from noisybolt.runs.warm_start import (
     INIT_MODEL,
     InitialWeights,

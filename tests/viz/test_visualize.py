@@ -6,9 +6,15 @@ from pathlib import Path
 from typing import Any
 
 import imageio.v3 as iio
-import noisybolt.viz as viz
 import numpy as np
 import pytest
+
+import noisybolt.viz as viz
+from noisybolt.bolt import confidence_bands
+from noisybolt.envs.gridworld import GridAction, GridworldEnv
+from noisybolt.errors import ConfigError
+from noisybolt.perception.detectors import BetaNoise, SyntheticDetector
+from noisybolt.runs.specs import resolve_spec
 from noisybolt.viz import (
     EpisodeRecording,
     default_frame,
@@ -19,12 +25,6 @@ from noisybolt.viz import (
     trajectory_heatmap,
     visit_counts,
 )
-
-from noisybolt.bolt import confidence_bands
-from noisybolt.envs.gridworld import GridAction, GridworldEnv
-from noisybolt.errors import ConfigError
-from noisybolt.perception.detectors import BetaNoise, SyntheticDetector
-from noisybolt.runs.specs import resolve_spec
 from noisybolt.wrappers.bolt_wrapper import RestrainingBoltWrapper
 
 R, L, F = GridAction.RIGHT, GridAction.LEFT, GridAction.FORWARD

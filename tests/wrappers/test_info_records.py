@@ -20,9 +20,9 @@ from noisybolt.bolt import Spec
 from noisybolt.envs import SB3VecEnv
 from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+from noisybolt.runs import DetectorConfig, TrainConfig
 from noisybolt.runs.environments import make_env
 from noisybolt.runs.specs import resolve_spec
-from noisybolt.runs.training import DetectorConfig, TrainConfig
 from noisybolt.wrappers import BoltVecEnv
 
 SPECS = [

@@ -310,8 +310,8 @@ def test_a_world_without_a_camera_renders_nothing_and_refuses_a_classifier(
     # render is most of its step. The env here cannot even render (render_mode None).
     from noisybolt.envs import make_world
     from noisybolt.errors import ConfigError
+    from noisybolt.runs import DetectorConfig
     from noisybolt.runs.detectors import make_detector
-    from noisybolt.runs.training import DetectorConfig
 
     plain = gym.make("FrozenLake-v1", is_slippery=False)
     blind = FluentLabels(plain, fluents=FLUENTS, camera=False, success="at_goal")

@@ -18,10 +18,10 @@ from noisybolt.agents.hyperparams import check_hyperparameter_values
 from noisybolt.envs import make_world
 from noisybolt.errors import ConfigError, CorruptFileError
 from noisybolt.perception.detectors import OracleDetector
+from noisybolt.runs import DetectorConfig, TrainConfig, train
 from noisybolt.runs.checkpoints import NORMALISER, load_normaliser, save_normaliser
-from noisybolt.runs.config import describe_scheme
 from noisybolt.runs.environments import make_env
-from noisybolt.runs.training import DetectorConfig, TrainConfig, train
+from noisybolt.runs.presentation import describe_scheme
 from noisybolt.wrappers import SplitRewardNormalize
 
 GAMMA = 0.9

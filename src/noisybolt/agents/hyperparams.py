@@ -37,6 +37,7 @@ __all__ = [
     "WORLD_KEYS",
     "algorithm_class",
     "check_action_space",
+    "check_budget",
     "check_hyperparameter_values",
     "constructor_defaults",
     "frame_schedules",
@@ -447,4 +448,46 @@ def check_action_space(algo: str, action_space: spaces.Space, *, world: str) -> 
             f"{algo.upper()} takes only {' or '.join(a.__name__ for a in allowed)} actions, "
             f"and world {world!r} acts in {action_space}; train it with --algo "
             f"{' or '.join(others)}"
+        )
+
+
+def check_budget(algo: str, *, frames: int, n_envs: int, hyperparams: Mapping[str, Any]) -> None:
+    """Refuses a budget an algorithm cannot keep: PPO's or A2C's first rollout (``n_envs``
+    x ``n_steps`` frames) larger than ``frames`` (SB3 would train that rollout whole, past
+    the budget), or DQN's ``learning_starts`` at or past ``frames`` (it would never learn).
+
+    Raises:
+        ConfigError: giving the arithmetic and what to change.
+
+    Example:
+        >>> check_budget("ppo", frames=1000, n_envs=64, hyperparams={"n_steps": 128})
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: frames 1,000 is less than one PPO rollout: \
+world.n_envs x algorithm.hyperparams.n_steps = 64 x 128 = 8,192 frames, which would be \
+trained whole, past the budget; give --frames 8192 or more, or --hp n_steps=15 or less
+    """
+    params = {**constructor_defaults(algo), **hyperparams}
+    if algo in ("ppo", "a2c"):  # one rollout of every env before an update
+        steps = params["n_steps"]
+        rollout = n_envs * steps
+        if rollout > frames:
+            fewer = (
+                f"--hp n_steps={frames // n_envs} or less"
+                if frames >= n_envs
+                else f"--n-envs {frames} or less"
+            )
+            raise ConfigError(
+                f"frames {frames:,} is less than one {algo.upper()} rollout: "
+                f"world.n_envs x algorithm.hyperparams.n_steps = {n_envs} x {steps} "
+                f"= {rollout:,} frames, which would be trained whole, past the budget; "
+                f"give --frames {rollout} or more, or {fewer}"
+            )
+        return
+    starts = params.get("learning_starts")
+    if isinstance(starts, int) and starts >= frames:
+        raise ConfigError(
+            f"algorithm.hyperparams.learning_starts {starts:,} >= frames {frames:,}: "
+            f"{algo.upper()} would never learn; give --frames above {starts} or --hp "
+            f"learning_starts={frames // 10}"
         )

@@ -68,9 +68,11 @@ def _check(args: argparse.Namespace) -> int:
     from noisybolt.experiments.checks import goal_feasibility, tabular_settings
     from noisybolt.experiments.optimal import optimal_unconstrained_return, scheme_optimum
     from noisybolt.logic import distance_to_acceptance
-    from noisybolt.runs.config import compliance_scale_choice, spec_worths
+    from noisybolt.runs.config import DetectorConfig, TrainConfig
+    from noisybolt.runs.environments import prepare_bolt
+    from noisybolt.runs.presentation import spec_worths
+    from noisybolt.runs.resolution import compliance_scale_choice, resolve
     from noisybolt.runs.specs import load_specs_file
-    from noisybolt.runs.training import DetectorConfig, TrainConfig, prepare_bolt
 
     args.world = args.world or DEFAULT_WORLD
     specs: list[Any] = list(args.spec)
@@ -89,7 +91,7 @@ def _check(args: argparse.Namespace) -> int:
     # declares no return bounds gets a scale from random play: say so.
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", EstimatedBoundsWarning)
-        config = TrainConfig.create(**common, reward_scale=args.reward_scale)
+        config = resolve(TrainConfig.create(**common, reward_scale=args.reward_scale))
     for warning in caught:
         if issubclass(warning.category, EstimatedBoundsWarning):
             print(f"note: {warning.message}")

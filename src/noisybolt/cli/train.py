@@ -472,8 +472,10 @@ def _default_out(overrides: dict[str, Any]) -> Path:
 
 
 def _train(args: argparse.Namespace) -> int:
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.resolution import resolve
     from noisybolt.runs.rundir import RunDirectory
-    from noisybolt.runs.training import TrainConfig, train
+    from noisybolt.runs.training import train
 
     overrides = train_overrides(args)
     if args.resume:  # the saved run's settings, with the ones given again on top
@@ -490,7 +492,7 @@ def _train(args: argparse.Namespace) -> int:
                 "give at least one --spec (a built-in name or an LTLf formula) or a --specs-file"
             )
         # Resolved as every door resolves a config (the scale, exact on a tabular product).
-        config = TrainConfig.build(overrides, hp_file=args.hp_file, log=print)
+        config = resolve(TrainConfig.build(overrides, hp_file=args.hp_file), log=print)
         out = args.out or _default_out(overrides)
         if out.exists() and not out.is_dir():
             raise ConfigError(f"--out {out} is a file, not a run directory; give a directory")

@@ -130,10 +130,11 @@ def measure_corners(
     """
     import torch
 
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.environments import make_env, prepare_bolt
     from noisybolt.runs.evaluation import EpisodeRecord, evaluate_bolted_policy
     from noisybolt.runs.run_evaluation import load_run_model
     from noisybolt.runs.rundir import RunDirectory
-    from noisybolt.runs.training import TrainConfig, make_env, prepare_bolt
 
     if episodes < 1:
         raise ConfigError(f"episodes must be >= 1, got {episodes}")

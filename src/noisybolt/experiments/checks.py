@@ -1,7 +1,7 @@
 """Checks of a run's specs on a world whose product can be explored: routes and scales.
 
 Used by ``noisybolt check`` and ``noisybolt train``. The compliance scale itself is
-decided once, by :func:`noisybolt.runs.config.resolve` (which every door calls: the
+decided once, by :func:`noisybolt.runs.resolution.resolve` (which every door calls: the
 same config is paid the same scale from Python, the CLI, ``check`` and sweeps); what is
 left here is what those doors *say* about a world: whether a compliant episode reaches
 the goal.
@@ -27,7 +27,7 @@ from noisybolt.errors import ConfigError, NoisyboltError, UnknownFluentError
 
 if TYPE_CHECKING:
     from noisybolt.bolt.product import OptimalResult
-    from noisybolt.runs.training import TrainConfig
+    from noisybolt.runs.config import TrainConfig
 
 __all__ = [
     "check_worlds", "exact_scale", "goal_feasibility", "tabular_settings", "with_exact_scale",
@@ -71,10 +71,10 @@ def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
 
 def exact_scale(config: TrainConfig) -> float | None:
     """The compliance scale computed on the world's product, as :func:`resolve
-    <noisybolt.runs.config.resolve>` gives it to a config that names none; None where
+    <noisybolt.runs.resolution.resolve>` gives it to a config that names none; None where
     the product cannot be explored, no compliant episode reaches the goal (the bound from
     the world's returns then stands), or the scheme pays no scale (``paper``)."""
-    from noisybolt.runs.config import compliance_scale_choice
+    from noisybolt.runs.resolution import compliance_scale_choice
 
     if config.reward == "paper":
         return None
@@ -83,10 +83,10 @@ def exact_scale(config: TrainConfig) -> float | None:
 
 
 def with_exact_scale(config: TrainConfig, log: Callable[[str], None] | None = print) -> TrainConfig:
-    """:func:`noisybolt.runs.config.resolve` (kept for the callers of the days when the
+    """:func:`noisybolt.runs.resolution.resolve` (kept for the callers of the days when the
     CLI refined the scale of a config built from Python: every config is resolved alike
     now, and a resolved one comes back unchanged)."""
-    from noisybolt.runs.config import resolve
+    from noisybolt.runs.resolution import resolve
 
     return resolve(config, log=log)
 

@@ -26,7 +26,8 @@ from noisybolt.runs.evaluation import EpisodeRecord, EvalResult, summarise
 from noisybolt.wrappers import RestrainingBoltWrapper
 
 if TYPE_CHECKING:  # training imports torch and Stable-Baselines3: loaded when first used
-    from noisybolt.runs.training import BoltSetup, TrainConfig
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.environments import BoltSetup
 
 __all__ = [
     "AgentOutcome",
@@ -148,9 +149,11 @@ def compare_bolted_unbolted(
     """
     import torch
 
+    from noisybolt.runs.config import DetectorConfig, TrainConfig
+    from noisybolt.runs.environments import prepare_bolt
     from noisybolt.runs.run_evaluation import load_run_model
     from noisybolt.runs.rundir import RunDirectory
-    from noisybolt.runs.training import DetectorConfig, TrainConfig, prepare_bolt, train
+    from noisybolt.runs.training import train
     from noisybolt.viz import compare_heatmaps, save_episode_gif
 
     # One thread, as train() sets it: on a small machine torch's default (every core)

@@ -213,7 +213,7 @@ def run_report(
     """
     run = Path(run_dir)
     saved = read_json(run / "config.json", default=None)
-    from noisybolt.runs.config import nested_config  # the flat configs of older runs too
+    from noisybolt.runs.legacy import nested_config  # the flat configs of older runs too
 
     config = dict(saved if isinstance(saved, dict) else config or {})
     if not config:

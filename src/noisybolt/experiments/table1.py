@@ -171,7 +171,7 @@ def _rc_max(formula: str, world_kwargs: dict[str, Any]) -> float | None:
 
 def build_table1(sweep_result: Any) -> tuple[Table1Entry, ...]:
     """The table's entries from a collected sweep (rows in the paper's order)."""
-    from noisybolt.runs.config import nested_config  # flat configs of older runs too
+    from noisybolt.runs.legacy import nested_config  # flat configs of older runs too
 
     by_group = {g.group: g for g in sweep_result.groups}
     entries = []
@@ -398,7 +398,7 @@ def write_table1(
 
 
 def _settings_from(root: Path, result: Any) -> dict[str, Any]:
-    from noisybolt.runs.config import nested_config
+    from noisybolt.runs.legacy import nested_config
 
     sweep = read_json(root / "sweep.json", default={})
     trials = sweep.get("trials") or [{}]

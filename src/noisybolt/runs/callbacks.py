@@ -28,12 +28,12 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.utils import ConstantSchedule
 from stable_baselines3.common.vec_env import VecEnv
 
-from noisybolt.runs.checkpoints import BEST_DIR, best_folder, save_checkpoint, save_model_files
-from noisybolt.runs.config import TrainConfig
 from noisybolt.agents.constraint import LagrangianCallback
-from noisybolt.runs.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.agents.hyperparams import SCHEDULED, constructor_defaults
 from noisybolt.errors import ConfigError
+from noisybolt.runs.checkpoints import BEST_DIR, best_folder, save_checkpoint, save_model_files
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.evaluation import EvalResult, evaluate_bolted_policy
 from noisybolt.runs.rundir import RunDirectory
 
 __all__ = [

@@ -26,9 +26,9 @@ import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
-from noisybolt.runs.models import save_model
 from noisybolt.errors import CorruptFileError, NoCheckpointError, UnsafeFileError
 from noisybolt.io import atomic_open, atomic_write_json, read_json
+from noisybolt.runs.models import save_model
 from noisybolt.runs.rundir import RunDirectory
 from noisybolt.wrappers import SplitRewardNormalize
 

@@ -26,9 +26,10 @@ Each section validates itself at construction (values, ranges, names); ``TrainCo
 validates what spans sections (specs under the reward scheme, schedules against the
 budget); none of it builds a world. What only the world can tell (the compliance scale,
 exact on a tabular product or from the world's return bounds; whether a user's world's
-images are small integers) is decided by :func:`resolve`, the one resolver that
-:meth:`TrainConfig.build`, :func:`noisybolt.runs.training.train`, ``noisybolt check``,
-sweeps and ``reproduce`` all call. What needs things built (the model on the env's
+images are small integers) is decided by :func:`noisybolt.runs.resolution.resolve`, the
+one resolver that :func:`noisybolt.runs.training.train`, ``noisybolt train``,
+``noisybolt check``, sweeps and ``reproduce`` all call: a config is data, and building one
+plays no world. What needs things built (the model on the env's
 spaces, the detector against the world) is checked by
 :func:`noisybolt.runs.training.train` before it writes anything.
 
@@ -47,26 +48,26 @@ Example:
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import warnings
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any, Generic, TypeVar
 
 from noisybolt.agents.hyperparams import (
-    SPLIT,
     WORLD_KEYS,
+    check_budget,
     check_hyperparameter_values,
     frame_schedules,
     load_hyperparams,
 )
-from noisybolt.runs.resolution import (
-    SMALL_INTEGER_IMAGE_MAX,
-    ScaleChoice,
-    choose_compliance_scale,
-    small_integer_image_top,
+from noisybolt.bolt import BeliefSettings, RewardScheme, Spec
+from noisybolt.envs import DEFAULT_WORLD
+from noisybolt.errors import (
+    ConfigError,
+    NoEvaluationWarning,
 )
+from noisybolt.runs.legacy import FLAT_PATHS, SCHEMA_VERSION, nested_config
 from noisybolt.runs.schema import (
     FrozenDict,
     check,
@@ -87,26 +88,13 @@ from noisybolt.runs.sections import (
     EvaluationConfig,
     WorldConfig,
     check_count,
+    check_given_settings,
 )
-from noisybolt.runs.specs import expand_specs, resolve_spec
-from noisybolt.runs.world_checks import check_world_fits
-from noisybolt.bolt import BeliefSettings, RewardScheme, Spec
-from noisybolt.envs import DEFAULT_WORLD
-from noisybolt.envs.registry import is_factory_path
-from noisybolt.errors import (
-    ConfigError,
-    NoEvaluationWarning,
-    SmallIntegerImagesWarning,
-    SpecSyntaxError,
-    UnnormalizedRewardWarning,
-)
+from noisybolt.runs.specs import parsed_spec, spec_fields
 
 __all__ = [
     "DETECTORS",
-    "FLAT_PATHS",
-    "LEGACY_DEFAULTS",
     "RESUMABLE_KEYS",
-    "SCHEMA_VERSION",
     "AlgorithmConfig",
     "BoltConfig",
     "DetectorConfig",
@@ -114,23 +102,13 @@ __all__ = [
     "FrozenDict",
     "TrainConfig",
     "WorldConfig",
-    "check_given_settings",
     "check_hyperparameter_values",
     "checked_value",
-    "compliance_scale_choice",
-    "describe_scheme",
-    "nested_config",
     "override_paths",
-    "resolve",
     "schema_paths",
-    "spec_worths",
     "value_from_text",
-    "warn_of_unnormalized_rewards",
 ]
 
-#: The version of the nested schema that ``config.json`` holds under ``"schema"`` (a
-#: config without it is the flat form of the runs saved before: version 1).
-SCHEMA_VERSION = 2
 #: Settings (schema paths) that may change when a run is resumed.
 RESUMABLE_KEYS: tuple[str, ...] = (
     "frames",
@@ -141,46 +119,6 @@ RESUMABLE_KEYS: tuple[str, ...] = (
     "algorithm.device",  # where the network trains, not what it learns
     "algorithm.precision",  # how the extractor's products are rounded, not its weights
 )
-#: What a config saved before a setting existed meant by it, by schema path (read by
-#: :func:`nested_config`: a saved config that lacks the path gets this value).
-LEGACY_DEFAULTS: dict[str, Any] = {
-    "bolt.reward": "paper",
-    "bolt.reward_scale": None,
-    "bolt.shaping": False,
-    # before bolt.pay_on_change existed the compliance scheme paid at the episode's end
-    "bolt.pay_on_change": False,
-    "evaluation.stop_after": 0,
-    # before keep_best existed a run's final model was its last
-    "evaluation.keep_best": False,
-    # before the constrained scheme existed no run had a cost budget
-    "bolt.constraint": {},
-    # before belief tracking existed every bolt tracked by threshold (Algorithm 1)
-    "bolt.tracking": "threshold",
-    "bolt.confidence": 0.9,
-    # before bolt.min_dwell existed belief tracking assumed two steps
-    "bolt.min_dwell": 2,
-    # before world.workers existed every world ran in the training process
-    "world.workers": 0,
-    # before world.overlap existed every rollout stepped all games at once
-    "world.overlap": False,
-    # before world.train_kwargs existed the learner's games were the evaluation's
-    "world.train_kwargs": {},
-    # before algorithm.device existed every agent trained on the CPU
-    "algorithm.device": "cpu",
-    # before algorithm.precision existed every agent computed in float32
-    "algorithm.precision": "float32",
-    # before algorithm.init_from existed every agent started from random weights
-    "algorithm.init_from": None,
-    # before algorithm.counterfactual existed every transition was stored as gathered
-    "algorithm.counterfactual": False,
-    "algorithm.counterfactual_samples": 16,
-    # before detector.restarts existed one classifier was trained, from detector.seed
-    "detector.restarts": 1,
-    # before detector.final_views existed collection never kept an episode's last state
-    "detector.final_views": False,
-    # before detector.kwargs existed no detector took further arguments
-    "detector.kwargs": {},
-}
 #: Seeds numpy accepts.
 SEED_RANGE = (0, 2**32 - 1)
 #: The on-policy algorithms: what the ``constrained`` scheme trains (its price moves
@@ -331,25 +269,23 @@ class TrainConfig:
         overrides: Mapping[str, Any] | None = None,
         *,
         hp_file: str | os.PathLike[str] | None = None,
-        log: Callable[[str], None] | None = None,
     ) -> TrainConfig:
-        """A new run's config: the schema's defaults with ``overrides`` applied, resolved.
+        """A new run's config: the schema's defaults with ``overrides`` applied, as data.
 
         The overrides: specs given by name, group or formula become
         :class:`~noisybolt.bolt.Spec` fields; the hyperparameters are the world's file for
         the algorithm (or ``hp_file``) with the ``algorithm.hyperparams.*`` overrides on
         top, and the world settings the file gives (``n_envs``, the Atari conventions)
         fill the ``world`` section where no override set them; a setting the run would
-        ignore is refused (``bolt.confidence`` under threshold tracking). Then
-        :func:`resolve` gives what the world decides (the compliance scale, a user's
-        world's small-integer images), as for every other door.
+        ignore is refused (``bolt.confidence`` under threshold tracking). Nothing is built
+        or played here: what only the world can tell (the compliance scale, a user's
+        world's small-integer images) is :func:`noisybolt.runs.resolve`'s, which every
+        door that starts a run calls (``train()`` among them).
 
         Args:
             overrides: ``{schema path: value}``; a mapping value merges key by key
                 (``{"bolt": {"tracking": "belief"}}`` is ``{"bolt.tracking": "belief"}``).
             hp_file: a YAML file of the built-in hyperparameter layout to read instead.
-            log: told where the compliance scale came from when it is computed on the
-                world's product (:func:`resolve`).
 
         Raises:
             ConfigError: an unknown path or a value of the wrong type (naming the path),
@@ -380,7 +316,7 @@ class TrainConfig:
                 data["world"][key] = value
         data["algorithm"]["hyperparams"] = params
         bolt = data["bolt"]
-        bolt["specs"] = _resolved_specs(bolt["specs"], paper=bolt["reward"] == "paper")
+        bolt["specs"] = spec_fields(bolt["specs"], paper=bolt["reward"] == "paper")
         config = load(cls, data)
         freq = changes.get("evaluation.freq")
         if isinstance(freq, int) and freq > config.frames:  # chosen, so said
@@ -391,8 +327,8 @@ class TrainConfig:
                 NoEvaluationWarning,
                 stacklevel=2,
             )
-        check_given_settings(config, changes)
-        return resolve(config, log=log)
+        check_given_settings(config.bolt, changes)
+        return config
 
     @classmethod
     def create(
@@ -482,7 +418,7 @@ class TrainConfig:
         if not changes:
             return config
         config = config.override(changes)
-        check_given_settings(config, changes)
+        check_given_settings(config.bolt, changes)
         return config
 
     def override(self, changes: Mapping[str, Any]) -> TrainConfig:
@@ -499,7 +435,7 @@ class TrainConfig:
         data = self.to_dict()
         for path, value in override_paths(changes).items():
             if path == "bolt.specs":
-                value = _resolved_specs(checked_value(path, value), paper=self.reward == "paper")
+                value = spec_fields(checked_value(path, value), paper=self.reward == "paper")
             set_path(data, path, checked_value(path, value))
         return TrainConfig.from_dict(data)
 
@@ -525,33 +461,9 @@ class TrainConfig:
             ...
             noisybolt.errors.ConfigError: frames 1,000 is less than one PPO rollout: ...
         """
-        from noisybolt.agents.hyperparams import constructor_defaults
-
-        defaults_ = constructor_defaults(self.algo)
-        params = {**defaults_, **self.hyperparams}
-        if self.algo in ON_POLICY:  # one rollout of every env before an update
-            steps = params["n_steps"]
-            rollout = self.n_envs * steps
-            if rollout > self.frames:
-                fewer = (
-                    f"--hp n_steps={self.frames // self.n_envs} or less"
-                    if self.frames >= self.n_envs
-                    else f"--n-envs {self.frames} or less"
-                )
-                raise ConfigError(
-                    f"frames {self.frames:,} is less than one {self.algo.upper()} rollout: "
-                    f"world.n_envs x algorithm.hyperparams.n_steps = {self.n_envs} x {steps} "
-                    f"= {rollout:,} frames, which would be trained whole, past the budget; "
-                    f"give --frames {rollout} or more, or {fewer}"
-                )
-            return
-        starts = params.get("learning_starts")
-        if isinstance(starts, int) and starts >= self.frames:
-            raise ConfigError(
-                f"algorithm.hyperparams.learning_starts {starts:,} >= frames {self.frames:,}: "
-                f"{self.algo.upper()} would never learn; give --frames above {starts} or --hp "
-                f"learning_starts={self.frames // 10}"
-            )
+        check_budget(
+            self.algo, frames=self.frames, n_envs=self.n_envs, hyperparams=self.hyperparams
+        )
 
     # ------------------------------------------------------------------ reading
 
@@ -580,8 +492,8 @@ class TrainConfig:
         if self.reward != "paper" and self.reward_scale is None:
             raise ConfigError(
                 f"the {self.reward} scheme's scale (bolt.reward_scale) is not resolved yet: "
-                "resolve(config) computes it from the world (TrainConfig.build and train() "
-                "call it), or give one"
+                "noisybolt.runs.resolve(config) computes it from the world (train() and every "
+                "door that starts a run call it), or give one"
             )
         return self.bolt.scheme
 
@@ -614,7 +526,7 @@ class TrainConfig:
         for fields in self.specs:
             fields = dict(fields)
             scale = fields.pop("reward_scale", None)
-            specs.append(scheme.apply(_parsed_spec(fields), scale=scale))
+            specs.append(scheme.apply(parsed_spec(fields), scale=scale))
         if not self.bolted:
             specs = [replace(s, terminal_reward=0.0, low_confidence_cost=0.0) for s in specs]
         return specs
@@ -644,14 +556,6 @@ class TrainConfig:
         data = nested_config(data)
         del data["schema"]
         return load(cls, data)
-
-
-#: The flat name of each setting held in a section (``tracking`` -> ``bolt.tracking``):
-#: the attributes that read them, the keys of the flat ``config.json`` of older runs and
-#: :meth:`TrainConfig.create`'s keywords.
-FLAT_PATHS: dict[str, str] = {
-    name: alias.path for name, alias in vars(TrainConfig).items() if isinstance(alias, _Alias)
-}
 
 
 # --------------------------------------------------------------------------- paths
@@ -728,302 +632,3 @@ def value_from_text(path: str, text: str) -> Any:
         0.0003
     """
     return parse_text(TrainConfig, path, text)
-
-
-def nested_config(data: Mapping[str, Any]) -> dict[str, Any]:
-    """A saved config's data in today's nested form, with its schema version: the flat
-    ``config.json`` of a run saved before the schema was nested converted (its keys are
-    :data:`FLAT_PATHS`; world settings among its hyperparameters moved to ``world``), and
-    every path of
-    :data:`LEGACY_DEFAULTS` it lacks filled in. Nothing is validated here.
-
-    Raises:
-        ConfigError: not a mapping, or a schema version this noisybolt does not read.
-
-    Example:
-        >>> nested = nested_config({"algo": "dqn", "eval_freq": 500, "hyperparams": {"n_envs": 2}})
-        >>> nested["algorithm"], nested["evaluation"]["freq"], nested["world"]["n_envs"]
-        ({'name': 'dqn', 'hyperparams': {}, 'device': 'cpu', 'precision': 'float32', \
-'init_from': None, 'counterfactual': False, 'counterfactual_samples': 16}, 500, 2)
-        >>> nested["bolt"]["tracking"]  # runs saved before belief tracking tracked by threshold
-        'threshold'
-    """
-    if not isinstance(data, Mapping):
-        raise ConfigError(f"a training config is a mapping, got {type(data).__name__}")
-    raw: dict[str, Any] = json.loads(json.dumps(dict(data)))
-    version = raw.pop("schema", None)
-    nested_form = version is not None or any(
-        isinstance(raw.get(k), Mapping) for k in ("world", "bolt", "algorithm", "evaluation")
-    )
-    if version is not None and version != SCHEMA_VERSION:
-        raise ConfigError(
-            f"config schema {version!r}: this noisybolt reads schema {SCHEMA_VERSION} (and the "
-            "flat configs of older runs); use the noisybolt version that wrote it"
-        )
-    out: dict[str, Any] = raw if nested_form else {}
-    if not nested_form:
-        for key, value in raw.items():
-            if key == "hyperparams" and isinstance(value, Mapping):
-                value = dict(value)
-                for name in sorted(WORLD_KEYS & set(value)):
-                    setting = value.pop(name)
-                    if setting is not None:
-                        set_path(out, f"world.{name}", setting)
-            set_path(out, FLAT_PATHS.get(key, key), value)
-    for path, value in LEGACY_DEFAULTS.items():
-        section, key = path.split(".")
-        if not isinstance(out.get(section), dict):
-            out.setdefault(section, {})  # a section of the wrong type is refused by loading
-        if isinstance(out[section], dict) and key not in out[section]:
-            out[section][key] = value
-    return {"schema": SCHEMA_VERSION, **out}
-
-
-def _resolved_specs(items: Sequence[Any], *, paper: bool) -> list[dict[str, Any]]:
-    """Specs given by name, group, formula or mapping, as :class:`Spec` fields (plus a
-    spec's own ``reward_scale``)."""
-    resolved = []
-    for item in expand_specs(list(items)):
-        scale = None
-        if isinstance(item, Mapping):
-            item = dict(item)
-            scale = item.pop("reward_scale", None)
-            paid_by_paper = sorted({"terminal_reward", "reward_timing"} & set(item))
-            if paid_by_paper and not paper:
-                raise ConfigError(
-                    f"spec {item.get('name') or item.get('formula')!r} sets "
-                    f"{paid_by_paper}, which only the paper reward scheme pays; under the "
-                    "compliance scheme set reward_scale instead, or use --reward paper"
-                )
-        fields = asdict(_parsed_spec(item))
-        if scale is not None:
-            fields["reward_scale"] = scale
-        resolved.append(json.loads(json.dumps(fields)))
-    return resolved
-
-
-def _parsed_spec(fields: str | Mapping[str, Any]) -> Spec:
-    """:func:`resolve_spec`, with a formula nested beyond Python's recursion limit (which
-    the parser recurses through) refused by name rather than by traceback."""
-    try:
-        return resolve_spec(fields)
-    except RecursionError:
-        formula = str(fields if isinstance(fields, str) else fields.get("formula", ""))
-        raise SpecSyntaxError(
-            f"formula {formula[:40]!r}... is nested too deeply to parse; write it with fewer "
-            "nested operators (e.g. G(a & b) instead of G(a) & G(b) nested)",
-            formula=formula,
-        ) from None
-
-
-# --------------------------------------------------------------------------- resolution
-
-
-def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) -> TrainConfig:
-    """``config`` with what only its world can tell decided: the one resolver every door
-    calls.
-
-    ``train()``, ``noisybolt train``, ``noisybolt check``, sweeps and ``reproduce`` resolve
-    a config here (:meth:`TrainConfig.build` calls it), so a config is paid the same
-    whichever door it came in by. What is decided:
-
-    - the scale of a scheme that pays one (``bolt.reward_scale``, where None): on a
-      tabular world (the gridworld), exact on the product of the world and the specs'
-      DFAs, else from the world's return bounds (declared, or estimated by random play);
-      the specs and spaces are checked against the world before anything costly
-      (:func:`compliance_scale_choice`);
-    - for a user's world (a factory path) whose uint8 images are small integers,
-      ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
-      :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
-      name it.
-
-    Idempotent: what a config names (a scale, ``normalize_images``) is kept, so a resolved
-    config comes back unchanged. A config is data; this is where the world is played.
-
-    Args:
-        log: told where a scale computed on the product came from.
-
-    Example:
-        >>> both = "F(top_right_corner) & F(bottom_left_corner)"
-        >>> config = TrainConfig.build({"bolt.specs": [both]})  # the gridworld: exact
-        >>> round(config.reward_scale, 2), resolve(config) is config
-        (58.45, True)
-    """
-    params = config.hyperparams
-    policy_kwargs = dict(params.get("policy_kwargs") or {})
-    if is_factory_path(config.world) and "normalize_images" not in policy_kwargs:
-        top = small_integer_image_top(config.world, config.world_kwargs)
-        if top is not None and top <= SMALL_INTEGER_IMAGE_MAX:
-            kept = {**policy_kwargs, "normalize_images": False}
-            algorithm = replace(config.algorithm, hyperparams={**params, "policy_kwargs": kept})
-            config = replace(config, algorithm=algorithm)
-            warnings.warn(
-                f"the {config.world!r} world's image observations are small integers (at "
-                f"most {top} in random play, like MiniGrid's symbolic grid), not pixels: "
-                "they reach the network as they are (policy_kwargs.normalize_images=false; "
-                "pass --hp policy_kwargs.normalize_images=true to divide them by 255 after "
-                "all)",
-                SmallIntegerImagesWarning,
-                stacklevel=3,
-            )
-    if config.reward != "paper" and config.reward_scale is None:
-        choice = compliance_scale_choice(config)
-        config = replace(config, bolt=replace(config.bolt, reward_scale=choice.scale))
-        if choice.exact and log is not None:
-            log(
-                f"compliance scale computed on the {config.world}'s product: {choice.scale:g} "
-                f"(the bound from its return range: {choice.bound:g})"
-            )
-    return config
-
-
-def compliance_scale_choice(config: TrainConfig) -> ScaleChoice:
-    """The scale :func:`resolve` gives ``config`` where it names none (whatever it names),
-    with the bound from the world's returns beside it; the run's cheap checks
-    (:func:`~noisybolt.runs.world_checks.check_world_fits`: spaces, specs over the
-    world's fluents) come first.
-
-    Raises:
-        ConfigError, UnknownFluentError, UnsatisfiableSpecError, SpecSyntaxError: as
-            :func:`~noisybolt.runs.world_checks.check_world_fits`.
-    """
-    return choose_compliance_scale(
-        config.world,
-        config.world_settings,
-        formulas=[str(spec["formula"]) for spec in config.specs],
-        gamma=float(config.hyperparams.get("gamma", 0.99)),
-        pay_on_change=config.pay_on_change,
-        clipped=config.world_config.clip_reward,
-        check=lambda world: check_world_fits(config, world),
-    )
-
-
-def check_given_settings(config: TrainConfig, given: Mapping[str, Any]) -> None:
-    """Refuses a setting that was given (``given``: ``{schema path: value}``, as
-    :meth:`TrainConfig.build` and :meth:`TrainConfig.resumed` take them) where ``config``
-    would ignore it: a rule on what a user asked for, not on the values (a saved config
-    holds every setting, its defaults too).
-
-    Raises:
-        ConfigError: ``bolt.confidence`` or ``bolt.min_dwell`` without belief tracking,
-            ``bolt.shaping`` under the paper scheme; naming the path and its flag.
-
-    Example:
-        >>> TrainConfig.build({"bolt.specs": ["edge"], "bolt.confidence": 0.8})
-        Traceback (most recent call last):
-        ...
-        noisybolt.errors.ConfigError: bolt.confidence 0.8 (--confidence) sets how belief \
-tracking reads the detector; with threshold tracking it would be ignored: set bolt.tracking \
-belief (--tracking belief), or leave it out
-    """
-    for path, flag in (("bolt.confidence", "--confidence"), ("bolt.min_dwell", "--min-dwell")):
-        if path in given and config.tracking != "belief":
-            raise ConfigError(
-                f"{path} {given[path]} ({flag}) sets how belief tracking reads the detector; "
-                f"with {config.tracking} tracking it would be ignored: set bolt.tracking "
-                "belief (--tracking belief), or leave it out"
-            )
-    if "bolt.shaping" in given and config.reward == "paper":
-        raise ConfigError(
-            "bolt.shaping (--no-shaping) turns off the compliance scheme's progress shaping; "
-            "the paper scheme has none, so it would be ignored: set bolt.reward compliance "
-            "(--reward compliance), or leave it out"
-        )
-
-
-def describe_scheme(config: TrainConfig) -> str:
-    """One line saying how the run's bolt pays (the scale chosen, for ``compliance``)."""
-    if not config.bolted:
-        return "unbolted: the specs are tracked for compliance only, with no rewards"
-    if config.reward == "paper":
-        return "reward scheme: paper (each spec's terminal reward on every accepting step)"
-    if config.reward == "constrained":
-        limit = config.bolt.cost_limit
-        return (
-            f"reward scheme: constrained, the world's return subject to at most "
-            f"{limit.cost_limit:g} unsatisfied spec(s) an episode on average (as the bolt "
-            f"sees them; --cost-limit to change it): the specs are paid as under the "
-            f"compliance scheme ({'with' if config.shaping else 'without'} progress "
-            f"shaping), at a learned multiplier (0 to 1, from {limit.initial:g}) times "
-            f"{spec_worths(config)} (scale {config.reward_scale:g}), which rises only while "
-            "the episodes' cost exceeds the budget"
-        )
-    shaping = "with" if config.shaping else "without"
-    when = (
-        "as soon as it accepts (taken back if it stops; nothing where an episode starts)"
-        if config.pay_on_change
-        else "at the episode's end"
-    )
-    text = (
-        f"reward scheme: compliance, {shaping} progress shaping; complying is worth, {when}, "
-        f"{spec_worths(config)} (scale {config.reward_scale:g}; "
-        "--reward-scale, or a spec's own reward_scale, to change it)"
-    )
-    if config.hyperparams.get("normalize_reward") == SPLIT:
-        weight = config.hyperparams.get("bolt_weight")
-        text += (
-            "; the learner sees the bolt's rewards normalised apart from the world's "
-            "(normalize_reward split): the scale does not change what it learns, and "
-            "complying is traded against the world's return rather than put first, "
-            + (
-                "the two weighed equally (--hp bolt_weight to weigh the bolt's more)"
-                if weight is None
-                else f"the bolt's weighed {weight:g} times the world's (bolt_weight; the "
-                "learner's rewards keep their size, their mix changes)"
-            )
-        )
-    return text
-
-
-#: A compliance worth above which an on-policy learner without ``normalize_reward`` is
-#: warned (:func:`warn_of_unnormalized_rewards`); the learners' own rewards are ~1.
-UNNORMALIZED_WORTH_LIMIT = 10.0
-
-
-def warn_of_unnormalized_rewards(config: TrainConfig) -> None:
-    """Warns (:class:`~noisybolt.errors.UnnormalizedRewardWarning`) where PPO or A2C is
-    paid the compliance scheme's rewards, more than :data:`UNNORMALIZED_WORTH_LIMIT` a
-    spec, with ``normalize_reward`` off.
-
-    Measured (CartPole, ``F(far_left)``, scale 550, 100k frames): PPO, seeds 0 and 1,
-    compliance 25 % and 44 % without it, 88 % and 88 % with it; A2C, seed 0, 0 % and
-    94 %. On Breakout (scale 950) PPO's policy stood still without it (approximate KL ~0,
-    value loss ~10^4). DQN is not warned: unnormalised it failed on CartPole (0 % against
-    100 %) but followed 23 of the gridworld suite's 24 specs, whose world pays rewards as
-    large as the scale.
-    """
-    if not config.bolted or config.reward == "paper" or config.algo not in ON_POLICY:
-        return
-    if config.hyperparams.get("normalize_reward"):
-        return
-    worth = max(spec.terminal_reward for spec in config.spec_objects())
-    if worth <= UNNORMALIZED_WORTH_LIMIT:
-        return
-    warnings.warn(
-        f"the compliance scheme pays up to {worth:g} a spec, and {config.algo.upper()}'s "
-        "rewards are not normalised (normalize_reward false): value targets that large "
-        "can swamp the policy's share of each gradient step (on CartPole and Breakout the "
-        "policy barely learnt). "
-        "Pass --hp normalize_reward=true (or a smaller --reward-scale)",
-        UnnormalizedRewardWarning,
-        stacklevel=2,
-    )
-
-
-def spec_worths(config: Any) -> str:
-    """What complying with each spec pays: one figure when all are paid alike, else each
-    spec's (one with a ``reward_scale`` of its own, from ``--spec-set`` or a specs file).
-
-    Example:
-        >>> from types import SimpleNamespace as N
-        >>> spec = lambda name, worth: N(name=name, formula=name, terminal_reward=worth)
-        >>> spec_worths(N(spec_objects=lambda: [spec("edge", 20.0), spec("tr", 20.0)]))
-        '20 per spec'
-        >>> spec_worths(N(spec_objects=lambda: [spec("edge", 20.0), spec("tr", 50.0)]))
-        'edge 20, tr 50'
-    """
-    specs = config.spec_objects()
-    worths = {spec.terminal_reward for spec in specs}
-    if len(worths) == 1:
-        return f"{worths.pop():g} per spec"
-    return ", ".join(f"{spec.name or spec.formula} {spec.terminal_reward:g}" for spec in specs)

@@ -34,8 +34,6 @@ from typing import Any
 
 import numpy as np
 
-from noisybolt.runs.config import DetectorConfig
-from noisybolt.runs.sections import is_detector_factory
 from noisybolt.envs import make_world
 from noisybolt.envs.registry import is_factory_path, world_fingerprint
 from noisybolt.errors import (
@@ -48,6 +46,8 @@ from noisybolt.perception import dataset
 from noisybolt.perception.dataset import RARE_FLUENT_IMAGES, LabelCounts
 from noisybolt.perception.metrics import build_report
 from noisybolt.perception.protocols import FluentDetector
+from noisybolt.runs.config import DetectorConfig
+from noisybolt.runs.sections import is_detector_factory
 
 __all__ = [
     "ACCEPT_ACCURACY",

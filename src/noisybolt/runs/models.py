@@ -21,7 +21,6 @@ import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
-from noisybolt.runs.config import TrainConfig
 from noisybolt.agents.counterfactual import replay_buffer_settings
 from noisybolt.agents.extractor import BoltFeaturesExtractor, check_cnn
 from noisybolt.agents.hyperparams import (
@@ -33,6 +32,7 @@ from noisybolt.agents.hyperparams import (
 from noisybolt.agents.pipeline import overlapped_class
 from noisybolt.agents.policies import policy_class
 from noisybolt.errors import ConfigError, CorruptFileError, UnsafeFileError
+from noisybolt.runs.config import TrainConfig
 
 __all__ = [
     "ALGO_KEY",

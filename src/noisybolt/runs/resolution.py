@@ -1,9 +1,9 @@
-"""The world work behind resolving a run's config: what only playing the world can tell.
+"""Resolving a run's config: what only playing the world can tell.
 
-:func:`noisybolt.runs.config.resolve` (the one resolver every door calls: ``train()``,
-``noisybolt train``, ``noisybolt check``, sweeps and ``reproduce``) asks two things of
-the world, answered here from its name and settings, never from the config object
-itself (a config is data; this module does not import it):
+:func:`resolve` is the one resolver every door calls (``train()``, ``noisybolt train``,
+``noisybolt check``, sweeps and ``reproduce``); a :class:`~noisybolt.runs.config.TrainConfig`
+is data, and building one plays no world. It asks two things of the world, answered from
+the world's name and settings:
 
 - :func:`small_integer_image_top`: whether a user's world's uint8 "images" are small
   integers (MiniGrid's symbolic grid) rather than pixels;
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any, NamedTuple
 
 import gymnasium as gym
@@ -27,8 +28,11 @@ from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
 from noisybolt.envs.gridworld_tabular import tabular_model
-from noisybolt.errors import EstimatedBoundsWarning
+from noisybolt.envs.registry import is_factory_path
+from noisybolt.errors import EstimatedBoundsWarning, SmallIntegerImagesWarning
 from noisybolt.logic import compile_ltlf
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.world_checks import check_world_fits
 
 __all__ = [
     "ESTIMATE_STEPS",
@@ -36,6 +40,8 @@ __all__ = [
     "SMALL_INTEGER_IMAGE_MAX",
     "ScaleChoice",
     "choose_compliance_scale",
+    "compliance_scale_choice",
+    "resolve",
     "small_integer_image_top",
 ]
 
@@ -155,6 +161,85 @@ def choose_compliance_scale(
     if exact is None:  # no compliant episode reaches the goal: the bound stands
         return ScaleChoice(scale=bound, bound=bound, exact=False, estimated=estimated)
     return ScaleChoice(scale=exact, bound=bound, exact=True, estimated=estimated)
+
+
+def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) -> TrainConfig:
+    """``config`` with what only its world can tell decided: the one resolver every door
+    calls.
+
+    ``train()``, ``noisybolt train``, ``noisybolt check``, sweeps and ``reproduce`` resolve
+    a config here, so a config is paid the same whichever door it came in by. What is decided:
+
+    - the scale of a scheme that pays one (``bolt.reward_scale``, where None): on a
+      tabular world (the gridworld), exact on the product of the world and the specs'
+      DFAs, else from the world's return bounds (declared, or estimated by random play);
+      the specs and spaces are checked against the world before anything costly
+      (:func:`compliance_scale_choice`);
+    - for a user's world (a factory path) whose uint8 images are small integers,
+      ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
+      :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
+      name it.
+
+    Idempotent: what a config names (a scale, ``normalize_images``) is kept, so a resolved
+    config comes back unchanged. A config is data; this is where the world is played.
+
+    Args:
+        log: told where a scale computed on the product came from.
+
+    Example:
+        >>> both = "F(top_right_corner) & F(bottom_left_corner)"
+        >>> from noisybolt.runs.config import TrainConfig
+        >>> config = resolve(TrainConfig.build({"bolt.specs": [both]}))  # the gridworld: exact
+        >>> round(config.reward_scale, 2), resolve(config) is config
+        (58.45, True)
+    """
+    params = config.hyperparams
+    policy_kwargs = dict(params.get("policy_kwargs") or {})
+    if is_factory_path(config.world) and "normalize_images" not in policy_kwargs:
+        top = small_integer_image_top(config.world, config.world_kwargs)
+        if top is not None and top <= SMALL_INTEGER_IMAGE_MAX:
+            kept = {**policy_kwargs, "normalize_images": False}
+            algorithm = replace(config.algorithm, hyperparams={**params, "policy_kwargs": kept})
+            config = replace(config, algorithm=algorithm)
+            warnings.warn(
+                f"the {config.world!r} world's image observations are small integers (at "
+                f"most {top} in random play, like MiniGrid's symbolic grid), not pixels: "
+                "they reach the network as they are (policy_kwargs.normalize_images=false; "
+                "pass --hp policy_kwargs.normalize_images=true to divide them by 255 after "
+                "all)",
+                SmallIntegerImagesWarning,
+                stacklevel=3,
+            )
+    if config.reward != "paper" and config.reward_scale is None:
+        choice = compliance_scale_choice(config)
+        config = replace(config, bolt=replace(config.bolt, reward_scale=choice.scale))
+        if choice.exact and log is not None:
+            log(
+                f"compliance scale computed on the {config.world}'s product: {choice.scale:g} "
+                f"(the bound from its return range: {choice.bound:g})"
+            )
+    return config
+
+
+def compliance_scale_choice(config: TrainConfig) -> ScaleChoice:
+    """The scale :func:`resolve` gives ``config`` where it names none (whatever it names),
+    with the bound from the world's returns beside it; the run's cheap checks
+    (:func:`~noisybolt.runs.world_checks.check_world_fits`: spaces, specs over the
+    world's fluents) come first.
+
+    Raises:
+        ConfigError, UnknownFluentError, UnsatisfiableSpecError, SpecSyntaxError: as
+            :func:`~noisybolt.runs.world_checks.check_world_fits`.
+    """
+    return choose_compliance_scale(
+        config.world,
+        config.world_settings,
+        formulas=[str(spec["formula"]) for spec in config.specs],
+        gamma=float(config.hyperparams.get("gamma", 0.99)),
+        pay_on_change=config.pay_on_change,
+        clipped=config.world_config.clip_reward,
+        check=lambda world: check_world_fits(config, world),
+    )
 
 
 def _estimated_bounds(world: str, settings: Mapping[str, Any], *, clipped: bool) -> Any:

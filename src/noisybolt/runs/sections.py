@@ -8,6 +8,7 @@ ranges, names), naming the setting by its path in ``config.json``. They compose
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -20,11 +21,11 @@ from noisybolt.agents.hyperparams import (
     check_hyperparameter_values,
     known_hyperparameters,
 )
-from noisybolt.runs.schema import freeze
 from noisybolt.bolt import COST_MODES, BeliefSettings, CostLimit, RewardScheme, Thresholds
 from noisybolt.bolt.belief import check_tracking
 from noisybolt.envs import DEFAULT_WORLD, check_world
 from noisybolt.errors import ConfigError, UnknownNameError
+from noisybolt.runs.schema import freeze
 
 __all__ = [
     "DETECTORS",
@@ -35,6 +36,7 @@ __all__ = [
     "WorldConfig",
     "check_count",
     "check_device",
+    "check_given_settings",
     "check_precision",
     "is_detector_factory",
 ]
@@ -487,3 +489,36 @@ class EvaluationConfig:
                 "periodic evaluations; give stop_after >= 0 and, for stop_after > 0, "
                 "eval_freq > 0 (evaluation.freq)"
             )
+
+
+def check_given_settings(bolt: BoltConfig, given: Mapping[str, Any]) -> None:
+    """Refuses a setting that was given (``given``: ``{schema path: value}``, as
+    :meth:`~noisybolt.runs.config.TrainConfig.build` and ``resumed`` take them) where a
+    run with the ``bolt`` section would ignore it: a rule on what a user asked for, not on
+    the values (a saved config holds every setting, its defaults too).
+
+    Raises:
+        ConfigError: ``bolt.confidence`` or ``bolt.min_dwell`` without belief tracking,
+            ``bolt.shaping`` under the paper scheme; naming the path and its flag.
+
+    Example:
+        >>> check_given_settings(BoltConfig(specs=({"formula": "F(a)"},)), {"bolt.confidence": 0.8})
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.ConfigError: bolt.confidence 0.8 (--confidence) sets how belief \
+tracking reads the detector; with threshold tracking it would be ignored: set bolt.tracking \
+belief (--tracking belief), or leave it out
+    """
+    for path, flag in (("bolt.confidence", "--confidence"), ("bolt.min_dwell", "--min-dwell")):
+        if path in given and bolt.tracking != "belief":
+            raise ConfigError(
+                f"{path} {given[path]} ({flag}) sets how belief tracking reads the detector; "
+                f"with {bolt.tracking} tracking it would be ignored: set bolt.tracking "
+                "belief (--tracking belief), or leave it out"
+            )
+    if "bolt.shaping" in given and bolt.reward == "paper":
+        raise ConfigError(
+            "bolt.shaping (--no-shaping) turns off the compliance scheme's progress shaping; "
+            "the paper scheme has none, so it would be ignored: set bolt.reward compliance "
+            "(--reward compliance), or leave it out"
+        )

@@ -41,8 +41,10 @@ PPO agent lagged the unbolted one in score and even in left bricks taken
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping, Sequence
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +52,7 @@ import yaml
 
 from noisybolt.bolt import Spec
 from noisybolt.bolt.spec import DEFAULT_COST, DEFAULT_REWARD
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, SpecSyntaxError
 
 __all__ = [
     "BUILTIN_SPECS",
@@ -63,7 +65,9 @@ __all__ = [
     "SPEC_SETTINGS",
     "expand_specs",
     "load_specs_file",
+    "parsed_spec",
     "resolve_spec",
+    "spec_fields",
 ]
 
 #: What each of Breakout's ``left_row{r}`` milestones pays, once (see the module text).
@@ -226,3 +230,45 @@ def expand_specs(items: Sequence[str | Mapping[str, Any]]) -> list[str | Mapping
         else:
             out.append(item)
     return out
+
+
+def spec_fields(items: Sequence[Any], *, paper: bool) -> list[dict[str, Any]]:
+    """Specs given by name, group, formula or mapping, as :class:`Spec` fields (plus a
+    spec's own ``reward_scale``): what a run's config holds under ``bolt.specs``.
+
+    Raises:
+        ConfigError: a spec that sets what only the paper scheme pays (``terminal_reward``,
+            ``reward_timing``) where ``paper`` is false; as :func:`parsed_spec`.
+    """
+    resolved = []
+    for item in expand_specs(list(items)):
+        scale = None
+        if isinstance(item, Mapping):
+            item = dict(item)
+            scale = item.pop("reward_scale", None)
+            paid_by_paper = sorted({"terminal_reward", "reward_timing"} & set(item))
+            if paid_by_paper and not paper:
+                raise ConfigError(
+                    f"spec {item.get('name') or item.get('formula')!r} sets "
+                    f"{paid_by_paper}, which only the paper reward scheme pays; under the "
+                    "compliance scheme set reward_scale instead, or use --reward paper"
+                )
+        fields = asdict(parsed_spec(item))
+        if scale is not None:
+            fields["reward_scale"] = scale
+        resolved.append(json.loads(json.dumps(fields)))
+    return resolved
+
+
+def parsed_spec(fields: str | Mapping[str, Any]) -> Spec:
+    """:func:`resolve_spec`, with a formula nested beyond Python's recursion limit (which
+    the parser recurses through) refused by name rather than by traceback."""
+    try:
+        return resolve_spec(fields)
+    except RecursionError:
+        formula = str(fields if isinstance(fields, str) else fields.get("formula", ""))
+        raise SpecSyntaxError(
+            f"formula {formula[:40]!r}... is nested too deeply to parse; write it with fewer "
+            "nested operators (e.g. G(a & b) instead of G(a) & G(b) nested)",
+            formula=formula,
+        ) from None

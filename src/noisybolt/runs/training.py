@@ -25,7 +25,7 @@ one, except the frame budget) and refuses a run without a usable checkpoint;
 ``restart=True`` starts a run over in its directory. Nothing loaded from a run directory
 can run code (:mod:`noisybolt.runs.models`, :mod:`noisybolt.runs.checkpoints`).
 
-The pieces live in their own modules, re-exported here: the config
+The pieces live in their own modules (import each from its home): the config
 (:mod:`~noisybolt.runs.config`), the detector (:mod:`~noisybolt.runs.detectors`),
 the wrapper stack (:mod:`~noisybolt.runs.environments`), the model
 (:mod:`~noisybolt.runs.models`), checkpoints (:mod:`~noisybolt.runs.checkpoints`) and
@@ -48,14 +48,15 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.utils import configure_logger
 from stable_baselines3.common.vec_env import VecNormalize
 
+from noisybolt.agents.constraint import LagrangianCallback
+from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError, UntrustedCodeError
+from noisybolt.io import atomic_write_bytes, atomic_write_json
 from noisybolt.runs.callbacks import (
     CheckpointCallback,
     EvaluationCallback,
-    LinearSchedule,
     SaveBestModel,
     UpdateThreads,
     linear_schedules,
-    shaped_return,
 )
 from noisybolt.runs.checkpoints import (
     BEST_DIR,
@@ -70,55 +71,24 @@ from noisybolt.runs.checkpoints import (
     save_model_files,
 )
 from noisybolt.runs.config import (
-    DETECTORS,
-    LEGACY_DEFAULTS,
     RESUMABLE_KEYS,
-    DetectorConfig,
     TrainConfig,
-    describe_scheme,
-    resolve,
-    warn_of_unnormalized_rewards,
 )
-from noisybolt.agents.constraint import LagrangianCallback
-from noisybolt.runs.detectors import (
-    classifier_architecture,
-    default_classifier_path,
-    make_detector,
-)
-from noisybolt.runs.environments import BoltSetup, build_bolted_env, make_env, prepare_bolt
+from noisybolt.runs.environments import make_env, prepare_bolt
 from noisybolt.runs.evaluation import EvalResult
 from noisybolt.runs.models import load_model
 from noisybolt.runs.models import make_model as _make_model
+from noisybolt.runs.presentation import describe_scheme, warn_of_unnormalized_rewards
+from noisybolt.runs.resolution import resolve
+from noisybolt.runs.rundir import RunDirectory, config_differences
 from noisybolt.runs.stopping import StopWhenSolved, trailing_streak
 from noisybolt.runs.warm_start import (
     INIT_MODEL,
     apply_initial_weights,
     read_initial_weights,
 )
-from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError, UntrustedCodeError
-from noisybolt.io import atomic_write_bytes, atomic_write_json
-from noisybolt.runs.rundir import RunDirectory, config_differences
 
-__all__ = [
-    "DETECTORS",
-    "LEGACY_DEFAULTS",
-    "RESUMABLE_KEYS",
-    "BoltSetup",
-    "DetectorConfig",
-    "LinearSchedule",
-    "TrainConfig",
-    "TrainResult",
-    "build_bolted_env",
-    "check_frames_left",
-    "check_same_config",
-    "classifier_architecture",
-    "default_classifier_path",
-    "make_detector",
-    "make_env",
-    "prepare_bolt",
-    "shaped_return",
-    "train",
-]
+__all__ = ["RUN_OUTPUTS", "TrainResult", "check_frames_left", "check_same_config", "train"]
 
 #: What :func:`train` writes in a run directory (``restart`` removes them first).
 RUN_OUTPUTS: tuple[str, ...] = (
@@ -208,7 +178,7 @@ def train(
         )
     if not resume:
         # What the world decides (the compliance scale, exact on a tabular product), as
-        # every door decides it: a no-op on a config TrainConfig.build resolved. A resumed
+        # every door decides it: a no-op on a config already resolved. A resumed
         # run keeps what its config.json holds: check_same_config refuses anything else.
         config = resolve(config, log=log)
     if resume:  # before the costly checks: a resume with other settings fails at once

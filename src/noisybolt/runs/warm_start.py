@@ -52,9 +52,6 @@ from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.dqn.policies import DQNPolicy
 from torch import nn
 
-from noisybolt.runs.checkpoints import MODEL, latest_checkpoint
-from noisybolt.runs.config import TrainConfig
-from noisybolt.runs.models import ALGO_KEY, read_model_data
 from noisybolt.envs.registry import refusing_code
 from noisybolt.errors import (
     ConfigError,
@@ -65,6 +62,9 @@ from noisybolt.errors import (
 )
 from noisybolt.io import read_json
 from noisybolt.logic import compile_ltlf
+from noisybolt.runs.checkpoints import MODEL, latest_checkpoint
+from noisybolt.runs.config import TrainConfig
+from noisybolt.runs.models import ALGO_KEY, read_model_data
 from noisybolt.runs.rundir import RunDirectory
 
 __all__ = [

@@ -1,7 +1,7 @@
 """The cheap checks of a run against its world, made before anything costly: the
 agent can read the world's observation, the algorithm can act in its actions, and every
 spec compiles over its fluents (named errors listing the world's fluents). They run
-before the compliance scale's random play (:func:`noisybolt.runs.config.resolve`) and
+before the compliance scale's random play (:func:`noisybolt.runs.resolution.resolve`) and
 before a classifier is trained (:func:`~noisybolt.runs.environments.prepare_bolt`), so
 this module imports neither: a run's config reaches it as :class:`CheckedRun`, the few
 settings the checks read.

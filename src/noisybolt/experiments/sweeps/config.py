@@ -26,7 +26,7 @@ import yaml
 from noisybolt.errors import ConfigError, NoisyboltError
 
 if TYPE_CHECKING:  # training pulls in torch: imported only where trials are built
-    from noisybolt.runs.training import TrainConfig
+    from noisybolt.runs.config import TrainConfig
 
 __all__ = ["SweepConfig", "Trial", "builtin_sweeps", "load_sweep"]
 
@@ -236,13 +236,14 @@ def _slug(value: Any) -> str:
 
 def _train_config(settings: Mapping[str, Any], seed: int, where: str) -> TrainConfig:
     """A trial's config, resolved as every door resolves one
-    (:func:`~noisybolt.runs.config.resolve`: the compliance scale a ``noisybolt train``
+    (:func:`~noisybolt.runs.resolution.resolve`: the compliance scale a ``noisybolt train``
     of the same settings pays, exact on a tabular product, unless the settings give one)."""
-    from noisybolt.runs.training import TrainConfig
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.resolution import resolve
 
     if "bolt.specs" not in settings:
         raise ConfigError(f"{where}: no specs (set 'bolt.specs' in the row or in 'base')")
     try:
-        return TrainConfig.build({"progress_bar": False, **settings, "seed": seed})
+        return resolve(TrainConfig.build({"progress_bar": False, **settings, "seed": seed}))
     except (NoisyboltError, TypeError, ValueError) as error:
         raise ConfigError(f"{where}: {error}") from None

@@ -145,7 +145,7 @@ def _tasks(root: Path, sweep: Mapping[str, Any], argv: Sequence[str] = ()) -> li
 
 def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -> None:
     """Trains each cached classifier once, before trials run in parallel."""
-    from noisybolt.runs.training import prepare_bolt
+    from noisybolt.runs.environments import prepare_bolt
 
     configs = [t.config for t in tasks]
     for c in {repr((c.world, c.world_kwargs, c.detector)): c for c in configs}.values():
