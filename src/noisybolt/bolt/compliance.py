@@ -14,7 +14,10 @@ The model (a hidden Markov model, filtered forward exactly)
   true positive under a smudge, and 0.6 on almost no negative, is believed exactly as
   much as it was right). The counts are Dirichlet posteriors (a Jeffreys prior, 0.5 per
   cell): few held-out positives mean uncertain rates, and :meth:`ErrorModel.sample` draws
-  them.
+  them. Optionally (``pair_counts``, counted on labelled episodes) it also says how a
+  frame's band follows the last one's given the truth on both: a smudge that reads
+  "maybe" reads it again while the agent stays under it, whatever the truth, so a run of
+  such frames is not taken for as many independent pieces of evidence.
 * **The fluents' dynamics** (:class:`FluentDynamics`): each fluent's truth is a two-state
   Markov chain (``P(true)`` on the first frame, ``P(on | off)`` and ``P(off | on)`` per
   step), the fluents independent. The chain is what lets a world's persistence speak: the
@@ -40,12 +43,9 @@ and ``episodes_high`` leave the bootstrap out: an interval for the share of *the
 episodes that complied. Where the camera cannot tell, the episodes' probabilities sit
 away from 0 and 1 and the drawn truths vary: the interval widens.
 
-What the model leaves out, and what that costs: a detector's errors on successive frames
-of one view are correlated (a smudge reads alike for as long as the agent stays under
-it), while the filter takes each frame's band as fresh evidence given the truth; a
-fluent's truth may depend on another's (a corner is on the edge). Both make the
-estimate surer than it should be where they bite (``benchmarks/compliance_estimates.py``
-measures how much).
+What the model leaves out: a fluent's truth may depend on another's (a corner is on the
+edge), and errors correlated over more than one frame. ``benchmarks/
+compliance_estimates.py`` measures what they cost.
 
 Example:
     >>> from noisybolt.logic import DFA
