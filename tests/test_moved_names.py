@@ -10,7 +10,7 @@ import warnings
 
 import pytest
 
-from noisybolt._moved import MOVED_ATTRIBUTES, MOVED_MODULES
+from noisybolt._moved import MOVED_ATTRIBUTES, MOVED_MODULES, REEXPORTED
 
 
 @pytest.mark.parametrize("old", sorted(MOVED_MODULES))
@@ -18,7 +18,11 @@ def test_an_old_module_path_is_the_new_module_with_a_warning(old: str) -> None:
     sys.modules.pop(old, None)
     with pytest.warns(DeprecationWarning, match=MOVED_MODULES[old].replace(".", r"\.")):
         module = importlib.import_module(old)
-    assert module is importlib.import_module(MOVED_MODULES[old])
+    new = importlib.import_module(MOVED_MODULES[old])
+    if old in REEXPORTED:  # a view: every name of the new module, and those it re-exported
+        assert all(getattr(module, name) is getattr(new, name) for name in new.__all__)
+    else:
+        assert module is new
 
 
 def test_from_an_old_module_import_a_name_gets_the_same_class() -> None:
@@ -63,3 +67,25 @@ def test_no_warning_for_the_new_homes() -> None:
         warnings.simplefilter("error", DeprecationWarning)
         from noisybolt.runs import TrainConfig, train  # noqa: F401
         from noisybolt.viz import save_episode_gif  # noqa: F401
+
+
+def test_an_old_module_that_reexported_names_still_offers_them() -> None:
+    from noisybolt.runs.config import TrainConfig
+    from noisybolt.runs.environments import make_env
+    from noisybolt.runs.training import train
+
+    sys.modules.pop("noisybolt.agents.training", None)
+    with pytest.warns(DeprecationWarning, match=r"noisybolt\.runs\.training"):
+        from noisybolt.agents.training import TrainConfig as Old
+        from noisybolt.agents.training import make_env as old_make_env
+        from noisybolt.agents.training import train as old_train
+    assert (Old, old_make_env, old_train) == (TrainConfig, make_env, train)
+    sys.modules.pop("noisybolt.agents.config", None)
+    with pytest.warns(DeprecationWarning):
+        from noisybolt.agents.config import nested_config, resolve
+    from noisybolt.runs.legacy import nested_config as new_nested
+    from noisybolt.runs.resolution import resolve as new_resolve
+
+    assert (nested_config, resolve) == (new_nested, new_resolve)
+    with pytest.raises(ImportError):
+        from noisybolt.agents.training import nothing_here  # noqa: F401

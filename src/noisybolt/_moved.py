@@ -49,6 +49,23 @@ MOVED_MODULES: dict[str, str] = {
     "noisybolt.agents.comparison": "noisybolt.experiments.comparison",
 }
 
+#: Old modules that re-exported names from several homes: the names each offered besides
+#: its own, and where they live now (``noisybolt.agents.training`` re-exported the config,
+#: the env stack, the detector and the callbacks).
+REEXPORTED: dict[str, tuple[str, ...]] = {
+    "noisybolt.agents.training": (
+        "noisybolt.runs.config",
+        "noisybolt.runs.environments",
+        "noisybolt.runs.detectors",
+        "noisybolt.runs.callbacks",
+    ),
+    "noisybolt.agents.config": (
+        "noisybolt.runs.legacy",
+        "noisybolt.runs.presentation",
+        "noisybolt.runs.resolution",
+    ),
+}
+
 #: (old package, name) -> the module that now defines it.
 MOVED_ATTRIBUTES: dict[tuple[str, str], str] = {
     ("noisybolt.agents", name): "noisybolt.runs"
@@ -88,17 +105,36 @@ def moved_attribute(package: str, name: str) -> Any:
 
 
 class _Alias(importlib.abc.Loader):
-    """Loads an old module name as the new module object itself."""
+    """Loads an old module name as the new module object itself, or, for a module that
+    re-exported names from elsewhere (:data:`REEXPORTED`), as a view that finds each name
+    in its home."""
 
     def __init__(self, new: str) -> None:
         self.new = new
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
         _warn(spec.name, self.new)
-        return importlib.import_module(self.new)
+        module = importlib.import_module(self.new)
+        homes = REEXPORTED.get(spec.name)
+        return module if homes is None else _View(spec.name, module, homes)
 
     def exec_module(self, module: ModuleType) -> None:
         """Nothing to run: the new module already ran."""
+
+
+class _View(ModuleType):
+    """An old module's names: its new home's, then those it re-exported, each from its home."""
+
+    def __init__(self, name: str, module: ModuleType, homes: tuple[str, ...]) -> None:
+        super().__init__(name, module.__doc__)
+        self._homes = (module.__name__, *homes)
+
+    def __getattr__(self, attr: str) -> Any:
+        for home in self._homes:
+            module = importlib.import_module(home)
+            if hasattr(module, attr):
+                return getattr(module, attr)
+        raise AttributeError(f"module {self.__name__!r} has no attribute {attr!r}")
 
 
 class MovedModuleFinder(importlib.abc.MetaPathFinder):
