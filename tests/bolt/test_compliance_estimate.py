@@ -17,7 +17,7 @@ from noisybolt.bolt.compliance import (
     fit_dynamics,
     satisfaction_probabilities,
 )
-from noisybolt.errors import ConfigError, UnknownFluentError
+from noisybolt.errors import ConfigError, MissingErrorModelError, UnknownFluentError
 from noisybolt.logic import DFA
 
 
@@ -252,3 +252,13 @@ def test_no_episodes_or_episodes_of_another_width_are_refused() -> None:
         estimate_compliance({"s": ever("x")}, ("x",), [], symmetric(0.1))
     with pytest.raises(ConfigError, match=r"\[T >= 1, 1\]"):
         estimate_compliance({"s": ever("x")}, ("x",), [np.zeros((3, 2))], symmetric(0.1))
+
+
+def test_a_fluent_no_labelled_image_showed_true_is_refused_with_what_to_give() -> None:
+    # Random play on FrozenLake never reaches the goal: a detector measured there has no
+    # idea what it reads at the goal, and an estimate over "at_goal" would be a guess.
+    never_true = ErrorModel(
+        fluent_names=("x",), edges=(0.5,), counts=np.array([[[2000.0, 0.0], [0.0, 0.0]]])
+    )
+    with pytest.raises(MissingErrorModelError, match=r"showing x true.*true and false"):
+        estimate_compliance({"s": ever("x")}, ("x",), [np.array([[0.1]])], never_true)
