@@ -143,3 +143,19 @@ WORLDS: dict[str, tuple[str, ...]] = {
     "unseen_worlds:lava": ("G(!in_lava)", "F(bottom_left)"),
     "unseen_worlds:acrobot": ("G(!fast)", "F(tip_left)"),
 }
+
+
+#: Frames each world's trials train for: enough that the unbolted control learns the task
+#: in most seeds (measured with PPO, the fallback hyperparameters; the world suite's
+#: README table says how many seeds' controls did). FrozenLake 8x8 and CliffWalking pay
+#: nothing (or only step costs) until the goal is first found by chance: at 100k frames
+#: PPO's control found it in one seed of two on each; the lava room's control of seed 0
+#: found the gap at 90k of 150k frames.
+FRAMES: dict[str, int] = {
+    "unseen_worlds:lake8": 300_000,
+    "unseen_worlds:cliff": 300_000,
+    "unseen_worlds:room": 150_000,
+    "unseen_worlds:cartpole": 100_000,
+    "unseen_worlds:lava": 300_000,
+    "unseen_worlds:acrobot": 100_000,
+}

@@ -66,7 +66,7 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
             algo=algo,
             bolted=spec is not None,
             detector=DetectorConfig(kind=args.detector),
-            frames=args.frames,
+            frames=args.frames or WORLD_FRAMES.get(world, 100_000),
             seed=seed,
             eval_freq=args.eval_freq,
             eval_episodes=args.eval_episodes,
@@ -98,6 +98,8 @@ def run_trial(world: str, spec: str | None, algo: str, seed: int, args: Any) -> 
 
 
 WORLD_SPECS: dict[str, tuple[str, ...]] = {}
+#: Each world's budget (``unseen_worlds.FRAMES``), unless ``--frames`` gives one for all.
+WORLD_FRAMES: dict[str, int] = {}
 
 
 def settings_from(texts: Sequence[str]) -> dict[str, Any]:
@@ -115,9 +117,10 @@ def settings_from(texts: Sequence[str]) -> dict[str, Any]:
 
 def _load_worlds() -> None:
     sys.path.insert(0, str(HERE))
-    from unseen_worlds import WORLDS
+    from unseen_worlds import FRAMES, WORLDS
 
     WORLD_SPECS.update(WORLDS)
+    WORLD_FRAMES.update(FRAMES)
 
 
 def summarise(records: Sequence[dict], threshold: float) -> list[str]:
@@ -214,7 +217,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--worlds", nargs="*", default=None, help="world names (default: all)")
     parser.add_argument("--algos", default="ppo")
     parser.add_argument("--seeds", type=int, default=1)
-    parser.add_argument("--frames", type=int, default=100_000)
+    parser.add_argument(
+        "--frames", type=int, default=0, help="frames per trial (default: each world's own)"
+    )
     parser.add_argument("--eval-freq", type=int, default=10_000)
     parser.add_argument("--eval-episodes", type=int, default=20)
     parser.add_argument("--detector", default="synthetic")

@@ -60,7 +60,7 @@ def test_an_episode_costs_the_specs_it_leaves_unsatisfied() -> None:
 def test_the_callback_prices_every_training_bolt_with_its_multiplier() -> None:
     env = make_bolted_vec_env(_lake, 4, ["F(at_goal)"], "oracle", seed=0)
     model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=64, seed=0, device="cpu")
-    callback = LagrangianCallback(CostLimit(cost_limit=0.0, lr=0.1, anneal=0.0), frames=384)
+    callback = LagrangianCallback(CostLimit(cost_limit=0.0, lr=0.1, kp=0.0, anneal=0.0), frames=384)
     model.learn(total_timesteps=4 * 32 * 3, callback=callback)
     # A random walk on the lake seldom reaches the goal: every rollout's cost is near 1,
     # and the integral rises 0.1 a 1,000 frames at cost 1: at most 0.1 * 3 * 128 / 1000.
@@ -108,7 +108,7 @@ def test_the_multiplier_is_learned_checkpointed_and_resumed(tmp_path: Path) -> N
     config = json.loads((run / "config.json").read_text())
     assert config["bolt"]["reward"] == "constrained"
     assert config["bolt"]["constraint"] == {
-        "cost_limit": 0.02, "lr": 0.1, "kp": 0.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5
+        "cost_limit": 0.02, "lr": 0.1, "kp": 1.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5
     }  # fmt: skip
     saved = _multiplier(run)
     # 8 games x 64 steps a rollout: 4 rollouts; G(on_edge) is broken by random play at once

@@ -69,8 +69,21 @@ def test_the_multiplier_follows_the_pid_rule_by_hand() -> None:
     assert lagrange.updates == 4
 
 
+def test_the_proportional_term_prices_a_cost_above_the_annealed_budget_at_once() -> None:
+    # A run of 10,000 frames, the budget annealed over its first half from the first cost.
+    limit = CostLimit(cost_limit=0.0, lr=0.1, kp=2.0, anneal=0.5)
+    lagrange = LagrangeMultiplier(limit)
+    assert lagrange.update(0.5, progress=0.0) == 0.0  # budget 0.5: no error at all
+    # progress 0.25: budget 0.25; e = 0.15: I = 0.015; 2 * 0.15 + 0.015 = 0.315
+    assert lagrange.update(0.4, progress=0.25) == pytest.approx(0.315)
+    # the cost falls with the budget: e = 0, I stays, the proportional term goes
+    assert lagrange.update(0.25, progress=0.25) == pytest.approx(0.015)
+    # the anneal over: budget 0; cost 0.1: I = 0.025, 2 * 0.1 + 0.025 = 0.225
+    assert lagrange.update(0.1, progress=0.9) == pytest.approx(0.225)
+
+
 def test_the_integral_rises_by_the_frames_trained_not_by_the_updates() -> None:
-    limit = CostLimit(cost_limit=0.0, lr=0.1, anneal=0.0)
+    limit = CostLimit(cost_limit=0.0, lr=0.1, kp=0.0, anneal=0.0)
     once, twice = LagrangeMultiplier(limit), LagrangeMultiplier(limit)
     once.update(0.5, frames=4000)  # 0.1 * 0.5 * 4
     twice.update(0.5, frames=2000)
@@ -109,7 +122,7 @@ def test_the_budget_falls_from_the_first_cost_to_the_limit_over_the_anneal_share
 
 
 def test_a_cost_that_falls_as_fast_as_the_annealed_budget_is_never_priced() -> None:
-    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, lr=1.0, anneal=0.5))
+    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, lr=1.0, kp=0.0, anneal=0.5))
     for step in range(11):  # the cost falls 1 -> 0 over the first half, as the budget does
         progress = step / 20
         assert lagrange.update(max(0.0, 1.0 - 2 * progress), progress=progress) == 0.0

@@ -176,11 +176,11 @@ def train(
             f"{run.path} already holds a run; pass --resume to continue it (resume=True from "
             "Python), --restart to start it over (restart=True), or choose another directory"
         )
-    if not resume:
-        # What the world decides (the compliance scale, exact on a tabular product), as
-        # every door decides it: a no-op on a config already resolved. A resumed
-        # run keeps what its config.json holds: check_same_config refuses anything else.
-        config = resolve(config, log=log)
+    # What the world decides (the compliance scale, exact on a tabular product), as every
+    # door decides it: a no-op on a config already resolved (a resumed run's config.json
+    # is). A resumed run keeps what its config.json holds: check_same_config refuses
+    # anything else.
+    config = resolve(config, log=log)
     if resume:  # before the costly checks: a resume with other settings fails at once
         check_same_config(run, config)
         check_frames_left(run, config)
