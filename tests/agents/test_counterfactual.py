@@ -28,6 +28,7 @@ from noisybolt.runs import DetectorConfig, train
 from noisybolt.runs.config import TrainConfig
 from noisybolt.runs.environments import make_env, prepare_bolt
 from noisybolt.runs.models import make_model
+from noisybolt.runs.resolution import resolve
 
 # The bolt tests' DFAs and strategies (tests/bolt is on the path only for its own tests).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bolt"))
@@ -204,16 +205,18 @@ def test_samples_below_one_are_refused() -> None:
 
 # ---------------------------------------------------------------------- the buffer
 def _config(**overrides: Any) -> TrainConfig:
-    config = TrainConfig.create(
-        specs=[TWO_CORNERS],
-        algo="dqn",
-        detector=DetectorConfig(kind="oracle"),
-        frames=400,
-        eval_freq=200,
-        eval_episodes=2,
-        checkpoint_freq=200,
-        progress_bar=False,
-        overrides={"learning_starts": 100},
+    config = resolve(
+        TrainConfig.create(
+            specs=[TWO_CORNERS],
+            algo="dqn",
+            detector=DetectorConfig(kind="oracle"),
+            frames=400,
+            eval_freq=200,
+            eval_episodes=2,
+            checkpoint_freq=200,
+            progress_bar=False,
+            overrides={"learning_starts": 100},
+        )
     )
     return config.override({"algorithm.counterfactual": True, **overrides})
 
@@ -345,7 +348,7 @@ def test_the_command_line_sets_it_by_flag_and_by_path() -> None:
     def config(*argv: str) -> TrainConfig:
         base = ["train", "--spec", "edge", "--detector", "oracle", "--algo", "dqn"]
         args = build_parser().parse_args([*base, *argv])
-        return TrainConfig.build(train_overrides(args), hp_file=args.hp_file)
+        return resolve(TrainConfig.build(train_overrides(args), hp_file=args.hp_file))
 
     assert config().algorithm.counterfactual is False
     assert config("--counterfactual").algorithm.counterfactual is True

@@ -26,28 +26,34 @@ from noisybolt.runs.config import RESUMABLE_KEYS, TrainConfig
 from noisybolt.runs.environments import make_env
 from noisybolt.runs.legacy import LEGACY_DEFAULTS
 from noisybolt.runs.models import make_model
+from noisybolt.runs.resolution import resolve
 
 N_ENVS, N_STEPS = 5, 24  # uneven groups (2 + 3)
 
 
 def _config(*, overlap: bool, frames_per_game: int = 60, **more: Any) -> TrainConfig:
-    return TrainConfig.build(
-        {
-            "world.name": "breakout-ram",
-            "world.workers": 2 if overlap else 0,
-            "world.overlap": overlap,
-            "world.n_envs": N_ENVS,
-            # short games: truncations (bootstrapped) and lost lives inside a rollout
-            "world.kwargs": {"noise": "gaussian:sigma=30", "max_episode_frames": frames_per_game},
-            "bolt.specs": ["left_column_milestones"],
-            "bolt.reward": "paper",
-            "detector.kind": "oracle",
-            "algorithm.name": "ppo",
-            "algorithm.hyperparams.n_steps": N_STEPS,
-            "algorithm.hyperparams.batch_size": 40,
-            "seed": 4,
-            **more,
-        }
+    return resolve(
+        TrainConfig.build(
+            {
+                "world.name": "breakout-ram",
+                "world.workers": 2 if overlap else 0,
+                "world.overlap": overlap,
+                "world.n_envs": N_ENVS,
+                # short games: truncations (bootstrapped) and lost lives inside a rollout
+                "world.kwargs": {
+                    "noise": "gaussian:sigma=30",
+                    "max_episode_frames": frames_per_game,
+                },
+                "bolt.specs": ["left_column_milestones"],
+                "bolt.reward": "paper",
+                "detector.kind": "oracle",
+                "algorithm.name": "ppo",
+                "algorithm.hyperparams.n_steps": N_STEPS,
+                "algorithm.hyperparams.batch_size": 40,
+                "seed": 4,
+                **more,
+            }
+        )
     )
 
 
@@ -196,7 +202,11 @@ def test_the_setting_is_checked_and_old_runs_load_without_it() -> None:
     with pytest.raises(ConfigError, match=r"world\.workers >= 2"):
         TrainConfig.build({"world.name": "breakout-ram", "world.overlap": True})
     with pytest.raises(ConfigError, match=r"world\.overlap must be true or false"):
-        TrainConfig.build({"world.name": "breakout-ram", "world.workers": 2, "world.overlap": 1})
+        resolve(
+            TrainConfig.build(
+                {"world.name": "breakout-ram", "world.workers": 2, "world.overlap": 1}
+            )
+        )
     with pytest.raises(ConfigError, match="not on-policy"):
         config = _config(overlap=True, **{"algorithm.name": "dqn"})
         make_model(config, make_env(config, OracleDetector(FLUENT_NAMES), training=True))

@@ -26,6 +26,7 @@ from noisybolt.errors import UnknownNameError
 from noisybolt.runs import DetectorConfig, TrainConfig, models, train
 from noisybolt.runs.evaluation import evaluate_bolted_policy
 from noisybolt.runs.models import load_model, read_model_data
+from noisybolt.runs.resolution import resolve
 
 NVEC = [3, 2, 4]
 
@@ -148,16 +149,18 @@ def _quiet(_: str) -> None:
 def test_a_run_saved_with_sb3s_own_policy_loads_evaluates_and_resumes(
     algo: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    config = TrainConfig.create(
-        specs=["edge"],
-        algo=algo,
-        detector=DetectorConfig(kind="oracle"),
-        frames=512,
-        eval_freq=0,
-        eval_episodes=2,
-        checkpoint_freq=256,
-        progress_bar=False,
-        overrides={"learning_starts": 64} if algo == "dqn" else {"n_steps": 32},
+    config = resolve(
+        TrainConfig.create(
+            specs=["edge"],
+            algo=algo,
+            detector=DetectorConfig(kind="oracle"),
+            frames=512,
+            eval_freq=0,
+            eval_episodes=2,
+            checkpoint_freq=256,
+            progress_bar=False,
+            overrides={"learning_starts": 64} if algo == "dqn" else {"n_steps": 32},
+        )
     )
     run = tmp_path / "run"
     with monkeypatch.context() as old:  # what make_model built before these policies

@@ -10,6 +10,7 @@ import pytest
 
 from noisybolt.errors import SmallIntegerImagesWarning
 from noisybolt.runs import DetectorConfig, TrainConfig
+from noisybolt.runs.resolution import resolve
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 ROOM = "minigrid_empty:make_room"
@@ -27,7 +28,7 @@ def _normalize(config: TrainConfig) -> object:
 
 def test_a_symbolic_grid_is_kept_as_integers_with_a_warning() -> None:
     with pytest.warns(SmallIntegerImagesWarning, match=r"at most 10 in random play"):
-        config = TrainConfig.create(world=ROOM, specs=["F(at_goal)"], detector=ORACLE)
+        config = resolve(TrainConfig.create(world=ROOM, specs=["F(at_goal)"], detector=ORACLE))
     assert _normalize(config) is False
     # what the run saves, and so evaluate and --resume read
     hyperparams = config.to_dict()["algorithm"]["hyperparams"]
@@ -37,11 +38,13 @@ def test_a_symbolic_grid_is_kept_as_integers_with_a_warning() -> None:
 def test_an_explicit_choice_is_kept_and_not_warned_about() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error", SmallIntegerImagesWarning)
-        config = TrainConfig.create(
-            world=ROOM,
-            specs=["F(at_goal)"],
-            detector=ORACLE,
-            overrides={"policy_kwargs.normalize_images": True},
+        config = resolve(
+            TrainConfig.create(
+                world=ROOM,
+                specs=["F(at_goal)"],
+                detector=ORACLE,
+                overrides={"policy_kwargs.normalize_images": True},
+            )
         )
     assert _normalize(config) is True
 
@@ -68,11 +71,13 @@ def test_pixels_and_non_image_observations_are_left_alone(
     with warnings.catch_warnings():
         warnings.simplefilter("error", SmallIntegerImagesWarning)
         # the same room seen as RGB pixels (up to 255); FrozenLake's Discrete cell
-        pixels = TrainConfig.create(
-            world="pixel_room:make", specs=["F(at_goal)"], detector=ORACLE, reward_scale=1.0
+        pixels = resolve(
+            TrainConfig.create(
+                world="pixel_room:make", specs=["F(at_goal)"], detector=ORACLE, reward_scale=1.0
+            )
         )
-        lake = TrainConfig.create(
-            world="frozenlake:make_lake", specs=["F(at_goal)"], detector=ORACLE
+        lake = resolve(
+            TrainConfig.create(world="frozenlake:make_lake", specs=["F(at_goal)"], detector=ORACLE)
         )
     assert _normalize(pixels) is True
     assert _normalize(lake) is True

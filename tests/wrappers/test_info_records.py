@@ -22,6 +22,7 @@ from noisybolt.envs.gridworld_vec import VectorGridworld
 from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
 from noisybolt.runs import DetectorConfig, TrainConfig
 from noisybolt.runs.environments import make_env
+from noisybolt.runs.resolution import resolve
 from noisybolt.runs.specs import resolve_spec
 from noisybolt.wrappers import BoltVecEnv
 
@@ -110,7 +111,9 @@ def test_ppo_learns_the_same_as_before_records_were_left_out() -> None:
 
 @pytest.mark.parametrize("training", [True, False])
 def test_train_builds_lean_learner_envs_and_recording_evaluation_envs(training: bool) -> None:
-    config = TrainConfig.create(specs=["edge"], detector=DetectorConfig(kind="oracle"), frames=64)
+    config = resolve(
+        TrainConfig.create(specs=["edge"], detector=DetectorConfig(kind="oracle"), frames=64)
+    )
     world = VectorGridworld(num_envs=1, seed=0)
     env = make_env(config, OracleDetector(world.fluent_names), training=training, n_envs=2)
     env.reset()

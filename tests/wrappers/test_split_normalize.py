@@ -22,6 +22,7 @@ from noisybolt.runs import DetectorConfig, TrainConfig, train
 from noisybolt.runs.checkpoints import NORMALISER, load_normaliser, save_normaliser
 from noisybolt.runs.environments import make_env
 from noisybolt.runs.presentation import describe_scheme
+from noisybolt.runs.resolution import resolve
 from noisybolt.wrappers import SplitRewardNormalize
 
 GAMMA = 0.9
@@ -188,15 +189,17 @@ def test_normalize_reward_takes_true_false_or_split(algo: str, value: Any, error
 
 def test_a_split_run_trains_and_resumes_with_its_bolt_statistics(tmp_path: Path) -> None:
     def config(frames: int) -> TrainConfig:
-        return TrainConfig.create(
-            specs=["edge"],
-            detector=DetectorConfig(kind="oracle"),
-            frames=frames,
-            eval_freq=1024,
-            eval_episodes=2,
-            checkpoint_freq=1024,
-            progress_bar=False,
-            overrides={"n_steps": 64, "normalize_reward": "split"},
+        return resolve(
+            TrainConfig.create(
+                specs=["edge"],
+                detector=DetectorConfig(kind="oracle"),
+                frames=frames,
+                eval_freq=1024,
+                eval_episodes=2,
+                checkpoint_freq=1024,
+                progress_bar=False,
+                overrides={"n_steps": 64, "normalize_reward": "split"},
+            )
         )
 
     run = tmp_path / "run"
@@ -228,7 +231,7 @@ def test_shares_that_do_not_add_up_to_the_reward_are_refused() -> None:
 
 @pytest.mark.parametrize(("value", "said"), [("split", True), (True, False)])
 def test_the_run_says_when_the_scale_no_longer_matters(value: Any, said: bool) -> None:
-    config = TrainConfig.create(specs=["edge"], overrides={"normalize_reward": value})
+    config = resolve(TrainConfig.create(specs=["edge"], overrides={"normalize_reward": value}))
     assert ("the scale does not change what it learns" in describe_scheme(config)) is said
 
 
@@ -259,22 +262,24 @@ def test_bolt_weight_needs_split_and_a_positive_number(
     overrides: dict[str, Any], error: str | None
 ) -> None:
     if error is None:
-        config = TrainConfig.create(specs=["edge"], overrides=overrides)
+        config = resolve(TrainConfig.create(specs=["edge"], overrides=overrides))
         assert "the bolt's weighed 5 times the world's" in describe_scheme(config)
     else:
         with pytest.raises(ConfigError, match=error):
-            TrainConfig.create(specs=["edge"], overrides=overrides)
+            resolve(TrainConfig.create(specs=["edge"], overrides=overrides))
 
 
 @pytest.mark.parametrize(("bolted", "weight"), [(True, 7.0), (False, 1.0)])
 def test_a_weighted_run_builds_its_normaliser_with_the_weight(bolted: bool, weight: float):
     # the weight reaches the normaliser a run builds (not only the class's default); an
     # unbolted control's world rewards are normalised as plainly as any other control's
-    config = TrainConfig.create(
-        specs=["edge"],
-        detector=DetectorConfig(kind="oracle"),
-        bolted=bolted,
-        overrides={"normalize_reward": "split", "bolt_weight": 7.0},
+    config = resolve(
+        TrainConfig.create(
+            specs=["edge"],
+            detector=DetectorConfig(kind="oracle"),
+            bolted=bolted,
+            overrides={"normalize_reward": "split", "bolt_weight": 7.0},
+        )
     )
     fluents = make_world("gridworld", num_envs=1, seed=0).fluent_names
     env = make_env(config, OracleDetector(fluents), training=True)
