@@ -113,11 +113,11 @@ def measure_error_model(
         fluent = np.arange(len(names))[None, :]
         for seq_probs, seq_truth in sequences:
             b = np.searchsorted(grid, np.asarray(seq_probs, dtype=np.float64), side="right")
-            t = np.asarray(seq_truth, dtype=bool).astype(np.int64)
-            if b.shape != t.shape or b.ndim != 2 or b.shape[1] != len(names):
+            held = np.asarray(seq_truth, dtype=bool).astype(np.int64)
+            if b.shape != held.shape or b.ndim != 2 or b.shape[1] != len(names):
                 raise ConfigError(f"each sequence must be [T, {len(names)}] probs and truth")
             fl = np.broadcast_to(fluent, b[1:].shape)
-            np.add.at(pairs, (fl, t[:-1], t[1:], b[:-1], b[1:]), 1.0)
+            np.add.at(pairs, (fl, held[:-1], held[1:], b[:-1], b[1:]), 1.0)
     return ErrorModel(
         fluent_names=names,
         edges=tuple(edges),

@@ -36,6 +36,7 @@ Example:
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -163,7 +164,7 @@ def run_error_model(
     detector: Any,
     *,
     seed: int,
-    labelled: str | Path | None = None,
+    labelled: str | os.PathLike[str] | None = None,
     samples: int = LABELLED_SAMPLES,
     episodes: int = LABELLED_EPISODES,
 ) -> tuple[ErrorModel, str]:
@@ -210,7 +211,7 @@ def run_error_model(
             _close(player)
     plays = f"; successive frames from {len(sequences)} labelled episodes of random play"
     if labelled is not None:
-        data: Any = load_dataset(labelled)
+        data: Any = load_dataset(Path(labelled))
         source = f"measured on {len(data.labels):,} labelled images from {labelled}"
     elif recorded_error_model(detector) is not None:
         data = None
