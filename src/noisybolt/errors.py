@@ -24,6 +24,7 @@ __all__ = [
     "FluentFunctionError",
     "IncompatibleError",
     "LargeCameraWarning",
+    "MissingDependencyError",
     "MissingErrorModelError",
     "NoCheckpointError",
     "NoEvaluationWarning",
@@ -88,6 +89,21 @@ class UnknownNameError(NoisyboltError, ValueError):
 
 class BackendUnavailableError(NoisyboltError, RuntimeError):
     """A compiler backend was requested but cannot run here (e.g. MONA is not installed)."""
+
+
+class MissingDependencyError(BackendUnavailableError):
+    """An optional package a world needs is not installed (e.g. ``minatar`` for
+    ``minatar-breakout``); the message names the extra that installs it.
+
+    Attributes:
+        package: the missing package's import name.
+        extra: the noisybolt extra that installs it (``pip install "noisybolt[<extra>]"``).
+    """
+
+    def __init__(self, message: str, *, package: str, extra: str) -> None:
+        super().__init__(message)
+        self.package = package
+        self.extra = extra
 
 
 class CompilationError(NoisyboltError, RuntimeError):

@@ -18,6 +18,7 @@ MODULES = [
     "noisybolt.bolt.engine",
     "noisybolt.bolt.restraining_bolt",
     "noisybolt.bolt.schemes",
+    "noisybolt.bolt.settings",
     "noisybolt.bolt.shaping",
     "noisybolt.bolt.spec",
 ]
@@ -40,6 +41,7 @@ def test_public_names() -> None:
         "BeliefObservation",
         "BeliefSettings",
         "BoltEngine",
+        "BoltSettings",
         "BoltStep",
         "CostLimit",
         "CostMode",

@@ -15,7 +15,14 @@ MODULES = [
     "noisybolt.perception.detectors",
     "noisybolt.perception.classifier",
     "noisybolt.perception.training",
+    "noisybolt.perception.fluent_dataset",
+    "noisybolt.perception.label_counts",
+    "noisybolt.perception.noise_base",
+    "noisybolt.perception.noise_regional",
     "noisybolt.envs.breakout",
+    "noisybolt.envs.breakout.camera",
+    "noisybolt.envs.breakout.config",
+    "noisybolt.envs.breakout.ram",
 ]
 
 

@@ -107,7 +107,7 @@ def test_labels_under_another_wrapper_are_found() -> None:
 def test_bad_specs_and_detectors_are_named() -> None:
     with pytest.raises(UnknownFluentError, match="top_row"):
         RestrainingBoltWrapper(lake(), ["G(lava)"], "oracle")
-    with pytest.raises(UnknownNameError, match="oracle, synthetic, classifier"):
+    with pytest.raises(UnknownNameError, match="classifier, oracle, synthetic"):
         RestrainingBoltWrapper(lake(), ["G(top_row)"], "psychic")  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="FluentDetector"):
         RestrainingBoltWrapper(lake(), ["G(top_row)"], object())  # type: ignore[arg-type]

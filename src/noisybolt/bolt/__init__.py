@@ -10,6 +10,8 @@ Pure numpy; knows nothing of Gymnasium or torch.
   carried first reward, auto-reset of vectorised environments).
 * :class:`RewardScheme`: how specs are paid on top of Algorithm 1 (``paper``, or
   ``compliance``: compliance first, with :class:`ProgressShaping`).
+* :class:`BoltSettings`: every setting of a bolt (bands, cost mode, scheme, tracking,
+  ending) in one frozen object, which every layer that builds a bolt takes whole.
 * :class:`BeliefSettings` and :class:`BeliefEngine`: belief tracking (``tracking=
   "belief"``), a distribution over each spec's DFA states from evidence over time.
 * :class:`AugmentedDFA`: the explicit augmented DFA of Fig. 2a, a reference to test and
@@ -62,6 +64,7 @@ from noisybolt.bolt.schemes import (
     RewardSchemeName,
     compliance_scale,
 )
+from noisybolt.bolt.settings import BoltSettings
 from noisybolt.bolt.shaping import ProgressShaping, progress_potential
 from noisybolt.bolt.spec import REWARD_TIMINGS, RewardTiming, Spec
 
@@ -81,6 +84,7 @@ __all__ = [
     "BeliefObservation",
     "BeliefSettings",
     "BoltEngine",
+    "BoltSettings",
     "BoltStep",
     "CostLimit",
     "CostMode",

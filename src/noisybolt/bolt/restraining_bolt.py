@@ -60,8 +60,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from noisybolt.bolt.bands import DEFAULT_THRESHOLDS, Thresholds, check_probs
-from noisybolt.bolt.belief import BeliefEngine, BeliefSettings, Tracking, check_tracking
+from noisybolt.bolt.belief import BeliefEngine, BeliefSettings, Tracking
 from noisybolt.bolt.engine import BoltEngine, BoltStep, CostMode, check_fluents, env_flags
+from noisybolt.bolt.settings import BoltSettings, settings_from_keywords
 from noisybolt.bolt.shaping import ProgressShaping
 from noisybolt.bolt.spec import Spec
 from noisybolt.errors import ConfigError
@@ -82,38 +83,39 @@ class RestrainingBolt:
         dfas: pre-built DFAs, one per spec (their vocabularies must be subsets of
             ``fluents``); None compiles each ``spec.formula`` with
             :func:`noisybolt.logic.compile_ltlf` over ``fluents``.
-        thresholds: the band thresholds of eq. 1.
-        cost_mode: ``"count"`` (the paper) or ``"proportional"``
-            (:func:`~noisybolt.bolt.bands.proportional_weights`).
+        settings: the bolt's settings (:class:`~noisybolt.bolt.BoltSettings`): bands,
+            cost mode, reward scheme (the specs are paid as it says; a scheme other than
+            ``paper`` adds its progress terms), tracking, ending. None: built from the
+            keyword arguments below, which stay for code written before it; giving both
+            is refused.
         n_envs: number of environments in the batch.
-        end_on_violation: when a DFA enters a rejecting sink, set ``terminate`` in the
-            step's result (the caller should end the episode) and pay ``episode_end`` specs
-            there. Off by default, as in the paper; ``violated`` is reported either way. A
-            violation on the first observation is reported by :meth:`reset` and sets
-            ``terminate`` at the first step.
-        shaping: the compliance scheme's progress terms added to every transition's
-            reward (:class:`~noisybolt.bolt.ProgressShaping`; its DFAs must be this
-            bolt's, in order); None for none (Algorithm 1 as the paper states it).
-        pay_at_truncation: whether an episode cut by a time limit (``truncated`` in
-            :meth:`step`) is paid as ended (``episode_end`` rewards, the progress terms'
-            end charge). True by default (plain LTLf on the trace so far), and what
-            training uses under both schemes. False suits a learner that bootstraps at a
-            time limit (SB3 does), which then counts the outcome twice; measured on
-            ``F(top_right_corner) & F(bottom_left_corner)`` (PPO, 60k frames) paying
-            there taught the 9-step detour in 2 of 3 seeds, not paying in 0 of 3: early
-            on, episodes that visit both corners mostly end by the time limit.
-        tracking: ``"threshold"`` (Algorithm 1, the default) or ``"belief"`` (see the
-            module docstring and :mod:`noisybolt.bolt.belief`).
-        belief: the settings of belief tracking (None: :class:`BeliefSettings` defaults);
-            only with ``tracking="belief"``.
+        shaping: progress terms to use instead of the scheme's
+            (:class:`~noisybolt.bolt.ProgressShaping`; its DFAs must be this bolt's, in
+            order), e.g. built with the world's letters; None: the scheme's (none under
+            ``paper``: Algorithm 1 as the paper states it).
+        thresholds, cost_mode, end_on_violation, pay_at_truncation, tracking, belief:
+            the fields of :class:`~noisybolt.bolt.BoltSettings` of these names, as
+            keywords. ``end_on_violation``: when a DFA enters a rejecting sink, set
+            ``terminate`` in the step's result (the caller should end the episode) and
+            pay ``episode_end`` specs there; a violation on the first observation is
+            reported by :meth:`reset` and sets ``terminate`` at the first step.
+            ``pay_at_truncation``: whether an episode cut by a time limit (``truncated``
+            in :meth:`step`) is paid as ended (``episode_end`` rewards, the progress
+            terms' end charge). True by default (plain LTLf on the trace so far), and
+            what training uses under both schemes. False suits a learner that
+            bootstraps at a time limit (SB3 does), which then counts the outcome twice;
+            measured on ``F(top_right_corner) & F(bottom_left_corner)`` (PPO, 60k
+            frames) paying there taught the 9-step detour in 2 of 3 seeds, not paying
+            in 0 of 3: early on, episodes that visit both corners mostly end by the
+            time limit.
 
     Raises:
         UnknownFluentError: a spec reads a fluent outside ``fluents``.
         SpecSyntaxError, BackendUnavailableError, CompilationError: from
             :func:`~noisybolt.logic.compile_ltlf`, when ``dfas`` is None.
-        ConfigError: see :class:`~noisybolt.bolt.engine.BoltEngine`; or a bad ``n_envs``;
-            or ``belief`` settings without ``tracking="belief"``, or belief tracking with
-            the proportional cost mode.
+        ConfigError: see :class:`~noisybolt.bolt.engine.BoltEngine` and
+            :class:`~noisybolt.bolt.BoltSettings`; or a bad ``n_envs``; or ``settings``
+            beside a keyword argument of a setting.
         UnknownNameError: an unknown ``tracking`` mode.
 
     Example:
@@ -139,52 +141,65 @@ class RestrainingBolt:
         fluents: Sequence[str],
         *,
         dfas: Sequence[DFA] | None = None,
+        settings: BoltSettings | None = None,
+        n_envs: int = 1,
+        shaping: ProgressShaping | None = None,
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
-        n_envs: int = 1,
         end_on_violation: bool = False,
-        shaping: ProgressShaping | None = None,
         pay_at_truncation: bool = True,
         tracking: Tracking = "threshold",
         belief: BeliefSettings | None = None,
     ) -> None:
-        tracking = check_tracking(tracking)  # type: ignore[assignment]
-        if belief is not None and tracking != "belief":
-            raise ConfigError("belief settings were given but tracking is not 'belief'")
-        if belief is not None and not isinstance(belief, BeliefSettings):
-            raise ConfigError(f"belief must be a BeliefSettings, got {belief!r}")
+        settings = settings_from_keywords(
+            settings,
+            {
+                "thresholds": thresholds,
+                "cost_mode": cost_mode,
+                "end_on_violation": end_on_violation,
+                "pay_at_truncation": pay_at_truncation,
+                "tracking": tracking,
+                "belief": belief,
+            },
+            owner="RestrainingBolt",
+        )
         if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
             raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
-        specs = tuple(specs)
+        specs = settings.paid(specs)
         vocabulary = check_fluents(fluents)
         if dfas is None:
-            for spec in specs:
-                if not isinstance(spec, Spec):
-                    raise ConfigError(f"expected Spec objects, got {spec!r}")
             dfas = [compile_ltlf(spec.formula, vocabulary) for spec in specs]
         self._engine = BoltEngine(
-            specs, dfas, vocabulary, thresholds=thresholds, cost_mode=cost_mode
+            specs, dfas, vocabulary, thresholds=settings.thresholds, cost_mode=settings.cost_mode
         )
+        if shaping is None:
+            shaping = settings.progress_terms(self._engine.dfas, self._engine.specs)
         if shaping is not None and (
             not isinstance(shaping, ProgressShaping)
             or len(shaping.dfas) != len(self._engine.dfas)
             or any(a is not b for a, b in zip(shaping.dfas, self._engine.dfas, strict=True))
         ):
             raise ConfigError("shaping must be a ProgressShaping over this bolt's own DFAs")
+        self._settings = settings
         self._shaping = shaping
-        self._pay_at_truncation = bool(pay_at_truncation)
+        self._pay_at_truncation = settings.pay_at_truncation
         self._n_envs = int(n_envs)
-        self._end_on_violation = bool(end_on_violation)
+        self._end_on_violation = settings.end_on_violation
         self._states = self._engine.initial_states(self._n_envs)
         self._pending = np.zeros(self._n_envs)
         self._price = 1.0
         self._needs_reset = np.ones(self._n_envs, dtype=bool)
-        self._tracking: Tracking = tracking
+        self._tracking: Tracking = settings.tracking
         self._belief: BeliefEngine | None = None
-        if tracking == "belief":
-            self._init_belief(belief if belief is not None else BeliefSettings())
+        if settings.belief_settings is not None:
+            self._init_belief(settings.belief_settings)
 
     # ------------------------------------------------------------------ properties
+    @property
+    def settings(self) -> BoltSettings:
+        """The bolt's settings, as given or built from its keyword arguments."""
+        return self._settings
+
     @property
     def engine(self) -> BoltEngine:
         """The stateless Algorithm 1 engine."""
@@ -490,11 +505,6 @@ class RestrainingBolt:
 
     # ------------------------------------------------------------------ belief tracking
     def _init_belief(self, settings: BeliefSettings) -> None:
-        if self._engine.cost_mode != "count":
-            raise ConfigError(
-                "belief tracking charges Algorithm 1's count of low-band fluents in "
-                "expectation; the proportional cost mode is not supported with it"
-            )
         self._belief = BeliefEngine(self.dfas, self.fluents, settings)
         n_specs, q_max = self.n_specs, max(self.n_states)
         self._joint = np.zeros((n_specs, self._n_envs, self._belief.n_cells))

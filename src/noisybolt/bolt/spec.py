@@ -3,14 +3,24 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
-from typing import Literal, get_args
+from typing import Literal, Protocol, get_args
 
 import numpy as np
 
-from noisybolt.errors import ConfigError
+from noisybolt.errors import ConfigError, UnsatisfiableSpecError
+from noisybolt.logic import DFA, is_satisfiable, is_valid
 
-__all__ = ["DEFAULT_COST", "DEFAULT_REWARD", "REWARD_TIMINGS", "RewardTiming", "Spec"]
+__all__ = [
+    "DEFAULT_COST",
+    "DEFAULT_REWARD",
+    "REWARD_TIMINGS",
+    "RewardTiming",
+    "Spec",
+    "check_satisfiable",
+    "vacuous_message",
+]
 
 #: A spec's default terminal reward: the paper's +1 for each step its DFA is accepting.
 DEFAULT_REWARD = 1.0
@@ -100,3 +110,60 @@ class Spec:
                 f"{list(REWARD_TIMINGS)}"
             )
         object.__setattr__(self, "name", label)
+
+
+class _Named(Protocol):
+    """What the check reads of a spec: a :class:`Spec`, or its fields as given."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def formula(self) -> str: ...
+
+
+def check_satisfiable(
+    specs: Sequence[_Named], dfas: Sequence[DFA], *, world: str | None = None
+) -> list[_Named]:
+    """Refuses a spec no trace satisfies; returns those every trace satisfies (the bolt
+    asks for nothing there: the caller says so, :func:`vacuous_message`).
+
+    Reads the compiled DFAs' graphs (:func:`~noisybolt.logic.is_satisfiable`,
+    :func:`~noisybolt.logic.is_valid`): cheap, no compiling. ``world``: the world whose
+    fluents the DFAs were compiled over, for the message. A spec and DFA count that
+    differ is left for :class:`~noisybolt.bolt.RestrainingBolt` to report.
+
+    Raises:
+        UnsatisfiableSpecError: no trace of one letter or more satisfies a spec (no
+            accepting state is reachable from its DFA's initial state).
+
+    Example:
+        >>> from noisybolt.logic import compile_ltlf
+        >>> check_satisfiable([Spec("F(a) & G(!a)")], [compile_ltlf("F(a) & G(!a)", ["a"])])
+        Traceback (most recent call last):
+        ...
+        noisybolt.errors.UnsatisfiableSpecError: spec 'F(a) & G(!a)' is unsatisfiable: no \
+trace satisfies 'F(a) & G(!a)', so no agent can comply (training under it teaches the \
+agent to ignore the bolt); fix the formula
+        >>> [vacuous_message(s) for s in check_satisfiable([Spec("a | !a")],
+        ...                                                [compile_ltlf("a | !a", ["a"])])]
+        ["spec 'a | !a' holds on every trace ('a | !a'): the bolt asks for nothing"]
+    """
+    vacuous = []
+    of = "" if world is None else f" of the {world}'s fluents"
+    for spec, dfa in zip(specs, dfas, strict=False):
+        if not is_satisfiable(dfa):
+            raise UnsatisfiableSpecError(
+                f"spec {spec.name!r} is unsatisfiable: no trace{of} satisfies "
+                f"{spec.formula!r}, so no agent can comply (training under it teaches the "
+                "agent to ignore the bolt); fix the formula",
+                formula=spec.formula,
+            )
+        if is_valid(dfa):
+            vacuous.append(spec)
+    return vacuous
+
+
+def vacuous_message(spec: _Named) -> str:
+    """What is said of a spec that every trace satisfies (:func:`check_satisfiable`)."""
+    return f"spec {spec.name!r} holds on every trace ({spec.formula!r}): the bolt asks for nothing"

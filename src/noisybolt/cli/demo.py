@@ -41,7 +41,7 @@ from noisybolt.experiments.comparison import (
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.detectors import BetaNoise, SyntheticDetector
 from noisybolt.runs.specs import PAPER_SPECS, resolve_spec
-from noisybolt.wrappers import RestrainingBoltWrapper
+from noisybolt.wrappers import DETECTOR_NAMES, RestrainingBoltWrapper
 
 __all__ = [
     "DEMO_ALGO",
@@ -116,7 +116,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--detector",
         default=None,
-        choices=("classifier", "oracle", "synthetic"),
+        choices=DETECTOR_NAMES,
         help="the bolt's fluent detector (default: a CNN on its noisy camera)",
     )
     parser.add_argument(

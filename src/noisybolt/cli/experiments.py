@@ -14,6 +14,7 @@ from typing import Any
 
 from noisybolt.bolt.belief import TRACKING_MODES
 from noisybolt.cli.train import parse_frames, whole_number
+from noisybolt.wrappers import DETECTOR_NAMES
 
 __all__ = ["register"]
 
@@ -138,7 +139,7 @@ def register(subparsers: Any) -> None:
     table1.add_argument(
         "--detector",
         default="classifier",
-        choices=("classifier", "oracle", "synthetic"),
+        choices=DETECTOR_NAMES,
         help="the bolt's fluent detector (default classifier: trained CNN, noisy camera)",
     )
     table1.add_argument("--noise", default="regional", help="bolt camera noise (regional)")
@@ -209,9 +210,7 @@ def register(subparsers: Any) -> None:
         help="episodes per seed whose corners are counted",
     )
     case4.add_argument("--algo", default="a2c", help="default a2c (the paper's)")
-    case4.add_argument(
-        "--detector", default="classifier", choices=("classifier", "oracle", "synthetic")
-    )
+    case4.add_argument("--detector", default="classifier", choices=DETECTOR_NAMES)
     case4.add_argument(
         "--start-heading",
         default="east",

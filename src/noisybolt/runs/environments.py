@@ -26,7 +26,7 @@ of the groups.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, overload
 
 import numpy as np
@@ -34,7 +34,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 from noisybolt.agents.hyperparams import SPLIT
 from noisybolt.agents.pipeline import GroupedVecEnv, group_bounds
-from noisybolt.bolt import BeliefSettings, Thresholds
+from noisybolt.bolt import BeliefSettings
 from noisybolt.envs import SB3VecEnv, make_world
 from noisybolt.envs.worker_world import WorkerWorld
 from noisybolt.errors import ConfigError
@@ -245,18 +245,16 @@ def build_bolted_env(
     venv: VecEnv = VecMonitor(SB3VecEnv(world))
     if training and config.world_config.clip_reward:
         venv = ClipGameReward(venv)
+    settings = config.bolt.settings
+    if belief is not None:
+        settings = replace(settings, belief=belief)
     return BoltVecEnv(
         venv,
         config.spec_objects(),
         detector,
         world=world,
         dfas=dfas,
-        thresholds=Thresholds(**config.thresholds),
-        cost_mode=config.cost_mode,  # type: ignore[arg-type]
-        tracking=config.tracking,  # type: ignore[arg-type]
-        belief=belief if belief is not None else config.belief_settings,
-        progress_gamma=config.progress_gamma,
-        shaping=config.shaping,
+        settings=settings,
         world_letters=letters,
         # The learner reads none of the per-step records; evaluation's envs keep them.
         info_records=not training,

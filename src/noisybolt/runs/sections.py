@@ -21,11 +21,20 @@ from noisybolt.agents.hyperparams import (
     check_hyperparameter_values,
     known_hyperparameters,
 )
-from noisybolt.bolt import COST_MODES, BeliefSettings, CostLimit, RewardScheme, Thresholds
+from noisybolt.bolt import (
+    COST_MODES,
+    BeliefSettings,
+    BoltSettings,
+    CostLimit,
+    RewardScheme,
+    Thresholds,
+)
 from noisybolt.bolt.belief import check_tracking
+from noisybolt.bolt.settings import PAPER
 from noisybolt.envs import DEFAULT_WORLD, check_world
 from noisybolt.errors import ConfigError, UnknownNameError
 from noisybolt.runs.schema import freeze
+from noisybolt.wrappers import DETECTOR_NAMES
 
 __all__ = [
     "DETECTORS",
@@ -41,7 +50,8 @@ __all__ = [
     "is_detector_factory",
 ]
 
-DETECTORS: tuple[str, ...] = ("classifier", "oracle", "synthetic")
+#: The detectors a run builds by name (the wrappers' list: one list).
+DETECTORS: tuple[str, ...] = DETECTOR_NAMES
 
 
 def is_detector_factory(kind: object) -> bool:
@@ -235,6 +245,53 @@ class BoltConfig:
     def cost_limit(self) -> CostLimit:
         """The ``constrained`` scheme's budget and gains (the defaults under the others)."""
         return CostLimit.from_mapping(self.constraint)
+
+    @property
+    def settings(self) -> BoltSettings:
+        """The bolt's settings (:class:`~noisybolt.bolt.BoltSettings`): what every layer
+        that builds this run's bolt is handed, whole.
+
+        The specs it pays are :meth:`~noisybolt.runs.config.TrainConfig.spec_objects`
+        (each already paid as the scheme says, at its own ``reward_scale`` where it has
+        one, which :attr:`~noisybolt.bolt.BoltSettings.spec_scales` repeats); unbolted
+        (``bolted`` False), those pay nothing and the scheme is ``paper``: no progress
+        terms. Under belief tracking, the belief settings are ``confidence`` and
+        ``min_dwell`` (a run replaces them with base rates estimated from play).
+
+        Raises:
+            ConfigError: the scheme's scale is not resolved yet
+                (:func:`~noisybolt.runs.resolve` gives it).
+
+        Example:
+            >>> bolt = BoltConfig(specs=({"formula": "F(a)", "reward_scale": 7.0},),
+            ...                   reward_scale=40.0, cost_mode="proportional")
+            >>> settings = bolt.settings
+            >>> settings.scheme.scale, settings.spec_scales, settings.cost_mode
+            (40.0, (7.0,), 'proportional')
+        """
+        if self.reward != "paper" and self.reward_scale is None:
+            raise ConfigError(
+                f"the {self.reward} scheme's scale (bolt.reward_scale) is not resolved yet: "
+                "noisybolt.runs.resolve(config) computes it from the world (train() and every "
+                "door that starts a run call it), or give one"
+            )
+        scheme, scales = PAPER, ()
+        if self.bolted:
+            scheme = self.scheme
+            if scheme.name != "paper":
+                scales = tuple(spec.get("reward_scale") for spec in self.specs)
+        return BoltSettings(
+            thresholds=Thresholds(**self.thresholds),
+            cost_mode=self.cost_mode,  # type: ignore[arg-type]  # checked at construction
+            scheme=scheme,
+            spec_scales=scales,
+            tracking=self.tracking,  # type: ignore[arg-type]  # checked at construction
+            belief=(
+                BeliefSettings(confidence=self.confidence, min_dwell=self.min_dwell)
+                if self.tracking == "belief"
+                else None
+            ),
+        )
 
     @property
     def scheme(self) -> RewardScheme:

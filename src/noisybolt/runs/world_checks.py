@@ -15,9 +15,9 @@ from typing import Any, Protocol
 
 from noisybolt.agents.extractor import check_agent_observation
 from noisybolt.agents.hyperparams import check_action_space
-from noisybolt.bolt.spec import Spec
-from noisybolt.errors import SpecSyntaxError, UnknownFluentError, UnsatisfiableSpecError
-from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid
+from noisybolt.bolt.spec import Spec, check_satisfiable, vacuous_message
+from noisybolt.errors import SpecSyntaxError, UnknownFluentError
+from noisybolt.logic import compile_ltlf
 
 __all__ = ["CheckedRun", "check_specs_against_world", "check_world_fits", "check_world_spaces"]
 
@@ -90,7 +90,8 @@ def check_specs_against_world(
             satisfies gets a warning through ``log`` (the bolt would ask for nothing).
     """
     dfas = []
-    for spec in config.spec_objects() if specs is None else specs:
+    specs_checked = list(config.spec_objects() if specs is None else specs)
+    for spec in specs_checked:
         try:
             dfas.append(compile_ltlf(spec.formula, fluent_names))
         except RecursionError:
@@ -106,15 +107,6 @@ def check_specs_against_world(
                 unknown=error.unknown,
                 known=tuple(fluent_names),
             ) from None
-        if not is_satisfiable(dfas[-1]):
-            raise UnsatisfiableSpecError(
-                f"spec {spec.name!r} is unsatisfiable: no trace of the {config.world}'s "
-                f"fluents satisfies {spec.formula!r}, so no agent can comply; fix the formula",
-                formula=spec.formula,
-            )
-        if is_valid(dfas[-1]):
-            log(
-                f"warning: spec {spec.name!r} holds on every trace ({spec.formula!r}): the "
-                "bolt asks for nothing"
-            )
+    for spec in check_satisfiable(specs_checked, dfas, world=config.world):
+        log(f"warning: {vacuous_message(spec)}")
     return dfas

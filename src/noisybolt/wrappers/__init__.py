@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from noisybolt.wrappers._common import BOLT_REWARD_KEY, ENV_REWARD_KEY, EPISODE_COST_KEY
+from noisybolt.wrappers._inputs import DETECTOR_NAMES, DetectorName
 from noisybolt.wrappers.atari import ClipGameReward, LifeLossTerminal
 from noisybolt.wrappers.bolt_vec_env import BoltVecEnv
 from noisybolt.wrappers.bolt_wrapper import BoltObservableEnv, RestrainingBoltWrapper
@@ -11,11 +12,13 @@ from noisybolt.wrappers.normalize import SplitRewardNormalize
 
 __all__ = [
     "BOLT_REWARD_KEY",
+    "DETECTOR_NAMES",
     "ENV_REWARD_KEY",
     "EPISODE_COST_KEY",
     "BoltObservableEnv",
     "BoltVecEnv",
     "ClipGameReward",
+    "DetectorName",
     "LifeLossTerminal",
     "RestrainingBoltWrapper",
     "SplitRewardNormalize",

@@ -9,25 +9,11 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from noisybolt.bolt import (
-    DEFAULT_THRESHOLDS,
-    BeliefSettings,
-    BoltStep,
-    CostMode,
-    ProgressShaping,
-    RestrainingBolt,
-    Spec,
-    Thresholds,
-    Tracking,
-)
+from noisybolt.bolt import BoltSettings, BoltStep, RestrainingBolt, Spec
 from noisybolt.bolt.bands import check_probs
-from noisybolt.errors import (
-    DetectorOutputError,
-    ObservationSpaceError,
-    UnknownBaseRatesWarning,
-    UnsatisfiableSpecError,
-)
-from noisybolt.logic import compile_ltlf, is_satisfiable, is_valid, masks_from_bool_matrix
+from noisybolt.bolt.spec import check_satisfiable, vacuous_message
+from noisybolt.errors import DetectorOutputError, ObservationSpaceError, UnknownBaseRatesWarning
+from noisybolt.logic import compile_ltlf
 from noisybolt.logic.dfa import DFA
 from noisybolt.perception.detectors import match_fluents
 from noisybolt.perception.protocols import FluentDetector
@@ -40,7 +26,6 @@ __all__ = [
     "bolt_info",
     "build_bolt",
     "check_flat_observation",
-    "check_satisfiable",
     "detector_output",
     "dfa_view",
     "dict_observation_space",
@@ -116,31 +101,21 @@ def build_bolt(
     world_fluents: Sequence[str],
     *,
     n_envs: int,
+    settings: BoltSettings,
     dfas: Sequence[DFA] | None = None,
-    thresholds: Thresholds = DEFAULT_THRESHOLDS,
-    cost_mode: CostMode = "count",
-    end_on_violation: bool = False,
-    progress_gamma: float | None = None,
-    shaping: bool = True,
     world_letters: np.ndarray | None = None,
-    pay_at_truncation: bool = True,
-    tracking: Tracking = "threshold",
-    belief: BeliefSettings | None = None,
 ) -> BoltParts:
     """Checks that specs, detector and world agree, and builds the bolt and its twin.
 
-    ``progress_gamma``: add the ``compliance`` reward scheme's progress terms
-    (:class:`~noisybolt.bolt.ProgressShaping`: graded outcome, violation charge and, with
-    ``shaping``, potential-based shaping) for a learner with this discount, each spec
-    scaled by its terminal reward; None for none (the ``paper`` scheme).
-    ``world_letters``: true fluents the world produces (bool ``[n, n_fluents]``, e.g.
-    from random play), so progress counts only steps the world can take.
-    ``pay_at_truncation``, ``tracking``, ``belief``: see
-    :class:`~noisybolt.bolt.RestrainingBolt`.
+    ``settings``: the bolt's (:class:`~noisybolt.bolt.BoltSettings`); the specs are paid
+    as its scheme says, with its progress terms. ``world_letters``: true fluents the world
+    produces (bool ``[n, n_fluents]``, e.g. from random play), so progress counts only
+    steps the world can take.
 
-    Every spec's DFA is checked (:func:`check_satisfiable`); a spec true of every trace
-    gets a ``UserWarning`` only if its DFA is compiled here: whoever passes ``dfas`` has
-    compiled them, and says so itself (``noisybolt train`` and ``check`` print it).
+    Every spec's DFA is checked (:func:`~noisybolt.bolt.spec.check_satisfiable`); a spec
+    true of every trace gets a ``UserWarning`` only if its DFA is compiled here: whoever
+    passes ``dfas`` has compiled them, and says so itself (``noisybolt train`` and
+    ``check`` print it).
 
     Raises:
         UnknownFluentError: a spec reads a fluent the world does not have (the message
@@ -151,24 +126,17 @@ def build_bolt(
     """
     world_fluents = tuple(world_fluents)
     detector = match_fluents(detector, world_fluents)  # its columns by name
+    specs = settings.paid(specs)
     compiled_here = dfas is None
     if dfas is None:
         dfas = [compile_ltlf(spec.formula, world_fluents) for spec in specs]
-    check_satisfiable(specs, dfas, warn_vacuous=compiled_here)
-    terms = None
-    if progress_gamma is not None:
-        scales = [spec.terminal_reward for spec in specs]
-        letters = None
-        if world_letters is not None:
-            index = {name: i for i, name in enumerate(world_fluents)}
-            letters = [
-                masks_from_bool_matrix(world_letters[:, [index[f] for f in dfa.fluents]])
-                for dfa in dfas
-            ]
-        terms = ProgressShaping(
-            dfas, scales=scales, gamma=progress_gamma, shaping=shaping, letters=letters
-        )
-    if tracking == "belief" and (belief is None or belief.base_rates is None):
+    for spec in check_satisfiable(specs, dfas):
+        if compiled_here:
+            # Worded as the CLI's line (prepare_bolt), which covers the dfas it passes here.
+            warnings.warn(vacuous_message(spec), UserWarning, stacklevel=3)
+    terms = settings.progress_terms(dfas, specs, fluents=world_fluents, letters=world_letters)
+    belief = settings.belief_settings
+    if belief is not None and belief.base_rates is None:
         warnings.warn(
             UnknownBaseRatesWarning(
                 "belief tracking without base_rates takes each fluent's frequency in play "
@@ -181,65 +149,11 @@ def build_bolt(
             ),
             stacklevel=4,  # the caller of the wrapper that called build_bolt
         )
+    # The specs are paid already: the bolt's scheme would pay them again, to the same.
     bolt = RestrainingBolt(
-        specs,
-        world_fluents,
-        dfas=dfas,
-        shaping=terms,
-        pay_at_truncation=pay_at_truncation,
-        thresholds=thresholds,
-        cost_mode=cost_mode,
-        n_envs=n_envs,
-        end_on_violation=end_on_violation,
-        tracking=tracking,
-        belief=belief,
+        specs, world_fluents, dfas=dfas, settings=settings, n_envs=n_envs, shaping=terms
     )
     return BoltParts(bolt, TruthTracker(bolt.dfas, world_fluents, n_envs=n_envs), detector)
-
-
-def check_satisfiable(
-    specs: Sequence[Spec], dfas: Sequence[DFA], *, warn_vacuous: bool = True
-) -> None:
-    """Refuses a spec no trace satisfies; warns of one every trace satisfies.
-
-    Reads the compiled DFAs' graphs (:func:`~noisybolt.logic.is_satisfiable`,
-    :func:`~noisybolt.logic.is_valid`): cheap, no compiling. A spec and DFA count that
-    differ is left for :class:`~noisybolt.bolt.RestrainingBolt` to report.
-
-    Raises:
-        UnsatisfiableSpecError: no trace of one letter or more satisfies a spec (no
-            accepting state is reachable from its DFA's initial state).
-
-    Example:
-        >>> import warnings
-        >>> check_satisfiable([Spec("F(a) & G(!a)")], [compile_ltlf("F(a) & G(!a)", ["a"])])
-        Traceback (most recent call last):
-        ...
-        noisybolt.errors.UnsatisfiableSpecError: spec 'F(a) & G(!a)' is unsatisfiable: no \
-trace satisfies 'F(a) & G(!a)', so no agent can comply (training under it teaches the \
-agent to ignore the bolt); fix the formula
-        >>> with warnings.catch_warnings(record=True) as caught:
-        ...     warnings.simplefilter("always")
-        ...     check_satisfiable([Spec("a | !a")], [compile_ltlf("a | !a", ["a"])])
-        >>> str(caught[0].message)
-        "spec 'a | !a' holds on every trace ('a | !a'): the bolt asks for nothing"
-    """
-    for spec, dfa in zip(specs, dfas, strict=False):
-        if not is_satisfiable(dfa):
-            raise UnsatisfiableSpecError(
-                f"spec {spec.name!r} is unsatisfiable: no trace satisfies {spec.formula!r}, "
-                "so no agent can comply (training under it teaches the agent to ignore the "
-                "bolt); fix the formula",
-                formula=spec.formula,
-            )
-        if warn_vacuous and is_valid(dfa):
-            # Worded as the CLI's line (prepare_bolt), which covers the dfas it passes here.
-            warnings.warn(
-                f"spec {spec.name!r} holds on every trace ({spec.formula!r}): the bolt asks "
-                "for nothing",
-                UserWarning,
-                stacklevel=4,  # the caller of the wrapper that called build_bolt
-            )
 
 
 def detector_output(probs: Any, detector: FluentDetector, *, rows: int) -> np.ndarray:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 from noisybolt.bolt import Spec
 from noisybolt.errors import ConfigError, UnknownNameError
@@ -18,8 +18,9 @@ __all__ = [
 
 #: Detectors by name: ``oracle`` reads the truth, ``synthetic`` the truth through seeded
 #: Beta noise, ``classifier`` is trained on labelled samples of the env's bolt camera.
-DetectorName = Literal["oracle", "synthetic", "classifier"]
-DETECTOR_NAMES: tuple[str, ...] = ("oracle", "synthetic", "classifier")
+#: The detectors built by name, here and in a run's config (``detector.kind``).
+DetectorName = Literal["classifier", "oracle", "synthetic"]
+DETECTOR_NAMES: tuple[str, ...] = get_args(DetectorName)
 
 
 def coerce_specs(specs: Spec | str | Sequence[Spec | str]) -> list[Spec]:

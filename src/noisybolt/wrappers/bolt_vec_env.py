@@ -33,6 +33,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepR
 from noisybolt.bolt import (
     DEFAULT_THRESHOLDS,
     BeliefSettings,
+    BoltSettings,
     CostMode,
     Spec,
     Thresholds,
@@ -40,6 +41,7 @@ from noisybolt.bolt import (
     confidence_bands,
     episode_costs,
 )
+from noisybolt.bolt.settings import settings_from_keywords
 from noisybolt.envs.deferred import DeferredArray
 from noisybolt.envs.labels import batched_labels_from_info, carries
 from noisybolt.envs.sb3 import SB3VecEnv
@@ -80,13 +82,18 @@ class BoltVecEnv(VecEnvWrapper):
         detector: fluent detector, called once per step on the whole batch.
         world: the Gymnasium vector env under ``venv``'s ``SB3VecEnv``, if the caller
             wants it checked (None: taken from ``venv``).
-        dfas, thresholds, cost_mode: as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
-        progress_gamma, shaping, world_letters, pay_at_truncation: the compliance scheme's
-            progress terms and its ending (see
-            :func:`~noisybolt.wrappers._common.build_bolt`); None for none.
-        end_on_violation: must be False here (see the error it raises).
-        tracking, belief: ``"threshold"`` (Algorithm 1) or ``"belief"`` tracking and its
-            settings, as in :class:`~noisybolt.wrappers.RestrainingBoltWrapper`.
+        dfas: pre-built DFAs (default: compile each spec's formula).
+        settings: the bolt's settings (:class:`~noisybolt.bolt.BoltSettings`: bands, cost
+            mode, reward scheme and its progress terms, tracking, ending); its
+            ``end_on_violation`` must be False here (see the error it raises). None: built
+            from the keyword arguments of old (``thresholds``, ``cost_mode``,
+            ``end_on_violation``, ``pay_at_truncation``, ``tracking``, ``belief``, and
+            ``progress_gamma`` with ``shaping``: the compliance scheme's progress terms at
+            each spec's own reward; see
+            :func:`~noisybolt.bolt.settings.settings_from_keywords`); giving both is
+            refused.
+        world_letters: true fluents the world produces (bool ``[n, n_fluents]``, e.g.
+            from random play), so progress terms count only steps the world can take.
         info_records: whether each step's ``infos`` get the bolt's records (reward parts,
             fluent probabilities and bands, the bolt's and the true DFA states: see
             :func:`~noisybolt.wrappers._common.bolt_info`). False leaves them out, but for
@@ -118,19 +125,35 @@ class BoltVecEnv(VecEnvWrapper):
         *,
         world: object | None = None,
         dfas: Sequence[DFA] | None = None,
+        settings: BoltSettings | None = None,
+        world_letters: np.ndarray | None = None,
+        info_records: bool = True,
+        transition_records: bool = False,
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
         end_on_violation: bool = False,
         progress_gamma: float | None = None,
         shaping: bool = True,
-        world_letters: np.ndarray | None = None,
         pay_at_truncation: bool = True,
         tracking: Tracking = "threshold",
         belief: BeliefSettings | None = None,
-        info_records: bool = True,
-        transition_records: bool = False,
     ) -> None:
-        if end_on_violation:
+        settings = settings_from_keywords(
+            settings,
+            {
+                "thresholds": thresholds,
+                "cost_mode": cost_mode,
+                "end_on_violation": end_on_violation,
+                "pay_at_truncation": pay_at_truncation,
+                "tracking": tracking,
+                "belief": belief,
+                "progress_gamma": progress_gamma,
+                "shaping": shaping,
+            },
+            owner="BoltVecEnv",
+            specs=specs,
+        )
+        if settings.end_on_violation:
             # Ending an episode that the world did not end needs a per-environment reset,
             # which the SB3 VecEnv interface does not offer.
             raise ConfigError(
@@ -165,16 +188,9 @@ class BoltVecEnv(VecEnvWrapper):
             detector,
             fluent_names,
             n_envs=venv.num_envs,
+            settings=settings,
             dfas=dfas,
-            thresholds=thresholds,
-            cost_mode=cost_mode,
-            end_on_violation=end_on_violation,
-            progress_gamma=progress_gamma,
-            shaping=shaping,
             world_letters=world_letters,
-            pay_at_truncation=pay_at_truncation,
-            tracking=tracking,
-            belief=belief,
         )
         self.bolt = parts.bolt
         self._truth = parts.truth
@@ -186,12 +202,12 @@ class BoltVecEnv(VecEnvWrapper):
         # A detector that reads the truth only is handed the world's images unrendered,
         # and so are a world's probabilities' images.
         self._reads_images = reads_images(parts.detector) and not self._world_probs
-        self._thresholds = thresholds
+        self._thresholds = settings.thresholds
         self._records = bool(info_records)
         self._transition_records = bool(transition_records)
         # Whether a time limit's cut is paid as an end: what a replay of the bolt's
         # transitions needs to know (noisybolt.agents.counterfactual).
-        self.pay_at_truncation = bool(pay_at_truncation)
+        self.pay_at_truncation = settings.pay_at_truncation
         super().__init__(
             venv,
             observation_space=dict_observation_space(

@@ -11,6 +11,7 @@ import numpy as np
 from noisybolt.bolt import (
     DEFAULT_THRESHOLDS,
     BeliefSettings,
+    BoltSettings,
     CostMode,
     Spec,
     Thresholds,
@@ -18,6 +19,7 @@ from noisybolt.bolt import (
     confidence_bands,
     episode_costs,
 )
+from noisybolt.bolt.settings import settings_from_keywords
 from noisybolt.envs.labels import (
     collect_labelled_samples,
     declares_goal_of,
@@ -89,16 +91,20 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             on the truth) or ``"classifier"`` (trained here on ``classifier_samples``
             images of the env played at random, which resets and plays the env).
         dfas: pre-built DFAs (default: compile each spec's formula).
-        thresholds: band thresholds (paper eq. 1).
-        cost_mode: ``"count"`` or ``"proportional"``.
-        end_on_violation: end the episode (``terminated``) when a spec's DFA enters a
-            rejecting sink. Off by default, as in the paper.
+        settings: the bolt's settings (:class:`~noisybolt.bolt.BoltSettings`): band
+            thresholds (paper eq. 1), cost mode, reward scheme (e.g.
+            ``RewardScheme("compliance", scale=...)``, whose progress terms are then
+            added), tracking (``"belief"``: ``info["dfa_accepting"]`` is whether the
+            probability of acceptance reaches the confidence level), ``end_on_violation``
+            (end the episode, ``terminated``, when a spec's DFA enters a rejecting sink;
+            off by default, as in the paper) and ``pay_at_truncation``. None: built from
+            the keyword arguments ``thresholds``, ``cost_mode``, ``end_on_violation``,
+            ``tracking`` and ``belief``, which stay for code written before it (giving
+            both is refused).
+        world_letters: true fluents the world produces (bool ``[n, n_fluents]``), so that
+            a scheme's progress terms count only steps the world can take.
         seed: seeds a detector built by name.
         classifier_samples: images to train a ``"classifier"`` detector on.
-        tracking: ``"threshold"`` (Algorithm 1, the default) or ``"belief"`` (a
-            distribution over DFA states; ``info["dfa_accepting"]`` is then whether the
-            probability of acceptance reaches the confidence level).
-        belief: the settings of belief tracking (None: the defaults).
 
     Raises:
         UnlabelledEnvError: the env declares no ``fluent_names`` (or, at reset or step,
@@ -129,11 +135,13 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         detector: FluentDetector | DetectorName,
         *,
         dfas: Sequence[DFA] | None = None,
+        settings: BoltSettings | None = None,
+        world_letters: np.ndarray | None = None,
+        seed: int = 0,
+        classifier_samples: int = 2000,
         thresholds: Thresholds = DEFAULT_THRESHOLDS,
         cost_mode: CostMode = "count",
         end_on_violation: bool = False,
-        seed: int = 0,
-        classifier_samples: int = 2000,
         tracking: Tracking = "threshold",
         belief: BeliefSettings | None = None,
     ) -> None:
@@ -142,6 +150,8 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             specs=specs,
             detector=detector,
             dfas=dfas,
+            settings=settings,
+            world_letters=world_letters,
             thresholds=thresholds,
             cost_mode=cost_mode,
             end_on_violation=end_on_violation,
@@ -151,6 +161,17 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             belief=belief,
         )
         super().__init__(env)
+        settings = settings_from_keywords(
+            settings,
+            {
+                "thresholds": thresholds,
+                "cost_mode": cost_mode,
+                "end_on_violation": end_on_violation,
+                "tracking": tracking,
+                "belief": belief,
+            },
+            owner="RestrainingBoltWrapper",
+        )
         check_flat_observation(env.observation_space)  # before a classifier is trained
         fluent_names = fluent_names_of(env)
         specs = coerce_specs(specs)
@@ -163,18 +184,15 @@ class RestrainingBoltWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
             ),
             specs=specs,
         )
-        self._thresholds = thresholds
+        self._thresholds = settings.thresholds
         parts = build_bolt(
             specs,
             detector,
             fluent_names,
             n_envs=1,
+            settings=settings,
             dfas=dfas,
-            thresholds=thresholds,
-            cost_mode=cost_mode,
-            end_on_violation=end_on_violation,
-            tracking=tracking,
-            belief=belief,
+            world_letters=world_letters,
         )
         self.bolt = parts.bolt
         self._truth = parts.truth

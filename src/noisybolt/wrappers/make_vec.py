@@ -7,7 +7,15 @@ from collections.abc import Callable, Sequence
 import gymnasium as gym
 from stable_baselines3.common.vec_env import VecMonitor
 
-from noisybolt.bolt import DEFAULT_THRESHOLDS, BeliefSettings, CostMode, Spec, Thresholds, Tracking
+from noisybolt.bolt import (
+    DEFAULT_THRESHOLDS,
+    BeliefSettings,
+    BoltSettings,
+    CostMode,
+    Spec,
+    Thresholds,
+    Tracking,
+)
 from noisybolt.envs.labelled_vec import LabelledVectorEnv
 from noisybolt.envs.labels import collect_labelled_samples
 from noisybolt.envs.sb3 import SB3VecEnv
@@ -29,9 +37,10 @@ def make_bolted_vec_env(
     seed: int | None = None,
     monitor: bool = True,
     dfas: Sequence[DFA] | None = None,
+    settings: BoltSettings | None = None,
+    classifier_samples: int = 2000,
     thresholds: Thresholds = DEFAULT_THRESHOLDS,
     cost_mode: CostMode = "count",
-    classifier_samples: int = 2000,
     tracking: Tracking = "threshold",
     belief: BeliefSettings | None = None,
 ) -> BoltVecEnv:
@@ -53,9 +62,11 @@ def make_bolted_vec_env(
             name (with ``seed``, or 0).
         monitor: put a ``VecMonitor`` below the bolt (episode returns, lengths and
             ``is_success`` in the logs).
-        dfas, thresholds, cost_mode, tracking, belief: as in
-            :class:`~noisybolt.wrappers.RestrainingBoltWrapper` (``tracking="belief"``:
-            ``"dfa"`` holds each spec's beliefs over its states).
+        dfas, settings: as in :class:`BoltVecEnv` (a
+            :class:`~noisybolt.bolt.BoltSettings`; with ``tracking="belief"``, ``"dfa"``
+            holds each spec's beliefs over its states).
+        thresholds, cost_mode, tracking, belief: the settings as keywords, for code
+            written before ``settings`` (giving both is refused).
         classifier_samples: images to train a ``"classifier"`` detector on.
 
     Raises:
@@ -97,6 +108,7 @@ def make_bolted_vec_env(
         detector,
         world=world,
         dfas=dfas,
+        settings=settings,
         thresholds=thresholds,
         cost_mode=cost_mode,
         tracking=tracking,
