@@ -256,14 +256,14 @@ def test_make_world_builds_the_gridworld() -> None:
     assert isinstance(world, VectorGridworld) and world.num_envs == 3
     assert world.config.obs_mode == "rgb" and world.camera_spec.noise["name"] == "salt_pepper"
     assert make_world("gridworld", size=8).camera_spec.shape == (64, 64, 3)
-    assert known_worlds() == ("breakout", "breakout-ram", "gridworld")
+    assert known_worlds() == ("breakout", "breakout-ram", "gridworld", "minatar-breakout")
 
 
 def test_make_world_bad_input() -> None:
-    with pytest.raises(UnknownNameError, match="breakout, breakout-ram, gridworld") as info:
+    with pytest.raises(UnknownNameError, match="gridworld, minatar-breakout") as info:
         make_world("pong")
     assert info.value.name == "pong"
-    assert info.value.known == ("breakout", "breakout-ram", "gridworld")
+    assert info.value.known == ("breakout", "breakout-ram", "gridworld", "minatar-breakout")
     with pytest.raises(ConfigError, match="colour"):
         make_world("gridworld", colour="blue")
     with pytest.raises(UnknownNameError, match="gaussian"):

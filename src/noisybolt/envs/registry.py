@@ -85,6 +85,8 @@ _WORLDS: dict[str, str | WorldFactory] = {
     "breakout": "noisybolt.envs.breakout:make_breakout_world",
     # The same game and bolt; the agent reads the console's RAM (its own hyperparameters).
     "breakout-ram": "noisybolt.envs.breakout:make_breakout_ram_world",
+    # MinAtar's Breakout (the optional minatar package: pip install "noisybolt[minatar]").
+    "minatar-breakout": "noisybolt.envs.minatar:make_minatar_breakout_world",
 }
 
 
@@ -126,6 +128,9 @@ _DISPLAY: dict[str, WorldDisplay] = {
     ),
 }
 _DISPLAY["breakout-ram"] = _DISPLAY["breakout"]
+_DISPLAY["minatar-breakout"] = WorldDisplay(
+    gif_steps=600, gif_fps=10.0, action_names=("no-op", "left", "right")
+)
 
 
 def world_display(name: str) -> WorldDisplay:
