@@ -2,9 +2,11 @@
 
 MinAtar has no screen of its own: its state is the board, bool ``[10, 10, 4]``. The bolt's
 camera draws it (:func:`render_boards`): each cell a ``tile_size`` square of one colour
-(:data:`PALETTE`: black floor, red bricks, a white ball with a grey trail, a blue paddle),
-then adds its own seeded noise, each game's from its own generator
-(:func:`noisy_images`); the noise is given as on ALE Breakout
+(:data:`PALETTE`: black floor, red bricks, a grey trail, a blue paddle), the ball a white
+square in the middle of its cell with the cell's own colour around it (MinAtar lets the
+ball pass into a brick's cell when it hits two bricks in a row, and a ball drawn over the
+whole cell would hide that brick from the bolt), then adds its own seeded noise, each
+game's from its own generator (:func:`noisy_images`); the noise is given as on ALE Breakout
 (:func:`~noisybolt.envs.breakout.camera.resolve_noise`: a
 :mod:`noisybolt.perception.noise` spec, model or callable), e.g.
 ``"gaussian:sigma=40+occlusion:count=1,size=0.25"`` for grain and a grey patch that can
@@ -30,16 +32,19 @@ from noisybolt.perception.noise import NoiseModel
 
 __all__ = ["PALETTE", "noisy_images", "render_boards"]
 
-#: The colour of a cell by what is in it (an empty cell is black); where several things
-#: share a cell, the later one in this order is drawn: the ball over its trail and a brick.
+#: The colour of what is in a cell (an empty cell is black). A cell is drawn in the colour
+#: of the last of trail, paddle and brick it holds; the ball is drawn over the middle of
+#: its cell only (see the module docs).
 PALETTE: dict[str, tuple[int, int, int]] = {
     "trail": (110, 110, 110),
     "paddle": (66, 114, 228),
     "brick": (200, 72, 72),
     "ball": (255, 255, 255),
 }
-_ORDER = tuple(CHANNELS.index(name) for name in PALETTE)  # board channel of each colour
-_COLOURS = np.array([(0, 0, 0), *PALETTE.values()], np.uint8)  # [1 + colours, 3]
+_CELLS = ("trail", "paddle", "brick")  # drawn over the whole cell, later over earlier
+_ORDER = tuple(CHANNELS.index(name) for name in _CELLS)  # their board channels
+_COLOURS = np.array([(0, 0, 0), *(PALETTE[name] for name in _CELLS)], np.uint8)
+_BALL = CHANNELS.index("ball")
 
 
 def render_boards(boards: np.ndarray, tile_size: int) -> np.ndarray:
@@ -52,7 +57,13 @@ def render_boards(boards: np.ndarray, tile_size: int) -> np.ndarray:
     for index, channel in enumerate(_ORDER, start=1):
         colour[boards[..., channel]] = index
     cells = _COLOURS[colour]  # [n, 10, 10, 3]
-    return np.repeat(np.repeat(cells, tile_size, axis=1), tile_size, axis=2)
+    images = np.repeat(np.repeat(cells, tile_size, axis=1), tile_size, axis=2)
+    ball = np.repeat(np.repeat(boards[..., _BALL], tile_size, axis=1), tile_size, axis=2)
+    margin = tile_size // 4  # of 4 pixels: the middle 2x2; of 1 to 3: all of them
+    middle = np.zeros((tile_size, tile_size), bool)
+    middle[margin : tile_size - margin, margin : tile_size - margin] = True
+    images[ball & np.tile(middle, (BOARD_SIDE, BOARD_SIDE))] = PALETTE["ball"]
+    return images
 
 
 def noisy_images(
