@@ -16,12 +16,13 @@ import pytest
 
 from noisybolt.bolt import Spec
 from noisybolt.cli import main
-from noisybolt.envs import SB3VecEnv, make_world
+from noisybolt.envs import SB3VecEnv, make_single_world, make_world
 from noisybolt.envs.minatar import (
     BRICK_CHANNEL,
     FLUENT_NAMES,
     PALETTE,
     MinAtarBreakoutConfig,
+    MinAtarBreakoutEnv,
     MinAtarBreakoutWorld,
     game_seeds,
     make_minatar_breakout_world,
@@ -45,6 +46,7 @@ minatar = pytest.importorskip("minatar")
 
 MODULES = [
     "noisybolt.envs.minatar",
+    "noisybolt.envs.minatar.adapter",
     "noisybolt.envs.minatar.board",
     "noisybolt.envs.minatar.camera",
     "noisybolt.envs.minatar.config",
@@ -320,6 +322,41 @@ def test_docstring_examples_run_and_names_are_documented(name: str) -> None:
             assert value.__doc__, f"{name}.{public} has no docstring"
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_single_game_env_is_the_world_of_one_and_shows_the_end() -> None:
+    settings = {"seed": 5, "noise": "gaussian:sigma=20", "max_episode_steps": 40}
+    env = MinAtarBreakoutEnv(**settings)
+    world = make_minatar_breakout_world(num_envs=1, **settings)
+    obs, first = env.reset(seed=5)
+    want, info = world.reset(seed=5)
+    np.testing.assert_array_equal(obs, want[0])
+    np.testing.assert_array_equal(first["bolt_image"], np.asarray(info["bolt_image"])[0])
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        action = int(rng.integers(0, 3))
+        obs, reward, terminated, truncated, labels = env.step(action)
+        w_obs, w_reward, w_term, w_trunc, info = world.step(np.array([action]))
+        assert (reward, terminated, truncated) == (w_reward[0], w_term[0], w_trunc[0])
+        if terminated or truncated:  # the game's last state, not the next game's first
+            np.testing.assert_array_equal(obs, info["final_obs"][0])
+            np.testing.assert_array_equal(labels["bolt_image"], world.final_bolt_images()[0])
+            np.testing.assert_array_equal(labels["true_fluents"], world.final_true_fluents()[0])
+            assert (env.render() == render_boards(obs[None].astype(bool), 16)[0]).all()
+            break
+        np.testing.assert_array_equal(obs, w_obs[0])
+        np.testing.assert_array_equal(labels["bolt_image"], world.bolt_images()[0])
+    else:
+        pytest.fail("a random game should end within 40 steps")
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(0)
+    with pytest.raises(ConfigError, match="render_mode"):
+        MinAtarBreakoutEnv(render_mode="human")
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(MinAtarBreakoutEnv(seed=0), skip_render_check=True)
+    single = make_single_world("minatar-breakout", noise="gaussian:sigma=20", obs_mode=None)
+    assert isinstance(single, MinAtarBreakoutEnv)
 
 
 def test_a_short_bolted_training_runs_and_reports_the_specs(tmp_path: Path) -> None:

@@ -95,6 +95,7 @@ _SINGLE: dict[str, str] = {
     "gridworld": "noisybolt.envs.gridworld:GridworldEnv",
     "breakout": "noisybolt.envs.breakout:BreakoutEnv",
     "breakout-ram": "noisybolt.envs.breakout:make_breakout_ram_env",
+    "minatar-breakout": "noisybolt.envs.minatar:MinAtarBreakoutEnv",
 }
 
 

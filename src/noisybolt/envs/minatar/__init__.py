@@ -9,7 +9,9 @@ noisy picture of it (:mod:`~noisybolt.envs.minatar.camera`) with ground-truth fl
 from the board (:mod:`~noisybolt.envs.minatar.board`). Its settings are one
 :class:`MinAtarBreakoutConfig` (:mod:`~noisybolt.envs.minatar.config`);
 :mod:`~noisybolt.envs.minatar.factories` holds the registry's factory
-(``"minatar-breakout"``). Importing this package does not import ``minatar``.
+(``"minatar-breakout"``), and :class:`MinAtarBreakoutEnv`
+(:mod:`~noisybolt.envs.minatar.adapter`) is one game as a plain Gymnasium env. Importing
+this package does not import ``minatar``.
 
 Example:
     >>> import numpy as np
@@ -20,6 +22,7 @@ Example:
     >>> world.close()
 """
 
+from noisybolt.envs.minatar.adapter import RENDER_TILE, MinAtarBreakoutEnv
 from noisybolt.envs.minatar.board import (
     BOARD_SIDE,
     BRICK_CHANNEL,
@@ -52,9 +55,11 @@ __all__ = [
     "GAMES",
     "LEFT_ROW_FLUENTS",
     "PALETTE",
+    "RENDER_TILE",
     "WALL_BRICKS",
     "WORLD_NAME",
     "MinAtarBreakoutConfig",
+    "MinAtarBreakoutEnv",
     "MinAtarBreakoutWorld",
     "bricks_present",
     "game_seeds",
