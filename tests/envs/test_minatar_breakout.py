@@ -274,7 +274,7 @@ def test_bad_input_is_refused_by_name() -> None:
         world.step(np.array([3]))
 
 
-def test_a_spec_over_a_missing_fluent_is_refused_before_anything_is_written(
+def test_a_bad_spec_game_or_option_is_refused_before_anything_is_written(
     tmp_path: Path,
 ) -> None:
     world = MinAtarBreakoutWorld(num_envs=2, seed=0)
@@ -285,6 +285,11 @@ def test_a_spec_over_a_missing_fluent_is_refused_before_anything_is_written(
     argv = ["train", "--world", "minatar-breakout", "--spec", "F(left_gone_row5)"]
     assert main([*argv, "--detector", "oracle", "--frames", "256", "--out", str(out)]) == 2
     assert not out.exists()
+    argv = ["train", "--world", "minatar-breakout", "--spec", "clear_left_column"]
+    argv += ["--detector", "oracle", "--frames", "256", "--out", str(out)]
+    for setting in ("world.kwargs.game=asterix", "world.kwargs.difficulty=2"):
+        assert main([*argv, "--set", setting]) == 2
+        assert not out.exists()
 
 
 def test_without_minatar_a_named_error_says_which_extra_to_install(
