@@ -99,11 +99,20 @@ def classifier_architecture(camera: Any) -> Any:
     A camera drawn in tiles (the gridworld's) gets a tile-reading first layer
     (``ClassifierConfig.patch``): a quarter of the default trunk's multiply-adds, which
     is most of the bolt's cost per training frame; other cameras get the default trunk.
+    A tiled camera that also declares its grid's side (``extra["cells"]``: MinAtar's
+    10x10 board) keeps every cell's features apart up to the head (``pool`` = cells):
+    fluents about single cells (one brick of a column) need them. Averaged into 4x4 bins,
+    three rows of bricks share two bins, and a classifier of MinAtar Breakout's camera
+    took the left column's bottom two bricks gone for the whole column gone in nearly
+    every such picture: a bolted agent learnt to be paid for that.
     """
     from noisybolt.perception.classifier import ClassifierConfig
 
-    tile = camera.extra.get("tile_size") if isinstance(camera.extra, Mapping) else None
+    extra = camera.extra if isinstance(camera.extra, Mapping) else {}
+    tile, cells = extra.get("tile_size"), extra.get("cells")
     if isinstance(tile, int) and tile > 1:
+        if isinstance(cells, int) and cells > 0:
+            return ClassifierConfig(channels=(32, 32), patch=tile, pool=cells)
         return ClassifierConfig(channels=(32, 32), patch=tile)
     return ClassifierConfig()
 

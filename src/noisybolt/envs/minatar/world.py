@@ -162,8 +162,13 @@ class MinAtarBreakoutWorld(gym.vector.VectorEnv):
             width=side,
             channels=3,
             noise=noise_description,
-            # tile_size: the on-the-fly classifier reads the image tile by tile.
-            extra={"source": "MinAtar board drawn in tiles", "tile_size": config.tile_size},
+            # tile_size and cells: the on-the-fly classifier reads the image tile by tile
+            # and keeps each cell apart (runs.detectors.classifier_architecture).
+            extra={
+                "source": "MinAtar board drawn in tiles",
+                "tile_size": config.tile_size,
+                "cells": BOARD_SIDE,
+            },
         )
         self._boards = np.zeros((n, BOARD_SIDE, BOARD_SIDE, len(CHANNELS)), bool)
         self._steps = np.zeros(n, np.int64)
