@@ -300,7 +300,7 @@ def agent_play(run_dir: str, noise: str, seed: int, n_envs: int) -> tuple[Any, t
 def _world_fluents(config: Any) -> tuple[str, ...]:
     from noisybolt.envs import make_world
 
-    world = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    world = make_world(config.world_config.name, num_envs=1, seed=0, **config.world_settings)
     try:
         return tuple(world.fluent_names)
     finally:

@@ -81,7 +81,11 @@ def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Na
         **SCHEMES[scheme],
     )
     # What `noisybolt train` does by default: the compliance scale computed on the product.
-    return with_exact_scale(config, log=lambda _: None) if config.reward == "compliance" else config
+    return (
+        with_exact_scale(config, log=lambda _: None)
+        if config.bolt.reward == "compliance"
+        else config
+    )
 
 
 def run_trial(

@@ -48,9 +48,9 @@ def final_walls(run_dir: Path, *, episodes: int, seed: int, stochastic: bool) ->
     config = TrainConfig.from_dict(run.read_config()).override(
         {"world.workers": 0, "world.overlap": False}
     )
-    if config.world not in BREAKOUT_WORLDS:
+    if config.world_config.name not in BREAKOUT_WORLDS:
         raise SystemExit(
-            f"{run_dir} is a {config.world!r} run: only Breakout runs "
+            f"{run_dir} is a {config.world_config.name!r} run: only Breakout runs "
             f"({', '.join(BREAKOUT_WORLDS)}) have a wall to read"
         )
     setup = prepare_bolt(config, seed=seed)

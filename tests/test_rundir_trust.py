@@ -290,14 +290,14 @@ def test_make_env_owns_the_training_stack() -> None:
     config = _config(overrides={"n_steps": 64, "normalize_reward": True})
     from noisybolt.envs import make_world
 
-    detector = OracleDetector(make_world(config.world, num_envs=1, seed=0).fluent_names)
+    detector = OracleDetector(make_world(config.world_config.name, num_envs=1, seed=0).fluent_names)
     training_env = make_env(config, detector, training=True)
     assert isinstance(training_env, VecNormalize)
-    assert training_env.num_envs == config.n_envs
+    assert training_env.num_envs == config.world_config.n_envs
     evaluation_env = make_env(config, detector, training=False, n_envs=2)
     assert isinstance(evaluation_env, BoltVecEnv) and evaluation_env.num_envs == 2
     with pytest.raises(TypeError, match="frozen"):
-        config.thresholds["truth"] = 0.7  # type: ignore[index]
+        config.bolt.thresholds["truth"] = 0.7  # type: ignore[index]
 
 
 # ------------------------------------------------------------------ valid runs unchanged

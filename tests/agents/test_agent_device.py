@@ -80,7 +80,7 @@ def test_a_gpu_the_machine_lacks_is_refused_with_what_to_do(
     with pytest.raises(ConfigError, match=r"algorithm\.device is cuda, but torch .* sees 0"):
         torch_device("cuda")
     config = _config(**{"algorithm.device": "cuda"})
-    probe = make_world(config.world, num_envs=1, seed=0)
+    probe = make_world(config.world_config.name, num_envs=1, seed=0)
     names = tuple(probe.fluent_names)
     probe.close()
     env = make_env(config, OracleDetector(names), training=True)

@@ -175,7 +175,7 @@ def test_a_run_saved_with_sb3s_own_policy_loads_evaluates_and_resumes(
     from noisybolt.perception.detectors import OracleDetector
     from noisybolt.runs.environments import make_env
 
-    fluents = make_world(config.world, num_envs=1, seed=0).fluent_names
+    fluents = make_world(config.world_config.name, num_envs=1, seed=0).fluent_names
     env = make_env(config, OracleDetector(fluents), training=False, n_envs=4)
     model = load_model(run / "model.zip", config, env)
     assert isinstance(model.policy, BoltDQNPolicy if algo == "dqn" else BoltActorCriticPolicy)

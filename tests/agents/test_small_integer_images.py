@@ -23,7 +23,9 @@ def _examples_importable(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def _normalize(config: TrainConfig) -> object:
-    return dict(config.hyperparams.get("policy_kwargs") or {}).get("normalize_images", True)
+    return dict(config.algorithm.hyperparams.get("policy_kwargs") or {}).get(
+        "normalize_images", True
+    )
 
 
 def test_a_symbolic_grid_is_kept_as_integers_with_a_warning() -> None:

@@ -277,3 +277,22 @@ def test_a_bad_price_is_refused(price: object) -> None:
     with pytest.raises(ConfigError, match="price"):
         bolt.price = price  # type: ignore[assignment]
     assert bolt.price == 1.0
+
+
+def test_a_price_over_decades_spans_them_geometrically_from_the_pid_output() -> None:
+    limit = CostLimit(decades=3)
+    # by hand: 10 ** (-3 * (1 - u)); none at u = 0, the whole scale at u = 1
+    assert limit.price(0.0) == 0.0
+    assert limit.price(1.0) == 1.0
+    assert limit.price(2 / 3) == pytest.approx(0.1)
+    assert limit.price(1 / 3) == pytest.approx(0.01)
+    # the multiplier applies it to what its PID gives: a cost 0.5 above a fixed budget
+    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, lr=0.5, kp=0.0, anneal=0.0, decades=3))
+    assert lagrange.update(0.5) == pytest.approx(10 ** (-3 * (1 - 0.25)))
+    # the linear price (decades 0) is the PID's output itself
+    assert CostLimit().price(0.4) == 0.4
+
+
+def test_negative_decades_are_refused_by_name() -> None:
+    with pytest.raises(ConfigError, match=r"bolt\.constraint\.decades must be >= 0"):
+        CostLimit(decades=-1)

@@ -94,7 +94,7 @@ def test_each_flag_sets_its_schema_path(argv: list[str], path: str, value: Any) 
     if path == "bolt.specs":
         assert [s["name"] for s in _at(config, path)] == ["edge", "avoid_top_right"]
     elif path == "world.name":
-        assert config.world == "breakout" and config.world_config.fire_on_reset
+        assert config.world_config.name == "breakout" and config.world_config.fire_on_reset
     elif value is None:  # --set is applied after the flags
         assert _at(config, path) == "threshold"
     else:

@@ -41,7 +41,7 @@ def sweep_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     real_train = training.train
 
     def train_or_crash(config: Any, run_dir: Any, **kwargs: Any) -> Any:
-        if config.algo == "a2c":
+        if config.algorithm.name == "a2c":
             raise ValueError("no A2C today")
         return real_train(config, run_dir, **kwargs)
 

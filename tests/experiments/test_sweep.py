@@ -181,11 +181,11 @@ def test_trials_cross_rows_settings_and_seeds_with_deterministic_ids() -> None:
     ]
     trial = sweep.trials[2]
     assert trial.group == "edge-ppo/noise=regional,gamma=0.9"
-    assert trial.config.world_kwargs == {"noise": "regional"}
+    assert trial.config.world_config.kwargs == {"noise": "regional"}
     assert trial.config.seed == 3
     # Base, row and axis merge: the row's n_steps and the axis's gamma both apply.
-    assert trial.config.hyperparams["n_steps"] == 64
-    assert trial.config.hyperparams["gamma"] == 0.9
+    assert trial.config.algorithm.hyperparams["n_steps"] == 64
+    assert trial.config.algorithm.hyperparams["gamma"] == 0.9
     assert trial.config.frames == 1024 and trial.config.progress_bar is False
     assert [t.trial_id for t in _sweep(settings={}).trials] == [
         "edge-ppo/seed-0",
@@ -317,7 +317,7 @@ def test_crashing_trial_is_retried_then_reported_failed_while_others_are_kept(
 
     def flaky_train(config: Any, run_dir: Any, **kwargs: Any) -> Any:
         calls.append(Path(run_dir).parent.name)
-        if config.algo == "a2c":
+        if config.algorithm.name == "a2c":
             raise RuntimeError("simulated crash in a2c")
         return real_train(config, run_dir, **kwargs)
 
@@ -434,7 +434,7 @@ def test_the_docs_sweep_example_is_a_valid_sweep() -> None:
     sweep = SweepConfig.from_dict(yaml.safe_load(example.group(1)))
     assert len(sweep.trials) == 2 * 2 * 3  # rows x cost modes x seeds
     assert sweep.trials[-1].trial_id == "a2c/cost_mode=proportional/seed-2"
-    assert sweep.trials[-1].config.hyperparams["learning_rate"] == 0.0007
+    assert sweep.trials[-1].config.algorithm.hyperparams["learning_rate"] == 0.0007
 
 
 def test_a_trial_that_kept_its_failures_in_failure_json_still_reads(tmp_path: Path) -> None:

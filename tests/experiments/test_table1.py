@@ -102,17 +102,17 @@ def test_the_default_sweep_is_eight_rows_by_three_seeds_with_the_noisy_classifie
     assert sweep.final_eval_episodes == 100
     for trial in sweep.trials:
         assert trial.config.detector.kind == "classifier"
-        assert trial.config.world_kwargs == {"noise": "regional"}
+        assert trial.config.world_config.kwargs == {"noise": "regional"}
         row = next(r for r in TABLE1_ROWS if r.name == trial.row)
-        assert trial.config.algo == row.algo and trial.config.frames == row.frames()
-        assert trial.config.specs[0]["name"] == row.spec
+        assert trial.config.algorithm.name == row.algo and trial.config.frames == row.frames()
+        assert trial.config.bolt.specs[0]["name"] == row.spec
         # Each seed keeps its best shaped-return model; DQN is evaluated greedily.
-        assert trial.config.keep_best
+        assert trial.config.evaluation.keep_best
         # Algorithm 1 as the paper pays it: +1 every accepting step, 0.5 per low reading.
-        assert trial.config.reward == "paper" and trial.config.progress_gamma is None
+        assert trial.config.bolt.reward == "paper" and trial.config.progress_gamma is None
         (spec,) = trial.config.spec_objects()
         assert (spec.terminal_reward, spec.reward_timing) == (1.0, "every_step")
-        assert trial.config.eval_deterministic == (row.algo == "dqn")
+        assert trial.config.evaluation.deterministic == (row.algo == "dqn")
 
 
 def test_n_frames_does_not_depend_on_the_budget() -> None:
@@ -121,13 +121,13 @@ def test_n_frames_does_not_depend_on_the_budget() -> None:
     for scale in (1.0, 3.0):
         for trial in table1_sweep(frames_scale=scale).trials:
             config = trial.config
-            assert config.stop_after == 3 and config.success_threshold == 0.95
-            if config.algo == "a2c":
-                assert config.hyperparams["ent_coef_frames"] == 50_000
-            if config.algo == "dqn":
-                assert config.hyperparams["exploration_frames"] == 3_000
-                assert "exploration_fraction" not in config.hyperparams
-    assert {t.config.stop_after for t in table1_sweep(stop_after=0).trials} == {0}
+            assert config.evaluation.stop_after == 3 and config.evaluation.success_threshold == 0.95
+            if config.algorithm.name == "a2c":
+                assert config.algorithm.hyperparams["ent_coef_frames"] == 50_000
+            if config.algorithm.name == "dqn":
+                assert config.algorithm.hyperparams["exploration_frames"] == 3_000
+                assert "exploration_fraction" not in config.algorithm.hyperparams
+    assert {t.config.evaluation.stop_after for t in table1_sweep(stop_after=0).trials} == {0}
 
 
 def test_the_command_line_sets_the_stopping_rule(small_table: Path) -> None:
@@ -144,7 +144,7 @@ def test_tracking_belief_changes_only_the_bolts_tracking(tmp_path: Path) -> None
     assert (threshold.name, belief.name) == ("table1", "table1-belief")
     assert "bolt.tracking" not in threshold.source["base"]  # its sweep file as before
     for a, b in zip(threshold.trials, belief.trials, strict=True):
-        assert (a.config.tracking, b.config.tracking) == ("threshold", "belief")
+        assert (a.config.bolt.tracking, b.config.bolt.tracking) == ("threshold", "belief")
         assert b.config.override({"bolt.tracking": "threshold"}) == a.config
     with pytest.raises(UnknownNameError, match="unknown tracking mode 'beleif'"):
         table1_sweep(tracking="beleif")

@@ -122,10 +122,10 @@ def test_the_sweep_trains_the_exclusive_spec_under_both_cameras() -> None:
         "control/seed-1",
     ]
     for trial in sweep.trials:
-        assert trial.config.world_kwargs == {"noise": CONDITIONS[trial.row]}
-        assert trial.config.specs[0]["name"] == "one_corner_once"
-        assert trial.config.reward == "paper"  # the paper's Algorithm 1, as measured
-        assert trial.config.algo == "a2c" and trial.config.eval_freq == 2_000
+        assert trial.config.world_config.kwargs == {"noise": CONDITIONS[trial.row]}
+        assert trial.config.bolt.specs[0]["name"] == "one_corner_once"
+        assert trial.config.bolt.reward == "paper"  # the paper's Algorithm 1, as measured
+        assert trial.config.algorithm.name == "a2c" and trial.config.evaluation.freq == 2_000
     assert CONDITIONS == {"regional": "regional", "control": "none"}
 
 
@@ -247,16 +247,16 @@ def test_measuring_needs_episodes(case4_dir: Path) -> None:
 
 def test_case4_start_heading_reaches_both_conditions_and_east_stays_implicit() -> None:
     south = case4_sweep(seeds=1, frames=6_000, start_heading="south")
-    assert {t.config.world_kwargs.get("start_heading") for t in south.trials} == {"south"}
+    assert {t.config.world_config.kwargs.get("start_heading") for t in south.trials} == {"south"}
     east = case4_sweep(seeds=1, frames=6_000)
-    assert all("start_heading" not in t.config.world_kwargs for t in east.trials)
+    assert all("start_heading" not in t.config.world_config.kwargs for t in east.trials)
 
 
 def test_case4_low_confidence_cost_reaches_the_spec() -> None:
     sweep = case4_sweep(seeds=1, frames=6_000, low_confidence_cost=3.0)
-    specs = {json.dumps(t.config.specs, sort_keys=True) for t in sweep.trials}
+    specs = {json.dumps(t.config.bolt.specs, sort_keys=True) for t in sweep.trials}
     assert len(specs) == 1
-    (spec,) = sweep.trials[0].config.specs
+    (spec,) = sweep.trials[0].config.bolt.specs
     assert spec["name"] == "one_corner_once" and spec["low_confidence_cost"] == 3.0
 
 

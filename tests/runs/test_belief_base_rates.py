@@ -63,7 +63,7 @@ def test_base_rates_are_estimated_without_labels_close_to_the_truth_of_play() ->
     config = _config(tracking="belief", seed=3)
     lines: list[str] = []
     setup = prepare_bolt(config, seed=config.seed, log=lines.append)
-    assert setup.belief is not None and setup.belief.confidence == config.confidence
+    assert setup.belief is not None and setup.belief.confidence == config.bolt.confidence
     rates = np.asarray(setup.belief.base_rates)
     truth = _truth_frequencies(config)
     np.testing.assert_allclose(rates, np.maximum(truth, 0.01), atol=0.03)

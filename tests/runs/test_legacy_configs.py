@@ -3,6 +3,7 @@ resumes: its flat config.json converts, and LEGACY_DEFAULTS says what it meant."
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -81,10 +82,10 @@ def _kept_configs(nested: bool) -> list[Path]:
 def test_every_kept_flat_config_loads_and_round_trips(path: Path) -> None:
     saved = json.loads(path.read_text())
     config = TrainConfig.from_dict(saved)
-    assert config.world == saved["world"] and config.frames == saved["frames"]
-    assert config.n_envs == saved["hyperparams"]["n_envs"]
-    assert "n_envs" not in config.hyperparams  # a world setting, in the world section
-    assert config.tracking == saved.get("tracking", "threshold")
+    assert config.world_config.name == saved["world"] and config.frames == saved["frames"]
+    assert config.world_config.n_envs == saved["hyperparams"]["n_envs"]
+    assert "n_envs" not in config.algorithm.hyperparams  # a world setting, in the world section
+    assert config.bolt.tracking == saved.get("tracking", "threshold")
     assert TrainConfig.from_dict(config.to_dict()) == config
     assert nested_config(config.to_dict()) == config.to_dict()
 
@@ -132,12 +133,10 @@ def test_a_run_saved_with_a_flat_config_resumes_and_evaluates(tmp_path: Path) ->
         )
 
 
-def test_the_flat_names_of_old_files_are_the_configs_read_only_attributes() -> None:
-    # Two lists by design (the keys old files hold; the attributes today's code may read),
-    # held equal here so that neither drifts.
-    attributes = {
-        name: value.path for name, value in vars(TrainConfig).items() if hasattr(value, "path")
-    }
-    assert attributes == FLAT_PATHS
+def test_the_flat_names_of_old_files_are_create_keywords_and_deprecated_attributes() -> None:
     config = TrainConfig.create(specs=["edge"], reward="paper", eval_freq=7)
-    assert config.eval_freq == config.evaluation.freq == 7
+    assert config.evaluation.freq == 7
+    with pytest.warns(DeprecationWarning, match="read config.evaluation.freq"):
+        assert config.eval_freq == 7
+    # no flat name is a field of today's config: the one list is FLAT_PATHS
+    assert not set(FLAT_PATHS) & {f.name for f in dataclasses.fields(TrainConfig)}

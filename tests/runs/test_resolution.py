@@ -73,7 +73,7 @@ def test_every_door_pays_the_same_config_the_exact_scale(
     data = built.to_dict()
     data["bolt"]["reward_scale"] = None
     unresolved = TrainConfig.from_dict(data)
-    assert unresolved.reward_scale is None
+    assert unresolved.bolt.reward_scale is None
     train(unresolved, tmp_path / "unresolved", log=_quiet)
     scales["train(unresolved)"] = _saved_scale(tmp_path / "unresolved")
 
@@ -99,7 +99,7 @@ def test_every_door_pays_the_same_config_the_exact_scale(
         },
         name="doors",
     )  # fmt: skip
-    scales["sweep trial"] = float(sweep.trials[0].config.reward_scale)  # type: ignore[arg-type]
+    scales["sweep trial"] = float(sweep.trials[0].config.bolt.reward_scale)  # type: ignore[arg-type]
 
     assert {door: round(scale, 9) for door, scale in scales.items()} == {
         door: round(exact, 9) for door in scales
@@ -115,7 +115,7 @@ def test_resolving_is_idempotent_and_keeps_what_a_config_names() -> None:
     assert paper.reward_scale is None and resolve(paper) is paper
     # Unresolved (a scale set back to None): resolve() gives what it gave before.
     again = config.override({"bolt.reward_scale": None})
-    assert again.reward_scale is None and resolve(again) == config
+    assert again.bolt.reward_scale is None and resolve(again) == config
 
 
 def test_a_config_is_data_building_one_plays_no_world(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -126,7 +126,7 @@ def test_a_config_is_data_building_one_plays_no_world(monkeypatch: pytest.Monkey
     built = TrainConfig.build(TINY)  # validated whole, not resolved: no world built
     data = built.to_dict()
     config = TrainConfig.from_dict(data)
-    assert config.reward_scale is None and config.specs == built.specs
+    assert config.bolt.reward_scale is None and config.bolt.specs == built.specs
     with pytest.raises(ConfigError, match=r"not resolved yet: noisybolt.runs.resolve\(config\)"):
         config.spec_objects()
     with pytest.raises(AssertionError, match="a world was built"):
@@ -145,7 +145,7 @@ def test_reproduce_is_resolved_without_playing_a_world(monkeypatch: pytest.Monke
     monkeypatch.setattr(resolution, "make_world", refuse)
     for sweep in (table1_sweep(seeds=1), case4_sweep(seeds=1)):
         for trial in sweep.trials:
-            assert trial.config.reward == "paper" and trial.config.reward_scale is None
+            assert trial.config.bolt.reward == "paper" and trial.config.bolt.reward_scale is None
             assert resolve(trial.config) is trial.config
 
 
@@ -217,17 +217,18 @@ def test_the_kept_gridworld_runs_were_paid_what_resolution_computes_today() -> N
     paid: dict[str, float] = {}
     for path in _kept_configs():
         config = TrainConfig.from_dict(json.loads(path.read_text()))
-        if config.world != "gridworld" or config.reward == "paper":
+        if config.world_config.name != "gridworld" or config.bolt.reward == "paper":
             continue
         unresolved = config.override({"bolt.reward_scale": None})
         # What the scale depends on: the world's settings, the specs, the timing, gamma.
         key = json.dumps(
-            [unresolved.world_settings, [s["formula"] for s in unresolved.specs]], sort_keys=True
+            [unresolved.world_settings, [s["formula"] for s in unresolved.bolt.specs]],
+            sort_keys=True,
         )
-        key += f" {unresolved.pay_on_change} {unresolved.hyperparams.get('gamma')}"
+        key += f" {unresolved.bolt.pay_on_change} {unresolved.algorithm.hyperparams.get('gamma')}"
         if key not in paid:  # resolved once for each
             paid[key] = float(resolve(unresolved).reward_scale)  # type: ignore[arg-type]
-        assert paid[key] == pytest.approx(config.reward_scale, abs=1e-9), path
+        assert paid[key] == pytest.approx(config.bolt.reward_scale, abs=1e-9), path
     assert len(paid) >= 20
 
 

@@ -71,9 +71,12 @@ def test_compliance_is_the_default_with_a_scale_exact_on_the_gridworlds_product(
     # The bound from the world's returns caps it; the product gives far less.
     choice = compliance_scale_choice(config)
     assert choice.exact and choice.bound == compliance_scale(bounds)
-    assert config.reward == "compliance" and config.reward_scale == choice.scale < choice.bound
+    assert (
+        config.bolt.reward == "compliance"
+        and config.bolt.reward_scale == choice.scale < choice.bound
+    )
     (spec,) = config.spec_objects()
-    assert spec.terminal_reward == config.reward_scale and spec.reward_timing == "on_change"
+    assert spec.terminal_reward == config.bolt.reward_scale and spec.reward_timing == "on_change"
     at_end = _config(["avoid_top_right"], pay_on_change=False)
     assert at_end.spec_objects()[0].reward_timing == "episode_end"
     paper = _config(["avoid_top_right"], reward="paper", pay_on_change=True)
@@ -95,7 +98,7 @@ def test_a_learner_paid_clipped_rewards_is_scaled_from_the_clipped_return(
     for world in ("breakout", "breakout-ram"):
         config = _config(["left_row5"], world=world)
         assert config.world_config.clip_reward
-        assert config.reward_scale == pytest.approx(COMPLIANCE_MARGIN * MAX_BRICKS)
+        assert config.bolt.reward_scale == pytest.approx(COMPLIANCE_MARGIN * MAX_BRICKS)
         unclipped = _config(["left_row5"], world=world, overrides={"clip_reward": False})
         assert unclipped.reward_scale == pytest.approx(COMPLIANCE_MARGIN * MAX_SCORE)
     # A world that declares only its score's bounds: random play, clipped, with a warning.
@@ -316,11 +319,11 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
     common = {"world": "bare_lake:make", "specs": ["F(at_goal)"]}
     with pytest.warns(EstimatedBoundsWarning, match=r"declare the bounds.*--reward-scale"):
         config = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
-    assert config.reward == "compliance" and config.reward_scale == pytest.approx(1.65)
+    assert config.bolt.reward == "compliance" and config.bolt.reward_scale == pytest.approx(1.65)
     # The estimate is seeded: the same scale again; a given scale is taken as it is.
     with pytest.warns(EstimatedBoundsWarning):
         again = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
-    assert again.reward_scale == config.reward_scale
+    assert again.bolt.reward_scale == config.bolt.reward_scale
     given = resolve(
         TrainConfig.create(**common, reward_scale=3.0, detector=DetectorConfig(kind="oracle"))
     )
@@ -359,7 +362,7 @@ def test_a_learner_paid_large_unnormalised_rewards_is_warned(settings: dict, war
     settings = dict(settings)
     overrides = settings.pop("hp")
     config = _config(["avoid_top_right"], overrides=overrides, **settings)
-    assert config.hyperparams["normalize_reward"] is overrides["normalize_reward"]
+    assert config.algorithm.hyperparams["normalize_reward"] is overrides["normalize_reward"]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         warn_of_unnormalized_rewards(config)

@@ -157,7 +157,10 @@ def test_a_dqn_run_resumes_with_its_replay_buffer(dqn_run: Path, tmp_path: Path)
     config = TrainConfig.from_dict(json.loads((run / "config.json").read_text()))
     model = make_model(config, _env(config))
     load_replay_buffer(model, folder / "replay_buffer.npz")
-    assert model.replay_buffer is not None and model.replay_buffer.pos == 512 // config.n_envs
+    assert (
+        model.replay_buffer is not None
+        and model.replay_buffer.pos == 512 // config.world_config.n_envs
+    )
     result = train(TrainConfig.from_dict({**config.to_dict(), "frames": 768}), run, resume=True)
     assert result.frames == 768
 
@@ -167,7 +170,7 @@ def _env(config: TrainConfig) -> object:
     from noisybolt.perception.detectors import OracleDetector
     from noisybolt.runs.environments import make_env
 
-    fluents = make_world(config.world, num_envs=1, seed=0).fluent_names
+    fluents = make_world(config.world_config.name, num_envs=1, seed=0).fluent_names
     return make_env(config, OracleDetector(fluents), training=True)
 
 

@@ -459,7 +459,7 @@ def test_breakout_agents_get_the_2013_dqn_network() -> None:
                 detector=DetectorConfig(kind="oracle"),
             )
         )
-        assert config.hyperparams["cnn"] == "atari2013"
+        assert config.algorithm.hyperparams["cnn"] == "atari2013"
         detector = OracleDetector(("brick_clear_left", *(f"left_gone_row{r}" for r in range(6))))
         env = build_bolted_env(config, detector, n_envs=1, seed=0, training=True)
         model = make_model(config, env, trial=True)

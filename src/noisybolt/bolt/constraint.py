@@ -103,7 +103,7 @@ from noisybolt.errors import ConfigError
 __all__ = ["CONSTRAINT_KEYS", "CostLimit", "LagrangeMultiplier", "episode_costs"]
 
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
-CONSTRAINT_KEYS: tuple[str, ...] = ("cost_limit", "lr", "kp", "kd", "initial", "anneal")
+CONSTRAINT_KEYS: tuple[str, ...] = ("cost_limit", "lr", "kp", "kd", "initial", "anneal", "decades")
 
 
 def _number(name: str, value: object) -> float:
@@ -138,6 +138,12 @@ class CostLimit:
         anneal: the share of the run's frames, in ``[0, 1]``, over which the budget falls
             from the first measured cost to ``cost_limit`` (0: ``cost_limit`` from the
             start).
+        decades: how many powers of ten the price spans (``>= 0``): the PID's output
+            ``u`` in ``[0, 1]`` is priced ``10 ** (-decades * (1 - u))`` (0 at ``u = 0``),
+            so that the price searches the order of magnitude a violation must cost, from
+            ``10 ** -decades`` of the compliance scale (about the task's own units, where
+            the scale is the worst case of random play) up to the scale. 0: the price is
+            ``u`` itself, linear.
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a
@@ -151,6 +157,7 @@ class CostLimit:
     kd: float = 0.0
     initial: float = 0.0
     anneal: float = 0.5
+    decades: float = 0.0
 
     def __post_init__(self) -> None:
         for name in CONSTRAINT_KEYS:
@@ -164,7 +171,7 @@ class CostLimit:
             raise ConfigError(
                 f"bolt.constraint.lr (the multiplier's learning rate) must be > 0, got {self.lr}"
             )
-        for name in ("kp", "kd"):
+        for name in ("kp", "kd", "decades"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"bolt.constraint.{name} must be >= 0, got {getattr(self, name)}")
         for name in ("initial", "anneal"):
@@ -172,6 +179,22 @@ class CostLimit:
                 raise ConfigError(
                     f"bolt.constraint.{name} must be in [0, 1], got {getattr(self, name)}"
                 )
+
+    def price(self, u: float) -> float:
+        """The share of the compliance scale paid at the PID's output ``u`` in ``[0, 1]``
+        (see ``decades``).
+
+        Example:
+            >>> CostLimit(decades=3).price(0.5), CostLimit(decades=3).price(0.0)
+            (0.03162277660168379, 0.0)
+            >>> CostLimit().price(0.5)  # linear
+            0.5
+        """
+        if u <= 0:
+            return 0.0
+        if self.decades == 0:
+            return min(u, 1.0)
+        return float(10.0 ** (-self.decades * (1.0 - min(u, 1.0))))
 
     def budget(self, progress: float, first_cost: float | None) -> float:
         """The budget at ``progress`` (frames trained / the run's frames) for a run whose
@@ -214,7 +237,7 @@ class LagrangeMultiplier:
             raise ConfigError(f"limit must be a CostLimit, got {limit!r}")
         self.limit = limit
         self._integral = limit.initial
-        self._value = limit.initial
+        self._value = limit.price(limit.initial)
         self._last_cost: float | None = None
         self._first_cost: float | None = None
         self._updates = 0
@@ -258,7 +281,8 @@ class LagrangeMultiplier:
         step = limit.lr * error * (int(frames) / 1000)
         self._integral = min(max(0.0, self._integral + step), 1.0)
         rise = 0.0 if self._last_cost is None else max(0.0, cost - self._last_cost)
-        self._value = min(max(0.0, limit.kp * error + self._integral + limit.kd * rise), 1.0)
+        u = min(max(0.0, limit.kp * error + self._integral + limit.kd * rise), 1.0)
+        self._value = limit.price(u)
         self._last_cost = cost
         self._updates += 1
         return self._value

@@ -280,7 +280,7 @@ def _same(value: Any, default: Any) -> bool:
 
 
 def _positive(value: object) -> bool:
-    return (
+    return bool(
         not isinstance(value, bool)
         and isinstance(value, (int, float, np.floating))
         and math.isfinite(value)

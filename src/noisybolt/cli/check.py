@@ -118,9 +118,9 @@ def _check(args: argparse.Namespace) -> int:
     best = goal_feasibility(config)
     if best is None:
         print(f"world {args.world} cannot be explored exactly here: no route check")
-        if config.reward != "paper":
+        if config.bolt.reward != "paper":
             print(
-                f"compliance scale: {config.reward_scale:g}; complying is worth "
+                f"compliance scale: {config.bolt.reward_scale:g}; complying is worth "
                 f"{spec_worths(config)}"
             )
         return 0
@@ -137,13 +137,13 @@ def _check(args: argparse.Namespace) -> int:
         f"compliant route to the goal: yes, R^c_max {best.value:g} in {best.steps} steps "
         f"(unconstrained R_max {r_max.value:g} in {r_max.steps} steps)"
     )
-    assert config.reward_scale is not None  # resolved: what noisybolt train pays this config
-    scale = config.reward_scale
+    assert config.bolt.reward_scale is not None  # resolved: what noisybolt train pays this config
+    scale = config.bolt.reward_scale
     bound = compliance_scale_choice(config).bound
-    gamma = float(config.hyperparams.get("gamma", 0.99))
+    gamma = float(config.algorithm.hyperparams.get("gamma", 0.99))
     formulas = [spec.formula for spec in config.spec_objects()]
     optimum = scheme_optimum(
-        formulas, scale=scale, gamma=gamma, pay_on_change=config.pay_on_change, **settings
+        formulas, scale=scale, gamma=gamma, pay_on_change=config.bolt.pay_on_change, **settings
     )
     given = "given; " if args.reward_scale is not None else ""
     print(

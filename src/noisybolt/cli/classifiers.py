@@ -176,7 +176,7 @@ def _record(
     }
     run.write_config(config)
     lines = [config[s]["command"] for s in STAGES if s in config]
-    atomic_write_text(run.file("command.txt"), "\n".join(lines) + "\n")
+    run.write_command_lines(lines)
 
 
 def _make_world(

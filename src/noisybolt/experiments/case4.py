@@ -142,12 +142,13 @@ def measure_corners(
     run = RunDirectory(run_dir)
     config = TrainConfig.from_dict(run.read_config())
     if deterministic is None:
-        deterministic = config.eval_deterministic
+        deterministic = config.evaluation.deterministic
     setup = prepare_bolt(config, seed=seed)
     fluents = setup.fluents
     if _TOP_RIGHT not in fluents or _BOTTOM_LEFT not in fluents:
         raise ConfigError(
-            f"{config.world} has no {_TOP_RIGHT}/{_BOTTOM_LEFT} fluents: case 4 is measured "
+            f"{config.world_config.name} has no {_TOP_RIGHT}/{_BOTTOM_LEFT} fluents: case 4 is "
+            "measured "
             "in the gridworld"
         )
     tr, bl = fluents.index(_TOP_RIGHT), fluents.index(_BOTTOM_LEFT)
@@ -166,8 +167,10 @@ def measure_corners(
     )
     world: Any = env.world
     if not hasattr(world, "agent_state"):
-        raise ConfigError(f"{config.world} does not report agent positions (agent_state)")
-    size = int(config.world_kwargs.get("size", 6))
+        raise ConfigError(
+            f"{config.world_config.name} does not report agent positions (agent_state)"
+        )
+    size = int(config.world_config.kwargs.get("size", 6))
     visited = np.zeros((n_envs, 2), dtype=bool)  # [n_envs, (top-right, bottom-left)]
     paths: list[list[tuple[int, int]]] = [[] for _ in range(n_envs)]
     ended: dict[int, tuple[str, list[tuple[int, int]]]] = {}

@@ -10,7 +10,7 @@ Example:
     >>> from noisybolt.runs.training import DetectorConfig, TrainConfig
     >>> config = TrainConfig.create(specs=["F(bottom_left_corner)"],
     ...                             detector=DetectorConfig(kind="oracle"))
-    >>> round(config.reward_scale, 2), with_exact_scale(config, log=None) is config
+    >>> round(config.bolt.reward_scale, 2), with_exact_scale(config, log=None) is config
     (34.45, True)
     >>> goal_feasibility(config).steps
     8
@@ -37,7 +37,7 @@ __all__ = [
 def _world(config: TrainConfig) -> Any:
     from noisybolt.envs import make_world
 
-    return make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+    return make_world(config.world_config.name, num_envs=1, seed=0, **config.world_settings)
 
 
 def tabular_settings(config: TrainConfig, world: Any = None) -> dict[str, Any] | None:
@@ -62,7 +62,7 @@ def goal_feasibility(config: TrainConfig) -> OptimalResult | None:
     settings = tabular_settings(config)
     if settings is None:
         return None
-    formulas = [str(spec["formula"]) for spec in config.specs]
+    formulas = [str(spec["formula"]) for spec in config.bolt.specs]
     try:
         return optimal_constrained_return(formulas, require_goal=True, **settings)
     except UnknownFluentError:
@@ -76,7 +76,7 @@ def exact_scale(config: TrainConfig) -> float | None:
     the world's returns then stands), or the scheme pays no scale (``paper``)."""
     from noisybolt.runs.resolution import compliance_scale_choice
 
-    if config.reward == "paper":
+    if config.bolt.reward == "paper":
         return None
     choice = compliance_scale_choice(config)
     return choice.scale if choice.exact else None
@@ -107,7 +107,9 @@ def check_worlds(configs: Mapping[str, TrainConfig]) -> None:
     cameras: dict[str, Any] = {}
     detectors: set[tuple[str, str, int]] = set()
     for name, config in configs.items():
-        key = json.dumps([config.world, config.world_settings], sort_keys=True, default=str)
+        key = json.dumps(
+            [config.world_config.name, config.world_settings], sort_keys=True, default=str
+        )
         try:
             if key not in fluents:
                 world = _world(config)

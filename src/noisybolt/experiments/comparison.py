@@ -218,7 +218,7 @@ def compare_bolted_unbolted(
             bolted_config,
             setup,
             episodes=episodes,
-            deterministic=bolted_config.eval_deterministic,
+            deterministic=bolted_config.evaluation.deterministic,
         )
         outcomes[bolted] = AgentOutcome(
             bolted=bolted,
@@ -237,7 +237,7 @@ def compare_bolted_unbolted(
             _panel_title(outcomes[False], spec_obj.name, detector): list(outcomes[False].positions),
             _panel_title(outcomes[True], spec_obj.name, detector): list(outcomes[True].positions),
         },
-        size=int(bolted_config.world_kwargs.get("size", 6)),
+        size=int(bolted_config.world_config.kwargs.get("size", 6)),
         path=out / "comparison.png",
         title=f"{algo.upper()} on the gridworld, without and with a restraining bolt\n"
         + _wrap(f"spec {spec_text(spec_obj.name, spec_obj.formula)}", 90),
@@ -273,9 +273,9 @@ def _record(
         config.spec_objects(),
         setup.detector,
         dfas=setup.dfas,
-        thresholds=Thresholds(**config.thresholds),
-        cost_mode=cast(CostMode, config.cost_mode),  # checked by TrainConfig
-        tracking=cast(Tracking, config.tracking),  # checked by TrainConfig
+        thresholds=Thresholds(**config.bolt.thresholds),
+        cost_mode=cast(CostMode, config.bolt.cost_mode),  # checked by TrainConfig
+        tracking=cast(Tracking, config.bolt.tracking),  # checked by TrainConfig
         belief=setup.belief,
     )
     policy = policy_from_model(model, deterministic=deterministic)

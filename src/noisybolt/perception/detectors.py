@@ -35,6 +35,7 @@ import numpy as np
 from noisybolt.errors import ConfigError, DetectorOutputError, IncompatibleError, UnknownFluentError
 
 __all__ = [
+    "TRUTH_DETECTORS",
     "BetaNoise",
     "FluentsByName",
     "OracleDetector",
@@ -42,6 +43,7 @@ __all__ = [
     "match_fluents",
     "reads_images",
     "reseed_detector",
+    "truth_detector",
 ]
 
 
@@ -455,3 +457,44 @@ class SyntheticDetector:
         a = np.where(truth, self._a_pos, self._a_neg)
         b = np.where(truth, self._b_pos, self._b_neg)
         return self._rng.beta(a, b).astype(np.float32)
+
+
+#: The detectors that read the world's truth, built by name (:func:`truth_detector`).
+TRUTH_DETECTORS: tuple[str, ...] = ("oracle", "synthetic")
+
+
+def truth_detector(
+    kind: str,
+    fluent_names: Sequence[str],
+    *,
+    seed: int = 0,
+    low_confidence: Sequence[str] = (),
+) -> OracleDetector | SyntheticDetector:
+    """A detector that reads the truth, by name: the one factory of the wrappers and of a
+    run's config (a classifier is trained or loaded by each, which differ in where its
+    images come from).
+
+    ``low_confidence``: fluents the synthetic detector reads with
+    :meth:`BetaNoise.low_confidence` (mostly in the low band); the oracle takes none.
+
+    Raises:
+        ConfigError: a name not in :data:`TRUTH_DETECTORS`, or ``low_confidence`` for the
+            oracle.
+
+    Example:
+        >>> truth_detector("oracle", ["a"]).predict(None, truth=np.array([[True]])).tolist()
+        [[1.0]]
+        >>> truth_detector("synthetic", ["a", "b"], seed=3, low_confidence=["b"]).fluent_names
+        ('a', 'b')
+    """
+    if kind == "oracle":
+        if low_confidence:
+            raise ConfigError("the oracle detector reads every fluent with certainty")
+        return OracleDetector(fluent_names)
+    if kind == "synthetic":
+        return SyntheticDetector(
+            fluent_names,
+            seed=seed,
+            fluents={name: BetaNoise.low_confidence() for name in low_confidence},
+        )
+    raise ConfigError(f"{kind!r} is not a detector that reads the truth: {list(TRUTH_DETECTORS)}")

@@ -11,7 +11,7 @@ hyperparameters, SB3 extensions) is :mod:`noisybolt.agents`, one layer below.
 
 Example:
     >>> from noisybolt.runs import TrainConfig
-    >>> TrainConfig.create(specs=["G(!top_right_corner)"], frames=1000).algo
+    >>> TrainConfig.create(specs=["G(!top_right_corner)"], frames=1000).algorithm.name
     'ppo'
 """
 

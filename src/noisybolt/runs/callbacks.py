@@ -108,7 +108,7 @@ class EvaluationCallback(BaseCallback):
         self._stop = False
 
     def _init_callback(self) -> None:
-        self._next_eval = next_multiple(self.model.num_timesteps, self.config.eval_freq)
+        self._next_eval = next_multiple(self.model.num_timesteps, self.config.evaluation.freq)
         self._stop = False
         for child in (self.callback_on_new_best, self.callback_after_eval):
             if child is not None:
@@ -119,7 +119,7 @@ class EvaluationCallback(BaseCallback):
         stopped during a periodic evaluation (Ctrl-C, SIGTERM) saves its checkpoint at
         those very frames, and a resume would otherwise go on to the next one, leaving a
         hole in the learning curve."""
-        frames, freq = int(self.model.num_timesteps), self.config.eval_freq
+        frames, freq = int(self.model.num_timesteps), self.config.evaluation.freq
         return bool(
             freq
             and frames > 0
@@ -143,7 +143,7 @@ class EvaluationCallback(BaseCallback):
     def evaluate(self) -> EvalResult:
         """Evaluates the current policy and records it (metrics.json, TensorBoard)."""
         model = self.model
-        deterministic = self.config.eval_deterministic
+        deterministic = self.config.evaluation.deterministic
         frames = int(model.num_timesteps)
         # Sampled evaluation actions draw from torch's and numpy's global generators (DQN's
         # epsilon uses numpy's). Draw them from generators of their own, seeded by the
@@ -156,13 +156,16 @@ class EvaluationCallback(BaseCallback):
                 result = evaluate_bolted_policy(
                     lambda obs: model.predict(obs, deterministic=deterministic)[0],
                     self.eval_env,
-                    n_episodes=self.config.eval_episodes,
+                    n_episodes=self.config.evaluation.episodes,
                     spec_names=self.spec_names,
                 )
             finally:
                 np.random.set_state(numpy_state)  # noqa: NPY002
         self.last_result = result
-        if self.frames_to_comply is None and result.success_rate >= self.config.success_threshold:
+        if (
+            self.frames_to_comply is None
+            and result.success_rate >= self.config.evaluation.success_threshold
+        ):
             self.frames_to_comply = frames
         self.history.append({"frames": frames, **result.to_dict()})
         self.run.write_metrics(self.history)
@@ -182,10 +185,10 @@ class EvaluationCallback(BaseCallback):
         if self._stop:  # the caught-up evaluation ended the run
             return False
         frames = self.model.num_timesteps
-        if not self.config.eval_freq or frames < self._next_eval:
+        if not self.config.evaluation.freq or frames < self._next_eval:
             return True
         self.evaluate()
-        self._next_eval = next_multiple(frames, self.config.eval_freq)
+        self._next_eval = next_multiple(frames, self.config.evaluation.freq)
         if self.callback_after_eval is not None:
             return self.callback_after_eval.on_step()
         return True
@@ -248,7 +251,7 @@ class CheckpointCallback(BaseCallback):
         }
         if self.constraint is not None:
             state["multiplier"] = self.constraint.state_dict()
-        save_checkpoint(self.model, env, self.run, state, algo=self.config.algo)
+        save_checkpoint(self.model, env, self.run, state, algo=self.config.algorithm.name)
         # Only now that the newest checkpoint names this best model may the older ones
         # go: a run killed earlier resumes from a checkpoint naming one of them.
         if evaluation.best is not None:

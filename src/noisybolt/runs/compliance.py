@@ -198,7 +198,7 @@ def run_error_model(
     )
 
     def world() -> Any:
-        return make_world(config.world, num_envs=16, seed=seed, **config.world_settings)
+        return make_world(config.world_config.name, num_envs=16, seed=seed, **config.world_settings)
 
     sequences: list[Any] = []
     if episodes > 0:

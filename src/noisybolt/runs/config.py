@@ -37,7 +37,7 @@ Example:
     >>> config = TrainConfig.build({"bolt.specs": ["edge"], "bolt.reward": "paper"})
     >>> config.bolt.tracking, config.algorithm.name, config.world_config.n_envs
     ('threshold', 'ppo', 8)
-    >>> config.override({"bolt.tracking": "belief"}).tracking
+    >>> config.override({"bolt.tracking": "belief"}).bolt.tracking
     'belief'
     >>> config.override({"bolt.trackin": "belief"})  # doctest: +ELLIPSIS
     Traceback (most recent call last):
@@ -52,7 +52,7 @@ import os
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any
 
 from noisybolt.agents.hyperparams import (
     WORLD_KEYS,
@@ -126,28 +126,8 @@ SEED_RANGE = (0, 2**32 - 1)
 ON_POLICY: tuple[str, ...] = ("ppo", "a2c")
 
 
-_T = TypeVar("_T")
-
-
-class _Alias(Generic[_T]):
-    """A read-only flat name for a setting held in a section: ``config.tracking`` is
-    ``config.bolt.tracking``. One place holds the data; these are the names the code read
-    before the schema was nested, and the keys of the flat ``config.json`` of older runs."""
-
-    def __init__(self, path: str) -> None:
-        self.path = path
-        section, _, self.name = path.partition(".")
-        self.section = _ATTRIBUTES.get(section, section)
-
-    def __get__(self, obj: Any, owner: Any = None) -> _T:
-        if obj is None:
-            return self  # type: ignore[return-value]
-        value: _T = getattr(getattr(obj, self.section), self.name)
-        return value
-
-
-#: Schema keys whose attribute has another name: ``config.world`` is the world's name
-#: (what most code wants), the section is ``config.world_config``.
+#: Schema keys whose attribute has another name: the ``world`` section is
+#: ``config.world_config`` (``config.world`` was the world's name in schema 1).
 _ATTRIBUTES = {"world": "world_config"}
 
 
@@ -157,16 +137,17 @@ class TrainConfig:
 
     Build a new run's config with :meth:`build` (overrides by schema path, hyperparameters
     and specs resolved), read a saved one with :meth:`from_dict`, change one with
-    :meth:`override`. The flat names of the settings (``config.tracking``,
-    ``config.eval_freq``, ``config.algo``, ``config.world``: the world's name) read the
-    sections; :data:`FLAT_PATHS` says which path each reads.
+    :meth:`override`. Settings are read by their schema paths (``config.bolt.tracking``,
+    ``config.evaluation.freq``, ``config.algorithm.name``; the world's name is
+    ``config.world_config.name``). The flat names of schema 1 (``config.tracking``, ...:
+    :data:`FLAT_PATHS`) still read them for one release, with a ``DeprecationWarning``.
 
     Attributes:
         seed: seeds the world, the agent and the evaluation.
         frames: environment steps to train for (all environments together).
         checkpoint_freq: frames between checkpoints (0: none).
         progress_bar: show a progress bar.
-        world_config: the world (``world`` in ``config.json``; ``config.world`` is its name).
+        world_config: the world (``world`` in ``config.json``; ``world_config.name``: its name).
         bolt: the bolt's specs and reward.
         detector: the bolt's fluent detector.
         algorithm: the learner and its hyperparameters.
@@ -183,30 +164,24 @@ class TrainConfig:
     algorithm: AlgorithmConfig = field(default_factory=AlgorithmConfig)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
 
-    world = _Alias[str]("world.name")
-    world_kwargs = _Alias[Mapping[str, Any]]("world.kwargs")
-    n_envs = _Alias[int]("world.n_envs")
-    specs = _Alias[tuple[Mapping[str, Any], ...]]("bolt.specs")
-    reward = _Alias[str]("bolt.reward")
-    reward_scale = _Alias[float | None]("bolt.reward_scale")
-    shaping = _Alias[bool]("bolt.shaping")
-    pay_on_change = _Alias[bool]("bolt.pay_on_change")
-    tracking = _Alias[str]("bolt.tracking")
-    confidence = _Alias[float]("bolt.confidence")
-    min_dwell = _Alias[int]("bolt.min_dwell")
-    thresholds = _Alias[Mapping[str, float]]("bolt.thresholds")
-    cost_mode = _Alias[str]("bolt.cost_mode")
-    bolted = _Alias[bool]("bolt.bolted")
-    algo = _Alias[str]("algorithm.name")
-    hyperparams = _Alias[Mapping[str, Any]]("algorithm.hyperparams")
-    device = _Alias[str]("algorithm.device")
-    eval_freq = _Alias[int]("evaluation.freq")
-    eval_episodes = _Alias[int]("evaluation.episodes")
-    eval_envs = _Alias[int]("evaluation.envs")
-    eval_deterministic = _Alias[bool]("evaluation.deterministic")
-    success_threshold = _Alias[float]("evaluation.success_threshold")
-    stop_after = _Alias[int]("evaluation.stop_after")
-    keep_best = _Alias[bool]("evaluation.keep_best")
+    if not TYPE_CHECKING:  # type checkers see only the paths, so no flat read slips in
+
+        def __getattr__(self, name: str) -> Any:
+            # Called only for a name the dataclass lacks: a flat name of schema 1 reads its
+            # section for one more release (loading old files does not need this: it
+            # converts them, nested_config).
+            path = FLAT_PATHS.get(name)
+            if path is None:
+                raise AttributeError(f"'TrainConfig' object has no attribute {name!r}")
+            section, _, key = path.partition(".")
+            attribute = _ATTRIBUTES.get(section, section)
+            warnings.warn(
+                f"TrainConfig.{name} is deprecated: read config.{attribute}.{key} (the "
+                f"config.json path {path}); the flat names go in the next release",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return getattr(getattr(self, attribute), key)
 
     def __post_init__(self) -> None:
         for key, kind in section_types(TrainConfig).items():
@@ -224,8 +199,8 @@ class TrainConfig:
         check_count("checkpoint_freq", self.checkpoint_freq, 0)
         if not isinstance(self.progress_bar, bool):
             raise ConfigError(f"progress_bar must be true or false, got {self.progress_bar!r}")
-        frame_schedules(self.hyperparams, frames=self.frames)  # validates them
-        if not self.specs:
+        frame_schedules(self.algorithm.hyperparams, frames=self.frames)  # validates them
+        if not self.bolt.specs:
             raise ConfigError("give at least one spec (--spec NAME or --spec FORMULA: bolt.specs)")
         bolt = self.bolt
         # Validates reward, reward_scale and shaping. A scale left to resolve() (None) is
@@ -242,15 +217,15 @@ class TrainConfig:
                 f"spec(s) {repeated} given twice: each spec is tracked and reported by its "
                 "name; remove the repeat, or give each a name of its own (--spec-set name=...)"
             )
-        if self.algorithm.counterfactual and not self.bolted:
+        if self.algorithm.counterfactual and not self.bolt.bolted:
             raise ConfigError(
                 "algorithm.counterfactual relabels the bolt's DFA states, and this run is "
                 "unbolted (bolt.bolted false): turn one of them off"
             )
-        if self.algorithm.counterfactual and self.tracking != "threshold":
+        if self.algorithm.counterfactual and self.bolt.tracking != "threshold":
             raise ConfigError(
                 f"algorithm.counterfactual replays Algorithm 1 from other DFA states; under "
-                f"bolt.tracking={self.tracking} the bolt pays on a belief, not on one state: "
+                f"bolt.tracking={self.bolt.tracking} the bolt pays on a belief, not on one state: "
                 "use bolt.tracking=threshold, or turn algorithm.counterfactual off"
             )
         if bolt.reward == "constrained" and self.algorithm.name not in ON_POLICY:
@@ -409,7 +384,9 @@ class TrainConfig:
         if hp_file is not None:
             prefix = "algorithm.hyperparams."
             given = {k[len(prefix) :]: v for k, v in changes.items() if k.startswith(prefix)}
-            params = load_hyperparams(config.world, config.algo, given, hp_file=hp_file)
+            params = load_hyperparams(
+                config.world_config.name, config.algorithm.name, given, hp_file=hp_file
+            )
             for key in WORLD_KEYS & set(params):
                 value = params.pop(key)
                 if value is not None and f"world.{key}" not in changes:
@@ -435,7 +412,7 @@ class TrainConfig:
         data = self.to_dict()
         for path, value in override_paths(changes).items():
             if path == "bolt.specs":
-                value = spec_fields(checked_value(path, value), paper=self.reward == "paper")
+                value = spec_fields(checked_value(path, value), paper=self.bolt.reward == "paper")
             set_path(data, path, checked_value(path, value))
         return TrainConfig.from_dict(data)
 
@@ -462,7 +439,10 @@ class TrainConfig:
             noisybolt.errors.ConfigError: frames 1,000 is less than one PPO rollout: ...
         """
         check_budget(
-            self.algo, frames=self.frames, n_envs=self.n_envs, hyperparams=self.hyperparams
+            self.algorithm.name,
+            frames=self.frames,
+            n_envs=self.world_config.n_envs,
+            hyperparams=self.algorithm.hyperparams,
         )
 
     # ------------------------------------------------------------------ reading
@@ -471,7 +451,7 @@ class TrainConfig:
     def world_settings(self) -> dict[str, Any]:
         """``world.kwargs`` plus ``fire_on_reset`` when set: what every world of the run
         is built with."""
-        settings = dict(self.world_kwargs)
+        settings = dict(self.world_config.kwargs)
         if self.world_config.fire_on_reset:
             settings["fire_on_reset"] = True
         return settings
@@ -489,9 +469,9 @@ class TrainConfig:
         Raises:
             ConfigError: its scale is not resolved yet (:func:`resolve` gives it).
         """
-        if self.reward != "paper" and self.reward_scale is None:
+        if self.bolt.reward != "paper" and self.bolt.reward_scale is None:
             raise ConfigError(
-                f"the {self.reward} scheme's scale (bolt.reward_scale) is not resolved yet: "
+                f"the {self.bolt.reward} scheme's scale (bolt.reward_scale) is not resolved yet: "
                 "noisybolt.runs.resolve(config) computes it from the world (train() and every "
                 "door that starts a run call it), or give one"
             )
@@ -502,16 +482,16 @@ class TrainConfig:
         """The discount of the compliance scheme's progress terms (None under the paper
         scheme or unbolted): 1, the scheme's objective being undiscounted (see
         :mod:`noisybolt.bolt.shaping`)."""
-        if not self.bolted or self.reward == "paper":
+        if not self.bolt.bolted or self.bolt.reward == "paper":
             return None
         return 1.0
 
     @property
     def belief_settings(self) -> BeliefSettings | None:
         """The bolt's belief-tracking settings (None under threshold tracking)."""
-        if self.tracking != "belief":
+        if self.bolt.tracking != "belief":
             return None
-        return BeliefSettings(confidence=self.confidence, min_dwell=self.min_dwell)
+        return BeliefSettings(confidence=self.bolt.confidence, min_dwell=self.bolt.min_dwell)
 
     def spec_objects(self) -> list[Spec]:
         """The specs as :class:`~noisybolt.bolt.Spec` (zero rewards when not bolted).
@@ -523,11 +503,11 @@ class TrainConfig:
 
     def _spec_objects(self, scheme: RewardScheme) -> list[Spec]:
         specs = []
-        for fields in self.specs:
+        for fields in self.bolt.specs:
             fields = dict(fields)
             scale = fields.pop("reward_scale", None)
             specs.append(scheme.apply(parsed_spec(fields), scale=scale))
-        if not self.bolted:
+        if not self.bolt.bolted:
             specs = [replace(s, terminal_reward=0.0, low_confidence_cost=0.0) for s in specs]
         return specs
 

@@ -44,6 +44,7 @@ from noisybolt.errors import (
 )
 from noisybolt.perception import dataset
 from noisybolt.perception.dataset import RARE_FLUENT_IMAGES, LabelCounts
+from noisybolt.perception.detectors import TRUTH_DETECTORS, truth_detector
 from noisybolt.perception.metrics import build_report
 from noisybolt.perception.protocols import FluentDetector
 from noisybolt.runs.config import DetectorConfig
@@ -246,7 +247,6 @@ def make_detector(
             show true, or never false.
     """
     from noisybolt.perception.classifier import load_classifier
-    from noisybolt.perception.detectors import BetaNoise, OracleDetector, SyntheticDetector
     from noisybolt.perception.training import recorded_label_counts
 
     if config.low_confidence and config.kind != "synthetic":
@@ -275,13 +275,9 @@ def make_detector(
             seed=config.seed,
             kwargs=config.kwargs,
         )
-    if config.kind == "oracle":
-        return OracleDetector(fluent_names)
-    if config.kind == "synthetic":
-        return SyntheticDetector(
-            fluent_names,
-            seed=config.seed,
-            fluents={name: BetaNoise.low_confidence() for name in config.low_confidence},
+    if config.kind in TRUTH_DETECTORS:
+        return truth_detector(
+            config.kind, fluent_names, seed=config.seed, low_confidence=config.low_confidence
         )
     if int(camera_spec.height) * int(camera_spec.width) <= 1:
         raise ConfigError(

@@ -111,8 +111,8 @@ def make_env(
         detector: the bolt's fluent detector.
         training: the learner's envs (the Atari conventions and the reward normaliser on
             top) or evaluation envs (the bolted world alone).
-        n_envs: environments (default: ``config.n_envs`` for training, else
-            ``config.eval_envs``).
+        n_envs: environments (default: ``config.world_config.n_envs`` for training, else
+            ``config.evaluation.envs``).
         seed: seeds the worlds (default: the run's seed; evaluation ``+ 10,000``).
         dfas: the specs' DFAs, if compiled already (:class:`BoltSetup`).
         letters: see :class:`BoltSetup`.
@@ -123,7 +123,7 @@ def make_env(
         ConfigError: ``life_loss_terminal`` for a world without lives.
     """
     if n_envs is None:
-        n_envs = config.n_envs if training else config.eval_envs
+        n_envs = config.world_config.n_envs if training else config.evaluation.envs
     if seed is None:
         seed = config.seed + (0 if training else EVAL_SEED_OFFSET)
     settings: dict[str, Any] = {
@@ -141,17 +141,17 @@ def make_env(
     else:
         bolted = build_bolted_env(config, detector, n_envs=n_envs, **settings)
         env = _learner_wrappers(config, bolted)
-    if config.hyperparams.get("normalize_reward"):
+    if config.algorithm.hyperparams.get("normalize_reward"):
         # Transpose images *below* the normaliser: SB3 would put its VecTransposeImage on
         # top, and off-policy replay buffers, which store VecNormalize's original (here:
         # untransposed) observations, then get the wrong shape (DQN crashed).
         env = _transposed(env)
-        gamma = config.hyperparams.get("gamma", 0.99)
-        if config.hyperparams["normalize_reward"] == SPLIT:
+        gamma = config.algorithm.hyperparams.get("gamma", 0.99)
+        if config.algorithm.hyperparams["normalize_reward"] == SPLIT:
             # An unbolted run's bolt pays nothing: there is nothing to mix, and its world
             # rewards are normalised as the control of any weight's run (weight 1).
-            weight = config.hyperparams.get("bolt_weight")
-            if weight is None or not config.bolted:
+            weight = config.algorithm.hyperparams.get("bolt_weight")
+            if weight is None or not config.bolt.bolted:
                 weight = 1.0
             env = SplitRewardNormalize(env, gamma=gamma, bolt_weight=weight)
         else:
@@ -202,7 +202,8 @@ def _learner_wrappers(config: TrainConfig, bolted: BoltVecEnv) -> VecEnv:
         lives = getattr(bolted.world, "lives", None)
         if not callable(lives):
             raise ConfigError(
-                f"life_loss_terminal: the {config.world!r} world has no lives (it needs a "
+                f"life_loss_terminal: the {config.world_config.name!r} world has no lives (it "
+                "needs a "
                 "lives() method); remove the hyperparameter"
             )
         env = LifeLossTerminal(env, lives)
@@ -296,10 +297,10 @@ def make_run_world(
     settings = config.learner_world_settings if training else config.world_settings
     if not workers:
         place: dict[str, Any] = {} if shard is None else {"shard": shard}
-        return make_world(config.world, num_envs=n_envs, seed=seed, **place, **settings)
+        return make_world(config.world_config.name, num_envs=n_envs, seed=seed, **place, **settings)
     classifier = detector if isinstance(detector, ClassifierDetector) else None
     return WorkerWorld(
-        config.world,
+        config.world_config.name,
         num_envs=n_envs,
         workers=min(workers, n_envs),
         seed=seed,
@@ -350,7 +351,9 @@ def prepare_bolt(
         UnseenFluentError: a classifier's images never show a fluent the specs use true
             (or never false).
     """
-    probe: Any = make_world(config.world, num_envs=1, seed=seed, **config.world_kwargs)
+    probe: Any = make_world(
+        config.world_config.name, num_envs=1, seed=seed, **config.world_config.kwargs
+    )
     fluents, camera_spec = tuple(probe.fluent_names), probe.camera_spec
     monotone = tuple(getattr(probe, "monotone_fluents", ()))
     try:  # before a classifier is trained for a run that cannot start
@@ -361,8 +364,8 @@ def prepare_bolt(
     spec_fluents = tuple(f for f in fluents if any(f in d.relevant_fluents for d in dfas))
     detector = make_detector(
         config.detector,
-        world=config.world,
-        world_kwargs=config.world_kwargs,
+        world=config.world_config.name,
+        world_kwargs=config.world_config.kwargs,
         fluent_names=fluents,
         camera_spec=camera_spec,
         progress=progress,

@@ -137,16 +137,16 @@ def make_model(
         ConfigError: SB3 or torch refuse the hyperparameters (the message is theirs), or
             the machine lacks the run's precision (:func:`compute_dtype`).
     """
-    params = {k: v for k, v in config.hyperparams.items() if k not in META_KEYS}
+    params = {k: v for k, v in config.algorithm.hyperparams.items() if k not in META_KEYS}
     # Schedules given in frames (DQN's exploration_frames) as SB3's fractions of this run.
-    params.update(frame_schedules(config.hyperparams, frames=config.frames))
+    params.update(frame_schedules(config.algorithm.hyperparams, frames=config.frames))
     policy_kwargs = dict(params.pop("policy_kwargs", {}) or {})
     extractor_kwargs = dict(policy_kwargs.pop("features_extractor_kwargs", {}) or {})
-    if config.hyperparams.get("image_features") is not None:
-        extractor_kwargs["image_features"] = int(config.hyperparams["image_features"])
-    if config.hyperparams.get("cnn") is not None:
-        check_cnn(config.hyperparams["cnn"])
-        extractor_kwargs["cnn"] = str(config.hyperparams["cnn"])
+    if config.algorithm.hyperparams.get("image_features") is not None:
+        extractor_kwargs["image_features"] = int(config.algorithm.hyperparams["image_features"])
+    if config.algorithm.hyperparams.get("cnn") is not None:
+        check_cnn(config.algorithm.hyperparams["cnn"])
+        extractor_kwargs["cnn"] = str(config.algorithm.hyperparams["cnn"])
     policy_kwargs["features_extractor_class"] = BoltFeaturesExtractor
     policy_kwargs["features_extractor_kwargs"] = extractor_kwargs
     if trial and "buffer_size" in params:
@@ -159,13 +159,13 @@ def make_model(
                 env, samples=config.algorithm.counterfactual_samples, seed=config.seed
             )
         )
-    check_action_space(config.algo, env.action_space, world=config.world)
+    check_action_space(config.algorithm.name, env.action_space, world=config.world_config.name)
     device = "cpu" if trial else torch_device(config.algorithm.device)
     dtype = None if trial else compute_dtype(config.algorithm.precision, device)
     cls = run_algorithm_class(config)
     try:
         model = cls(
-            policy_class(config.algo),  # type: ignore[arg-type]
+            policy_class(config.algorithm.name),  # type: ignore[arg-type]
             env,
             policy_kwargs=policy_kwargs,
             seed=config.seed,
@@ -177,7 +177,7 @@ def make_model(
         )
     except (TypeError, ValueError, AssertionError, RuntimeError) as error:
         raise ConfigError(
-            f"{config.algo.upper()} cannot be built from these hyperparameters "
+            f"{config.algorithm.name.upper()} cannot be built from these hyperparameters "
             f"({type(error).__name__}: {error}); fix them (--hp KEY=VALUE)"
         ) from None
     set_precision(model, dtype)
@@ -193,7 +193,7 @@ def run_algorithm_class(config: TrainConfig) -> type[BaseAlgorithm]:
     Raises:
         ConfigError: ``world.overlap`` with an algorithm that is not on-policy.
     """
-    cls = algorithm_class(config.algo)
+    cls = algorithm_class(config.algorithm.name)
     return overlapped_class(cls) if config.world_config.overlap else cls
 
 
@@ -239,10 +239,10 @@ def load_model(
     Raises:
         UnsafeFileError: the model holds a serialized entry noisybolt does not rebuild.
         CorruptFileError: the file is damaged, or saved by another algorithm than
-            ``config.algo``, or for other spaces.
+            ``config.algorithm.name``, or for other spaces.
     """
     data = read_model_data(path)
-    algo = config.algo.lower()
+    algo = config.algorithm.name.lower()
     saved_algo = data.get(ALGO_KEY)
     trial = make_model(config, env, trial=True)
     serialized = sorted(k for k, v in data.items() if isinstance(v, dict) and ":serialized:" in v)

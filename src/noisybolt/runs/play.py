@@ -317,7 +317,9 @@ def random_play(
     each with the rows whose episodes the step ended (bool ``[n_envs]``), each to be read
     before the next is asked for (a deferred camera value is valid only until the world
     moves on); the world is closed afterwards."""
-    world: Any = make_world(config.world, num_envs=n_envs, seed=seed, **config.world_settings)
+    world: Any = make_world(
+        config.world_config.name, num_envs=n_envs, seed=seed, **config.world_settings
+    )
     try:
         yield world.reset(seed=seed)[1], np.zeros(n_envs, dtype=bool)
         world.action_space.seed(seed)

@@ -21,34 +21,34 @@ __all__ = [
 
 def describe_scheme(config: TrainConfig) -> str:
     """One line saying how the run's bolt pays (the scale chosen, for ``compliance``)."""
-    if not config.bolted:
+    if not config.bolt.bolted:
         return "unbolted: the specs are tracked for compliance only, with no rewards"
-    if config.reward == "paper":
+    if config.bolt.reward == "paper":
         return "reward scheme: paper (each spec's terminal reward on every accepting step)"
-    if config.reward == "constrained":
+    if config.bolt.reward == "constrained":
         limit = config.bolt.cost_limit
         return (
             f"reward scheme: constrained, the world's return subject to at most "
             f"{limit.cost_limit:g} unsatisfied spec(s) an episode on average (as the bolt "
             f"sees them; --cost-limit to change it): the specs are paid as under the "
-            f"compliance scheme ({'with' if config.shaping else 'without'} progress "
+            f"compliance scheme ({'with' if config.bolt.shaping else 'without'} progress "
             f"shaping), at a learned multiplier (0 to 1, from {limit.initial:g}) times "
-            f"{spec_worths(config)} (scale {config.reward_scale:g}), which rises only while "
+            f"{spec_worths(config)} (scale {config.bolt.reward_scale:g}), which rises only while "
             "the episodes' cost exceeds the budget"
         )
-    shaping = "with" if config.shaping else "without"
+    shaping = "with" if config.bolt.shaping else "without"
     when = (
         "as soon as it accepts (taken back if it stops; nothing where an episode starts)"
-        if config.pay_on_change
+        if config.bolt.pay_on_change
         else "at the episode's end"
     )
     text = (
         f"reward scheme: compliance, {shaping} progress shaping; complying is worth, {when}, "
-        f"{spec_worths(config)} (scale {config.reward_scale:g}; "
+        f"{spec_worths(config)} (scale {config.bolt.reward_scale:g}; "
         "--reward-scale, or a spec's own reward_scale, to change it)"
     )
-    if config.hyperparams.get("normalize_reward") == SPLIT:
-        weight = config.hyperparams.get("bolt_weight")
+    if config.algorithm.hyperparams.get("normalize_reward") == SPLIT:
+        weight = config.algorithm.hyperparams.get("bolt_weight")
         text += (
             "; the learner sees the bolt's rewards normalised apart from the world's "
             "(normalize_reward split): the scale does not change what it learns, and "
@@ -80,15 +80,19 @@ def warn_of_unnormalized_rewards(config: TrainConfig) -> None:
     100 %) but followed 23 of the gridworld suite's 24 specs, whose world pays rewards as
     large as the scale.
     """
-    if not config.bolted or config.reward == "paper" or config.algo not in ON_POLICY:
+    if (
+        not config.bolt.bolted
+        or config.bolt.reward == "paper"
+        or config.algorithm.name not in ON_POLICY
+    ):
         return
-    if config.hyperparams.get("normalize_reward"):
+    if config.algorithm.hyperparams.get("normalize_reward"):
         return
     worth = max(spec.terminal_reward for spec in config.spec_objects())
     if worth <= UNNORMALIZED_WORTH_LIMIT:
         return
     warnings.warn(
-        f"the compliance scheme pays up to {worth:g} a spec, and {config.algo.upper()}'s "
+        f"the compliance scheme pays up to {worth:g} a spec, and {config.algorithm.name.upper()}'s "
         "rewards are not normalised (normalize_reward false): value targets that large "
         "can swamp the policy's share of each gradient step (on CartPole and Breakout the "
         "policy barely learnt). "

@@ -190,19 +190,20 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
         >>> both = "F(top_right_corner) & F(bottom_left_corner)"
         >>> from noisybolt.runs.config import TrainConfig
         >>> config = resolve(TrainConfig.build({"bolt.specs": [both]}))  # the gridworld: exact
-        >>> round(config.reward_scale, 2), resolve(config) is config
+        >>> round(config.bolt.reward_scale, 2), resolve(config) is config
         (58.45, True)
     """
-    params = config.hyperparams
+    params = config.algorithm.hyperparams
     policy_kwargs = dict(params.get("policy_kwargs") or {})
-    if is_factory_path(config.world) and "normalize_images" not in policy_kwargs:
-        top = small_integer_image_top(config.world, config.world_kwargs)
+    if is_factory_path(config.world_config.name) and "normalize_images" not in policy_kwargs:
+        top = small_integer_image_top(config.world_config.name, config.world_config.kwargs)
         if top is not None and top <= SMALL_INTEGER_IMAGE_MAX:
             kept = {**policy_kwargs, "normalize_images": False}
             algorithm = replace(config.algorithm, hyperparams={**params, "policy_kwargs": kept})
             config = replace(config, algorithm=algorithm)
             warnings.warn(
-                f"the {config.world!r} world's image observations are small integers (at "
+                f"the {config.world_config.name!r} world's image observations are small integers "
+                "(at "
                 f"most {top} in random play, like MiniGrid's symbolic grid), not pixels: "
                 "they reach the network as they are (policy_kwargs.normalize_images=false; "
                 "pass --hp policy_kwargs.normalize_images=true to divide them by 255 after "
@@ -210,12 +211,13 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
                 SmallIntegerImagesWarning,
                 stacklevel=3,
             )
-    if config.reward != "paper" and config.reward_scale is None:
+    if config.bolt.reward != "paper" and config.bolt.reward_scale is None:
         choice = compliance_scale_choice(config)
         config = replace(config, bolt=replace(config.bolt, reward_scale=choice.scale))
         if choice.exact and log is not None:
             log(
-                f"compliance scale computed on the {config.world}'s product: {choice.scale:g} "
+                f"compliance scale computed on the {config.world_config.name}'s product: "
+                f"{choice.scale:g} "
                 f"(the bound from its return range: {choice.bound:g})"
             )
     return config
@@ -232,11 +234,11 @@ def compliance_scale_choice(config: TrainConfig) -> ScaleChoice:
             :func:`~noisybolt.runs.world_checks.check_world_fits`.
     """
     return choose_compliance_scale(
-        config.world,
+        config.world_config.name,
         config.world_settings,
-        formulas=[str(spec["formula"]) for spec in config.specs],
-        gamma=float(config.hyperparams.get("gamma", 0.99)),
-        pay_on_change=config.pay_on_change,
+        formulas=[str(spec["formula"]) for spec in config.bolt.specs],
+        gamma=float(config.algorithm.hyperparams.get("gamma", 0.99)),
+        pay_on_change=config.bolt.pay_on_change,
         clipped=config.world_config.clip_reward,
         check=lambda world: check_world_fits(config, world),
     )

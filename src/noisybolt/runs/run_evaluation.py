@@ -24,7 +24,6 @@ import torch
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import VecEnv
 
-from noisybolt.bolt import Thresholds
 from noisybolt.envs.layout import GridLayout
 from noisybolt.envs.registry import make_single_world, world_display
 from noisybolt.errors import ConfigError
@@ -94,7 +93,9 @@ def load_run_model(
         from noisybolt.logic import compile_ltlf
         from noisybolt.perception.detectors import OracleDetector
 
-        probe: Any = make_world(config.world, num_envs=1, seed=0, **config.world_settings)
+        probe: Any = make_world(
+            config.world_config.name, num_envs=1, seed=0, **config.world_settings
+        )
         names = tuple(probe.fluent_names)
         probe.close()
         detector = OracleDetector(names)
@@ -105,7 +106,12 @@ def load_run_model(
         settings = config.belief_settings
         belief = None if settings is None else replace(settings, base_rates=0.5)
         env = make_env(
-            config, detector, training=False, n_envs=config.n_envs, dfas=dfas, belief=belief
+            config,
+            detector,
+            training=False,
+            n_envs=config.world_config.n_envs,
+            dfas=dfas,
+            belief=belief,
         )
     # A run trained on a GPU evaluates on the CPU of a machine without one.
     try:
@@ -119,7 +125,7 @@ def load_run_model(
 
 def _single_env(config: TrainConfig) -> Any:
     """One (non-vectorised) labelled environment of the run's world, for recordings."""
-    return make_single_world(config.world, **config.world_settings)
+    return make_single_world(config.world_config.name, **config.world_settings)
 
 
 def _grid_layout(config: TrainConfig) -> GridLayout:
@@ -137,7 +143,8 @@ def _grid_layout(config: TrainConfig) -> GridLayout:
         env.close()
     if not isinstance(layout, GridLayout):
         raise ConfigError(
-            f"world {config.world!r} declares no grid, so no heat-map can be drawn: a world on "
+            f"world {config.world_config.name!r} declares no grid, so no heat-map can be drawn: a "
+            "world on "
             "a grid of cells declares one with FluentLabels(..., grid=noisybolt.GridLayout("
             "width=, height=, position=fn(env) -> (x, y)))"
         )
@@ -163,12 +170,11 @@ def _recordings(
         config.spec_objects(),
         setup.detector,
         dfas=setup.dfas,
-        thresholds=Thresholds(**config.thresholds),
-        tracking=config.tracking,  # type: ignore[arg-type]
-        belief=setup.belief,
+        settings=replace(config.bolt.settings, belief=setup.belief),
+        world_letters=setup.letters,
     )
     policy = policy_from_model(model, deterministic=deterministic)
-    limit = world_display(config.world).gif_steps
+    limit = world_display(config.world_config.name).gif_steps
     return [record_episode(env, policy, seed=seed + i, max_steps=limit) for i in range(episodes)]
 
 
@@ -265,8 +271,8 @@ def _evaluate(
     torch.set_num_threads(1)
     config = TrainConfig.from_dict(saved).override(overrides or {})
     if deterministic is None:
-        deterministic = config.eval_deterministic
-    display = world_display(config.world)
+        deterministic = config.evaluation.deterministic
+    display = world_display(config.world_config.name)
     layout = None
     if heatmap is not None:
         layout = _grid_layout(config)
@@ -343,7 +349,7 @@ def _evaluate(
                 [r.positions.tolist() for r in recordings if r.positions is not None],
                 layout=layout,
                 path=heatmap,
-                title=f"{config.algo.upper()} under {', '.join(names)}",
+                title=f"{config.algorithm.name.upper()} under {', '.join(names)}",
             )
     return evaluation
 
@@ -385,5 +391,7 @@ def _draw_reliability(
         for name, outcomes in report.outcomes.items()
     }
     return reliability_diagram(
-        groups, path, title=f"compliance estimates, {config.world}: per-episode reliability"
+        groups,
+        path,
+        title=f"compliance estimates, {config.world_config.name}: per-episode reliability",
     )

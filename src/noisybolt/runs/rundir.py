@@ -229,8 +229,13 @@ class RunDirectory:
 
     def write_command(self, argv: Sequence[str] | None = None) -> None:
         """Saves the exact command line (default: this process's, as ``noisybolt ...``)."""
-        text = _command_text(sys.argv if argv is None else argv)
-        atomic_write_text(self.file("command.txt"), text)
+        self.write_command_lines([_command_text(sys.argv if argv is None else argv).rstrip("\n")])
+
+    def write_command_lines(self, lines: Sequence[str]) -> None:
+        """Saves ``command.txt`` as these command lines, one per line (a run made in
+        stages, as ``noisybolt classifier``'s, keeps one per stage): the one writer of
+        the file."""
+        atomic_write_text(self.file("command.txt"), "".join(f"{line}\n" for line in lines))
 
     def record_versions(self, *, frames: int, argv: Sequence[str] | None = None) -> None:
         """Adds this process's software (:func:`software_versions`) to ``versions.json``:

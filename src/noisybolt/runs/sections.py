@@ -230,7 +230,12 @@ class BoltConfig:
             # Every setting of the budget, the defaults filled in: what the run used (a
             # saved run keeps its values if the defaults change).
             limit = CostLimit.from_mapping(self.constraint)
-            object.__setattr__(self, "constraint", freeze(asdict(limit)))
+            values = asdict(limit)
+            if values["decades"] == 0:
+                # The linear price, which every run saved before decades existed paid: a
+                # saved budget without the key means it, so it is written only when set.
+                del values["decades"]
+            object.__setattr__(self, "constraint", freeze(values))
         elif self.constraint:
             raise ConfigError(
                 f"bolt.constraint (a cost budget: {sorted(self.constraint)}) is set but the "
@@ -275,7 +280,8 @@ class BoltConfig:
                 "noisybolt.runs.resolve(config) computes it from the world (train() and every "
                 "door that starts a run call it), or give one"
             )
-        scheme, scales = PAPER, ()
+        scheme = PAPER
+        scales: tuple[float | None, ...] = ()
         if self.bolted:
             scheme = self.scheme
             if scheme.name != "paper":

@@ -332,10 +332,11 @@ def _load_checkpoint(
     checkpoint = latest_checkpoint(run)
     refuse_pickles(checkpoint.folder)
     saved_algo = checkpoint.state.get("algo")
-    if saved_algo is not None and saved_algo != config.algo:
+    if saved_algo is not None and saved_algo != config.algorithm.name:
         raise CorruptFileError(
             f"{checkpoint.folder / 'state.json'} is a checkpoint of a {saved_algo} run, and "
-            f"{run.config_path} describes a {config.algo} run: the directory mixes two runs; "
+            f"{run.config_path} describes a {config.algorithm.name} run: the directory mixes two "
+            "runs; "
             "start it over (--restart) or use another directory"
         )
     if isinstance(env, VecNormalize):
@@ -404,12 +405,14 @@ def _learn(
 ) -> TrainResult:
     spec_names = [s.name for s in config.spec_objects()]
     stop = None
-    if config.stop_after:
+    if config.evaluation.stop_after:
         # A resumed run continues the streak its saved evaluations ended on.
-        streak = trailing_streak([r["success_rate"] for r in history], config.success_threshold)
+        streak = trailing_streak(
+            [r["success_rate"] for r in history], config.evaluation.success_threshold
+        )
         stop = StopWhenSolved(
-            threshold=config.success_threshold,
-            consecutive=config.stop_after,
+            threshold=config.evaluation.success_threshold,
+            consecutive=config.evaluation.stop_after,
             score=lambda parent: parent.success_rate,
             streak=streak,
         )
@@ -421,7 +424,9 @@ def _learn(
         history=history,
         frames_to_comply=frames_to_comply,
         best=best,
-        callback_on_new_best=SaveBestModel(run, algo=config.algo) if config.keep_best else None,
+        callback_on_new_best=SaveBestModel(run, algo=config.algorithm.name)
+        if config.evaluation.keep_best
+        else None,
         callback_after_eval=stop,
     )
     # The constrained scheme's multiplier moves the training bolts' price between
@@ -429,7 +434,7 @@ def _learn(
     # shaped returns that choose the kept model are measured on one scale.
     constraint = (
         LagrangianCallback(config.bolt.cost_limit, frames=config.frames, state=multiplier)
-        if config.bolted and config.reward == "constrained"
+        if config.bolt.bolted and config.bolt.reward == "constrained"
         else None
     )
     checkpoints = CheckpointCallback(
@@ -438,7 +443,9 @@ def _learn(
     callbacks: list[BaseCallback] = [evaluation, checkpoints]
     if constraint is not None:
         callbacks.insert(0, constraint)
-    callbacks += linear_schedules(config.hyperparams, algo=config.algo, frames=config.frames)
+    callbacks += linear_schedules(
+        config.algorithm.hyperparams, algo=config.algorithm.name, frames=config.frames
+    )
     if config.world_config.workers and isinstance(model, OnPolicyAlgorithm):
         callbacks.append(UpdateThreads.for_this_machine())
     remaining = config.frames - model.num_timesteps
@@ -491,14 +498,14 @@ def _learn(
         final = _result_from_record(history[-1], spec_names)
     checkpoints.checkpoint()
     kept: dict[str, Any] = {"frames": int(model.num_timesteps), "chosen_by": "last"}
-    if config.keep_best and evaluation.best is not None:
+    if config.evaluation.keep_best and evaluation.best is not None:
         best_frames = evaluation.best["frames"]
         record = next(r for r in reversed(history) if r["frames"] == best_frames)
         final = _result_from_record(record, spec_names)
         kept = {"frames": best_frames, "chosen_by": "best shaped return", **evaluation.best}
         copy_model_files(best_folder(run, best_frames), run.path)
     else:
-        save_model_files(model, env, run.path, algo=config.algo)
+        save_model_files(model, env, run.path, algo=config.algorithm.name)
     summary = {
         "frames": int(model.num_timesteps),
         "frames_to_comply": evaluation.frames_to_comply,

@@ -199,7 +199,7 @@ def read_initial_weights(config: TrainConfig) -> InitialWeights:
     algo = algo if isinstance(algo, str) else None
     frames = data.get("num_timesteps")
     frames = frames if isinstance(frames, int) and not isinstance(frames, bool) else None
-    new = config.algo.lower()
+    new = config.algorithm.name.lower()
     if algo is not None and algo != new and not {algo, new} <= _ACTOR_CRITIC:
         raise IncompatibleError(
             f"algorithm.init_from: {path} is a {algo.upper()} agent and this run trains "

@@ -9,7 +9,7 @@ settings the checks read.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from types import SimpleNamespace
 from typing import Any, Protocol
 
@@ -18,6 +18,7 @@ from noisybolt.agents.hyperparams import check_action_space
 from noisybolt.bolt.spec import Spec, check_satisfiable, vacuous_message
 from noisybolt.errors import SpecSyntaxError, UnknownFluentError
 from noisybolt.logic import compile_ltlf
+from noisybolt.runs.sections import AlgorithmConfig, BoltConfig, WorldConfig
 
 __all__ = ["CheckedRun", "check_specs_against_world", "check_world_fits", "check_world_spaces"]
 
@@ -27,16 +28,16 @@ class CheckedRun(Protocol):
     (:class:`~noisybolt.runs.config.TrainConfig` is one)."""
 
     @property
-    def world(self) -> str:
-        """The world's name or factory path."""
+    def world_config(self) -> WorldConfig:
+        """The world section (``world_config.name``: its name or factory path)."""
 
     @property
-    def algo(self) -> str:
-        """The algorithm's name."""
+    def algorithm(self) -> AlgorithmConfig:
+        """The algorithm section (``algorithm.name``)."""
 
     @property
-    def specs(self) -> tuple[Mapping[str, Any], ...]:
-        """The specs as given (``bolt.specs``: :class:`~noisybolt.bolt.Spec` fields)."""
+    def bolt(self) -> BoltConfig:
+        """The bolt section (``bolt.specs``: the specs as given, their fields)."""
 
     def spec_objects(self) -> list[Spec]:
         """The specs as the bolt pays them."""
@@ -51,10 +52,10 @@ def check_world_spaces(config: CheckedRun, world: Any) -> None:
     """
     agent_space = getattr(world, "single_observation_space", None)
     if agent_space is not None:
-        check_agent_observation(agent_space, world=config.world)
+        check_agent_observation(agent_space, world=config.world_config.name)
     actions = getattr(world, "single_action_space", None)
     if actions is not None:
-        check_action_space(config.algo, actions, world=config.world)
+        check_action_space(config.algorithm.name, actions, world=config.world_config.name)
 
 
 def check_world_fits(config: CheckedRun, world: Any) -> None:
@@ -71,7 +72,7 @@ def check_world_fits(config: CheckedRun, world: Any) -> None:
     # The specs as given: their rewards may wait for the scale this check comes before.
     given = [
         SimpleNamespace(formula=spec["formula"], name=spec.get("name") or spec["formula"])
-        for spec in config.specs
+        for spec in config.bolt.specs
     ]
     check_specs_against_world(config, tuple(world.fluent_names), log=lambda _: None, specs=given)
 
@@ -103,10 +104,11 @@ def check_specs_against_world(
         except UnknownFluentError as error:
             raise UnknownFluentError(
                 f"spec {spec.name!r} uses fluent(s) {list(error.unknown)} that the world "
-                f"{config.world!r} does not have; this world's fluents are {list(fluent_names)}",
+                f"{config.world_config.name!r} does not have; this world's fluents are "
+                f"{list(fluent_names)}",
                 unknown=error.unknown,
                 known=tuple(fluent_names),
             ) from None
-    for spec in check_satisfiable(specs_checked, dfas, world=config.world):
+    for spec in check_satisfiable(specs_checked, dfas, world=config.world_config.name):
         log(f"warning: {vacuous_message(spec)}")
     return dfas

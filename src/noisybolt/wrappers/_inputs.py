@@ -86,13 +86,11 @@ def resolve_detector(
         RareFluentWarning: the samples show one such fluent true, or false, in fewer
             than :data:`~noisybolt.perception.dataset.RARE_FLUENT_IMAGES` images.
     """
-    from noisybolt.perception.detectors import OracleDetector, SyntheticDetector
+    from noisybolt.perception.detectors import TRUTH_DETECTORS, truth_detector
 
     if isinstance(detector, str):
-        if detector == "oracle":
-            return OracleDetector(fluent_names)
-        if detector == "synthetic":
-            return SyntheticDetector(fluent_names, seed=seed)
+        if detector in TRUTH_DETECTORS:
+            return truth_detector(detector, fluent_names, seed=seed)
         if detector == "classifier":
             if samples is None:
                 raise ConfigError("a classifier by name needs labelled samples to train on")

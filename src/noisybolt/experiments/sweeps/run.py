@@ -148,6 +148,8 @@ def _prepare_detectors(tasks: Sequence[TrialTask], log: Callable[[str], None]) -
     from noisybolt.runs.environments import prepare_bolt
 
     configs = [t.config for t in tasks]
-    for c in {repr((c.world, c.world_kwargs, c.detector)): c for c in configs}.values():
+    for c in {
+        repr((c.world_config.name, c.world_config.kwargs, c.detector)): c for c in configs
+    }.values():
         if c.detector.kind == "classifier" and not c.detector.path:
             prepare_bolt(c, seed=c.seed, log=log)

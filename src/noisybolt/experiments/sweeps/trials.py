@@ -110,8 +110,10 @@ class TrialTask:
         return TrialRecord(
             trial_id=self.trial_id, group=trial["group"], row=trial["row"], seed=trial["seed"],
             settings=dict(trial.get("settings") or {}), run_dir=folder.path,
-            status=status, algo=self.config.algo,
-            spec_names=tuple(str(s.get("name") or s.get("formula")) for s in self.config.specs),
+            status=status, algo=self.config.algorithm.name,
+            spec_names=tuple(
+                str(s.get("name") or s.get("formula")) for s in self.config.bolt.specs
+            ),
             final=summary.get("final"), frames=summary.get("frames"),
             frames_to_comply=summary.get("frames_to_comply"), failed_attempts=len(attempts),
             checkpoint_frames=checkpoint,
