@@ -378,3 +378,37 @@ def test_a_users_world_normalises_every_learners_rewards_by_default() -> None:
     for algo in ("ppo", "a2c", "dqn"):
         params = load_hyperparams("examples.frozenlake:make_lake", algo, {})
         assert params["normalize_reward"] is True
+
+
+def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from noisybolt.bolt.constraint import BOUND_DECADES
+
+    # The gridworld's scale is exact on the product: the price is linear (no key written).
+    exact = _config(["edge"], reward="constrained")
+    assert "decades" not in exact.bolt.constraint
+    assert exact.bolt.cost_limit.price(0.5) == 0.5
+    # A world's declared bounds give a worst case: the price searches down from it.
+    world = _lake_module(tmp_path, monkeypatch, "bounded_lake", "return_bounds=(0, 1)")
+    bound = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
+    assert bound.bolt.constraint["decades"] == BOUND_DECADES
+    assert bound.bolt.cost_limit.price(0.5) == pytest.approx(10 ** (-BOUND_DECADES / 2))
+    # Saved and read back, it stays: a resumed run prices as it started.
+    assert TrainConfig.from_dict(bound.to_dict()).bolt.constraint["decades"] == BOUND_DECADES
+    # One given is kept, and a scale given leaves the linear price.
+    given = resolve(
+        TrainConfig.build(
+            {
+                "world.name": world,
+                "bolt.specs": ["F(at_goal)"],
+                "bolt.reward": "constrained",
+                "bolt.constraint": {"decades": 1.0},
+            }
+        )
+    )
+    assert given.bolt.constraint["decades"] == 1.0
+    scaled = resolve(
+        TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained", reward_scale=5)
+    )
+    assert "decades" not in scaled.bolt.constraint

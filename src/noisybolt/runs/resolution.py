@@ -24,6 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
+from noisybolt.bolt.constraint import BOUND_DECADES
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -174,7 +175,9 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       tabular world (the gridworld), exact on the product of the world and the specs'
       DFAs, else from the world's return bounds (declared, or estimated by random play);
       the specs and spaces are checked against the world before anything costly
-      (:func:`compliance_scale_choice`);
+      (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it the
+      span of the price (``bolt.constraint.decades``, where not given): linear on an
+      exact scale, :data:`~noisybolt.bolt.constraint.BOUND_DECADES` on one from bounds;
     - for a user's world (a factory path) whose uint8 images are small integers,
       ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
       :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
@@ -213,7 +216,13 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
             )
     if config.bolt.reward != "paper" and config.bolt.reward_scale is None:
         choice = compliance_scale_choice(config)
-        config = replace(config, bolt=replace(config.bolt, reward_scale=choice.scale))
+        bolt = replace(config.bolt, reward_scale=choice.scale)
+        if bolt.reward == "constrained" and bolt.constraint.get("decades") is None:
+            # The price's span goes with the scale: a worst case from the bounds is
+            # searched down from; an exact scale is the right order already (BOUND_DECADES).
+            decades = 0.0 if choice.exact else BOUND_DECADES
+            bolt = replace(bolt, constraint={**bolt.constraint, "decades": decades})
+        config = replace(config, bolt=bolt)
         if choice.exact and log is not None:
             log(
                 f"compliance scale computed on the {config.world_config.name}'s product: "

@@ -231,9 +231,10 @@ class BoltConfig:
             # saved run keeps its values if the defaults change).
             limit = CostLimit.from_mapping(self.constraint)
             values = asdict(limit)
-            if values["decades"] == 0:
-                # The linear price, which every run saved before decades existed paid: a
-                # saved budget without the key means it, so it is written only when set.
+            if not values["decades"]:
+                # None (resolve() chooses it with the scale) or the linear price, which
+                # every run saved before decades existed paid and which a resolved run
+                # whose scale is exact pays: a budget without the key prices linearly.
                 del values["decades"]
             object.__setattr__(self, "constraint", freeze(values))
         elif self.constraint:
