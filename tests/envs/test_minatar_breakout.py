@@ -124,6 +124,48 @@ def test_truncation_at_the_episode_limit() -> None:
     assert info["_final_info"].tolist() == [True]
 
 
+def test_a_shard_plays_its_games_of_the_whole_world_and_workers_play_them_alike() -> None:
+    from noisybolt.envs.worker_world import WorkerWorld
+
+    settings = {"seed": 9, "noise": "gaussian:sigma=20"}
+    whole = MinAtarBreakoutWorld(num_envs=3, **settings)
+    part = MinAtarBreakoutWorld(num_envs=2, shard=(1, 3), **settings)
+    workers = WorkerWorld("minatar-breakout", num_envs=3, workers=2, **settings)
+    try:
+        obs, info = whole.reset(seed=9)
+        ours, our_info = part.reset(seed=9)
+        theirs, their_info = workers.reset(seed=9)
+        assert np.array_equal(obs[1:], ours) and np.array_equal(obs, theirs)
+        # Each read as a worker reads it (a camera draws its noise when it is read).
+        image = np.asarray(info["bolt_image"])
+        assert np.array_equal(image[1:], np.asarray(our_info["bolt_image"]))
+        assert np.array_equal(image, np.asarray(their_info["bolt_image"]))
+        rng = np.random.default_rng(1)
+        for _ in range(60):
+            actions = rng.integers(0, 3, 3)
+            obs, rewards, terminated, _, info = whole.step(actions)
+            ours, our_rewards, _, _, our_info = part.step(actions[1:])
+            theirs, _, their_terminated, _, their_info = workers.step(actions)
+            assert np.array_equal(obs[1:], ours) and np.array_equal(rewards[1:], our_rewards)
+            assert np.array_equal(obs, theirs) and np.array_equal(terminated, their_terminated)
+            for key in ("bolt_image", "true_fluents"):
+                assert np.array_equal(np.asarray(info[key])[1:], np.asarray(our_info[key]))
+                assert np.array_equal(np.asarray(info[key]), np.asarray(their_info[key]))
+            assert ("final_info" in info) == ("final_info" in their_info)
+            if "final_info" in info:  # read too, as the workers read it
+                final, their_final = info["final_info"], their_info["final_info"]
+                for key in ("bolt_image", "true_fluents"):
+                    ended = np.asarray(final[f"_{key}"])
+                    mine, theirs_ = np.asarray(final[key]), np.asarray(their_final[key])
+                    assert np.array_equal(mine[ended], theirs_[ended])
+                if "final_info" in our_info:
+                    np.asarray(our_info["final_info"]["bolt_image"])
+    finally:
+        workers.close()
+    with pytest.raises(ConfigError, match="shard"):
+        MinAtarBreakoutWorld(num_envs=2, shard=(2, 3))
+
+
 def test_fluents_by_hand() -> None:
     boards = np.zeros((5, 10, 10, 4), bool)
     boards[:, 1:4, :, BRICK_CHANNEL] = True  # 0: a whole wall

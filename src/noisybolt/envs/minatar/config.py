@@ -52,6 +52,13 @@ class MinAtarBreakoutConfig:
         max_episode_steps: steps after which an episode is truncated. MinAtar's Breakout
             refills its wall when it is cleared, so a player that never misses would play
             for ever.
+        shard: ``(first, total)``: these ``num_envs`` games are games ``first`` ..
+            ``first + num_envs - 1`` of a world of ``total`` games with this ``seed``, and
+            play exactly as those do there (each game's generators are seeded from the
+            seed and the game's index in the whole world). None: the whole world,
+            ``(0, num_envs)`` (:attr:`games`). For
+            :class:`~noisybolt.envs.worker_world.WorkerWorld`, which runs the shards in
+            worker processes.
 
     Raises:
         UnknownNameError: a ``game`` outside :data:`GAMES`.
@@ -67,6 +74,7 @@ class MinAtarBreakoutConfig:
     sticky_action_prob: float = 0.1
     tile_size: int = 4
     max_episode_steps: int = 5_000
+    shard: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         if self.game not in GAMES:
@@ -85,6 +93,19 @@ class MinAtarBreakoutConfig:
             raise ConfigError(f"tile_size must be in 1..16, got {self.tile_size}")
         if self.max_episode_steps < 1:
             raise ConfigError(f"max_episode_steps must be >= 1, got {self.max_episode_steps}")
+        first, total = self.games
+        if not (first >= 0 and first + self.num_envs <= total):
+            raise ConfigError(
+                f"shard (first game, games in all) must hold this world's {self.num_envs} "
+                f"games, got {self.shard}"
+            )
+
+    @property
+    def games(self) -> tuple[int, int]:
+        """``(first, total)``: :attr:`shard`, or ``(0, num_envs)`` for the whole world."""
+        shard = (0, self.num_envs) if self.shard is None else self.shard
+        first, total = (int(v) for v in shard)
+        return first, total
 
     @property
     def camera_size(self) -> int:

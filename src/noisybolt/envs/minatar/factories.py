@@ -38,7 +38,8 @@ def make_minatar_breakout_world(
             callable).
         obs_mode: None or ``"board"``: the agent sees MinAtar's board, its only view.
         **settings: the other settings of :class:`MinAtarBreakoutConfig` (``fluents``,
-            ``game``, ``sticky_action_prob``, ``tile_size``, ``max_episode_steps``).
+            ``game``, ``sticky_action_prob``, ``tile_size``, ``max_episode_steps``,
+            ``shard``).
 
     Raises:
         ConfigError: a keyword :class:`MinAtarBreakoutConfig` does not take, another

@@ -87,18 +87,21 @@ def load_minatar() -> Any:
 def game_seeds(seed: int | None, num_envs: int) -> list[int]:
     """The seed of each game's MinAtar generator in a world seeded ``seed``: game ``g``
     plays as ``minatar.Environment("breakout")`` after ``seed(game_seeds(seed, n)[g])`` and
-    ``reset()`` (its camera noise comes from another stream of the same child seed).
+    ``reset()`` (its camera noise comes from another stream of the same child seed). A
+    world's game ``g`` has the same seed whatever the number of games after it (a shard's
+    games play as in the whole world).
 
     Example:
-        >>> game_seeds(0, 2) == game_seeds(0, 2), len(set(game_seeds(0, 3)))
+        >>> game_seeds(0, 2) == game_seeds(0, 3)[:2], len(set(game_seeds(0, 3)))
         (True, 3)
     """
     children = np.random.SeedSequence(seed).spawn(num_envs)
     return [int(child.generate_state(1)[0]) for child in children]
 
 
-def _camera_rngs(seed: int | None, num_envs: int) -> list[np.random.Generator]:
-    children = np.random.SeedSequence(seed).spawn(num_envs)
+def _camera_rngs(seed: int | None, first: int, count: int) -> list[np.random.Generator]:
+    """Games ``first`` .. ``first + count - 1``'s camera generators."""
+    children = np.random.SeedSequence(seed).spawn(first + count)[first:]
     return [np.random.default_rng(child.spawn(1)[0]) for child in children]
 
 
@@ -185,10 +188,16 @@ class MinAtarBreakoutWorld(gym.vector.VectorEnv):
 
     # -- seeding and resets ---------------------------------------------------------------
     def _seed_all(self, seed: int | None) -> None:
-        for game, game_seed in zip(self._games, game_seeds(seed, self.num_envs), strict=True):
+        # Game g of the whole world (g = shard's first + i) draws from the g-th child of
+        # the seed, whichever process runs it: a world split into shards plays the same.
+        if seed is None:  # one entropy for every game, drawn here
+            seed = int(np.random.SeedSequence().generate_state(1)[0])
+        first, _ = self.config.games
+        seeds = game_seeds(seed, first + self.num_envs)[first:]
+        for game, game_seed in zip(self._games, seeds, strict=True):
             game.seed(game_seed)
             game.reset()
-        self._camera_rngs = _camera_rngs(seed, self.num_envs)
+        self._camera_rngs = _camera_rngs(seed, first, self.num_envs)
         self._steps[:] = 0
         self._read_boards()
 
