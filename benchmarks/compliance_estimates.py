@@ -4,8 +4,9 @@ For each world and bolt camera, scripted policies of several compliance levels p
 episodes; every frame's detector probabilities and true fluents are recorded once. Each
 spec's compliance rate is then estimated from the probabilities alone
 (:func:`noisybolt.bolt.compliance.estimate_compliance`: the detector's error model, the
-fluents' chains learnt from the same unlabelled episodes, an exact forward pass over
-each DFA) and set beside the true rate of the same episodes. A *case* is one (world,
+fluents' chains learnt from the same unlabelled episodes, with memory of whether a fluent
+has been on, an exact forward pass over each DFA) and set beside the true rate of the
+same episodes. A *case* is one (world,
 camera, policy, spec).
 
 - **within 3 points**: ``|estimated - true| <= 0.03``;

@@ -173,6 +173,91 @@ def test_fit_dynamics_learns_a_persistent_fluent_from_unlabelled_frames() -> Non
     assert d.start[0] < 0.05
 
 
+def at_most_one_stretch() -> DFA:
+    """x true in one stretch at most: 0 not yet, 1 on, 2 off after, 3 on again (violated)."""
+
+    def delta(q: int, m: int) -> int:
+        on = bool(m & 1)
+        if q in (0, 1):
+            return 1 if on else (0 if q == 0 else 2)
+        return 3 if on or q == 3 else 2
+
+    return DFA.from_function(
+        ["x"], n_states=4, initial_state=0, accepting=[True, True, True, False], delta=delta
+    )
+
+
+def test_a_chain_with_memory_does_not_take_one_wrong_frame_after_a_visit_for_a_return() -> None:
+    # Every episode is on for one stretch of six frames; the detector is wrong on 1 % of
+    # frames either way. A chain without memory comes on as readily after the visit as
+    # before it, so a lone "yes" after the visit reads as a return; with memory, the
+    # episodes show that nothing comes back.
+    rng = np.random.default_rng(0)
+    model = symmetric(0.01)
+    episodes = []
+    for _ in range(200):
+        truth = np.zeros(40)
+        onset = rng.integers(5, 30)
+        truth[onset : onset + 6] = 1
+        wrong = rng.random(40) < 0.01
+        episodes.append((np.where(wrong, 1 - truth, truth) * 0.8 + 0.1)[:, None])
+    bands = [(e >= 0.5).astype(int) for e in episodes]
+    plain = fit_dynamics(bands, model.rates())
+    remembering = fit_dynamics(bands, model.rates(), memory=True)
+    assert plain.again is None
+    assert remembering.again is not None and remembering.again[0] < 1e-3
+    assert remembering.on[0] > plain.on[0]  # arrivals, over the frames before them only
+    probe = np.array([[0.1]] * 5 + [[0.9]] * 6 + [[0.1]] * 5 + [[0.9]] + [[0.1]] * 5)
+    dfa = at_most_one_stretch()
+    rates = model.rates()[None]
+    assert satisfaction_probabilities(dfa, ("x",), [probe], rates, plain)[0, 0] < 0.7
+    assert satisfaction_probabilities(dfa, ("x",), [probe], rates, remembering)[0, 0] > 0.99
+    # Every episode complied: the plain chain finds returns that never were.
+    rate = estimate_compliance({"once": dfa}, ("x",), episodes, model, memory=False)
+    assert rate["once"].rate < 0.95
+    assert estimate_compliance({"once": dfa}, ("x",), episodes, model)["once"].rate > 0.99
+
+
+def test_the_filter_with_memory_and_successions_agrees_with_summing_every_true_trace() -> None:
+    # Two fluents, four frames: every one of the 256 true traces weighed by the chains
+    # (with memory) and the successive frames' confusion, kept where the DFA accepts.
+    rng = np.random.default_rng(2)
+    dynamics = FluentDynamics(
+        np.array([0.3, 0.2]), np.array([0.2, 0.3]), np.array([0.4, 0.5]), np.array([0.05, 0.6])
+    )
+    rates = rng.dirichlet(np.ones(2), size=(1, 2, 2))  # [draw, fluent, truth, band]
+    pairs = rng.dirichlet(np.ones(2), size=(1, 2, 2, 2, 2))  # [.., before, now, band before]
+    bands = rng.integers(0, 2, size=(4, 2))
+    dfa = ever_x_never_y()
+    got = satisfaction_probabilities(dfa, ("x", "y"), [bands], rates, dynamics, pair_rates=pairs)[
+        0, 0
+    ]
+    total = accepted = 0.0
+    for code in range(256):
+        truth = (code >> np.arange(8)).reshape(4, 2) & 1
+        weight = 1.0
+        for f in range(2):
+            seen = False
+            for t in range(4):
+                now = truth[t, f]
+                if t == 0:
+                    start = dynamics.start[f]
+                    weight *= (start if now else 1 - start) * rates[0, f, now, bands[t, f]]
+                else:
+                    before = truth[t - 1, f]
+                    if before:
+                        step = 1 - dynamics.off[f] if now else dynamics.off[f]
+                    else:
+                        rate = (dynamics.again if seen else dynamics.on)[f]  # type: ignore[index]
+                        step = rate if now else 1 - rate
+                    weight *= step * pairs[0, f, before, now, bands[t - 1, f], bands[t, f]]
+                seen = seen or bool(now)
+        total += weight
+        if dfa.accepts([{"x": bool(r[0]), "y": bool(r[1])} for r in truth]):
+            accepted += weight
+    assert got == pytest.approx(accepted / total, abs=1e-12)
+
+
 def test_the_intervals_hold_the_rate_and_widen_where_the_episodes_are_in_doubt() -> None:
     rng = np.random.default_rng(1)
     sure = np.tile(np.r_[np.ones(30), np.zeros(70)], (8, 1))

@@ -18,16 +18,19 @@ The model (a hidden Markov model, filtered forward exactly)
   frame's band follows the last one's given the truth on both: a smudge that reads
   "maybe" reads it again while the agent stays under it, whatever the truth, so a run of
   such frames is not taken for as many independent pieces of evidence.
-* **The fluents' dynamics** (:class:`FluentDynamics`): each fluent's truth is a two-state
-  Markov chain (``P(true)`` on the first frame, ``P(on | off)`` and ``P(off | on)`` per
-  step), the fluents independent. The chain is what lets a world's persistence speak: the
-  gridworld's position fluents hold for several frames, so one doubtful frame among clear
-  ones is a glitch, not a visit. :func:`fit_dynamics` learns the chains from the
-  unlabelled episodes themselves (Baum-Welch with the error model's emissions held
-  fixed): no ground truth is needed.
+* **The fluents' dynamics** (:class:`FluentDynamics`, in
+  :mod:`noisybolt.bolt.compliance_dynamics`): each fluent's truth is a Markov chain
+  (``P(true)`` on the first frame, ``P(on | off)`` and ``P(off | on)`` per step, and
+  ``again``, ``P(on | off)`` once it has been on: a route passes a corner once, so a
+  return is not as likely as an arrival), the fluents independent. The chain is what lets
+  a world's persistence speak: the gridworld's position fluents hold for several frames,
+  so one doubtful frame among clear ones is a glitch, not a visit, and one confident
+  frame after a visit is weighed against how often the episodes truly come back.
+  :func:`fit_dynamics` learns the chains from the unlabelled episodes themselves
+  (Baum-Welch with the error model's emissions held fixed): no ground truth is needed.
 * **The DFA** moves on the hidden truth (the trace starts at the first observation, as
   the bolt's does): the hidden state is the pair ``(q, sigma)``, the DFA state and the
-  truth of the fluents the spec depends on, and the filter is exact over it.
+  chain states of the fluents the spec depends on, and the filter is exact over it.
 
 An episode's estimate is the probability that its last hidden DFA state accepts, given
 every frame; it is averaged over draws of the error model (the posterior predictive), so
@@ -65,10 +68,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
+from noisybolt.bolt.compliance_dynamics import (
+    TRUTH,
+    FluentDynamics,
+    fit_dynamics,
+    padded,
+    step_emissions,
+)
 from noisybolt.bolt.compliance_intervals import ComplianceEstimate, aggregate_compliance
 from noisybolt.errors import ConfigError, MissingErrorModelError, UnknownFluentError
 from noisybolt.logic.dfa import DFA
@@ -88,9 +98,6 @@ __all__ = [
 #: 0.9) and 0.1, which splits "absent" into a clear no and a doubtful one (on the smudged
 #: gridworld camera the corner's positives that fall below 0.5 fall mostly above 0.1).
 DEFAULT_EDGES: tuple[float, ...] = (0.1, 0.5, 0.9)
-# Transition probabilities are kept this far from 0 and 1 when learnt: an event the
-# episodes never showed is improbable, not impossible.
-_FLOOR = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,127 +292,6 @@ class ErrorModel:
             raise ConfigError(f"not an error model ({type(error).__name__}: {error})") from error
 
 
-class FluentDynamics(NamedTuple):
-    """Each fluent's truth as a two-state Markov chain (float64 ``[n_fluents]`` each).
-
-    Attributes:
-        start: ``P(true)`` on an episode's first frame.
-        on: ``P(true at t + 1 | false at t)``.
-        off: ``P(false at t + 1 | true at t)``.
-    """
-
-    start: np.ndarray
-    on: np.ndarray
-    off: np.ndarray
-
-
-def _padded(bands: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """int64 ``[n, T, k]`` bands padded with 0, and int64 ``[n]`` lengths."""
-    lengths = np.array([len(b) for b in bands], dtype=np.int64)
-    if lengths.size == 0 or lengths.min() < 1:
-        raise ConfigError("every episode needs at least one frame")
-    k = bands[0].shape[1]
-    out = np.zeros((len(bands), int(lengths.max()), k), dtype=np.int64)
-    for i, b in enumerate(bands):
-        out[i, : len(b)] = b
-    return out, lengths
-
-
-def _step_emissions(
-    x: np.ndarray, t: int, rates: np.ndarray, pairs: np.ndarray | None
-) -> np.ndarray:
-    """float64 ``[S, n, k, 2, 2]``: ``P(band of frame t | truth before, truth now)`` per
-    draw, episode and fluent (row 0: the first frame, its truth before irrelevant).
-
-    ``x``: int ``[n, T, k]`` bands; ``rates``: ``[S, k, 2, B]``; ``pairs``: ``[S, k, 2, 2,
-    B, B]`` or None (each frame's band independent of the last's, given the truth).
-    """
-    k = x.shape[2]
-    fluent = np.arange(k)[None, :]
-    now = x[:, t]  # [n, k]
-    if pairs is None or t == 0:
-        marginal = rates[:, fluent, :, now]  # [n, k, S, 2] (advanced indices first)
-        marginal = marginal.transpose(2, 0, 1, 3)  # [S, n, k, 2]
-        return np.broadcast_to(marginal[:, :, :, None, :], (*marginal.shape[:3], 2, 2))
-    before = x[:, t - 1]
-    table = pairs[:, fluent, :, :, before, now]  # [n, k, S, 2, 2]
-    return table.transpose(2, 0, 1, 3, 4)
-
-
-def fit_dynamics(
-    bands: Sequence[np.ndarray],
-    rates: np.ndarray,
-    *,
-    pair_rates: np.ndarray | None = None,
-    iterations: int = 40,
-) -> FluentDynamics:
-    """Each fluent's chain learnt from unlabelled episodes (Baum-Welch, emissions fixed).
-
-    Args:
-        bands: per episode, int ``[T, n_fluents]``: the band of each frame and fluent.
-        rates: float ``[n_fluents, 2, n_bands]``: ``P(band | truth)`` (the error model).
-        pair_rates: float ``[n_fluents, 2, 2, n_bands, n_bands]``: ``P(band | band before,
-            truth before, truth now)`` (:meth:`ErrorModel.pair_rates`), or None.
-        iterations: EM iterations.
-
-    Returns:
-        The :class:`FluentDynamics` of maximum likelihood found (from a start at rate 0.1
-        of switching and ``P(true) = 0.5``).
-
-    Example:
-        >>> rates = np.array([[[0.9, 0.1], [0.1, 0.9]]])  # right 9 times in 10
-        >>> episodes = [np.repeat([[0], [1]], 20, axis=0)] * 10  # off 20 frames, then on
-        >>> d = fit_dynamics(episodes, rates)
-        >>> round(float(d.start[0]), 2), round(float(d.on[0]), 2), round(float(d.off[0]), 3)
-        (0.0, 0.05, 0.0)
-    """
-    x, lengths = _padded([np.asarray(b, dtype=np.int64) for b in bands])
-    n, t_max, k = x.shape
-    pairs = None if pair_rates is None else pair_rates[None]
-    # emit[:, t, f, i, j]: P(band of frame t | truth i before, j now)
-    emit = np.stack([_step_emissions(x, t, rates[None], pairs)[0] for t in range(t_max)], 1)
-    valid = np.arange(t_max)[None, :] < lengths[:, None]  # [n, T]
-    start = np.full(k, 0.5)
-    on = np.full(k, 0.1)
-    off = np.full(k, 0.1)
-    for _ in range(iterations):
-        a = np.stack([np.stack([1 - on, on], -1), np.stack([off, 1 - off], -1)], 1)  # [k,2,2]
-        alpha = np.zeros((n, t_max, k, 2))
-        scale = np.ones((n, t_max, k))
-        first = np.stack([1 - start, start], -1)[None] * emit[:, 0, :, 0, :]
-        scale[:, 0] = first.sum(-1)
-        alpha[:, 0] = first / scale[:, 0, :, None]
-        for t in range(1, t_max):
-            pred = np.einsum("nfi,fij,nfij->nfj", alpha[:, t - 1], a, emit[:, t])
-            c = pred.sum(-1)
-            live = valid[:, t, None]
-            scale[:, t] = np.where(live, c, 1.0)
-            alpha[:, t] = np.where(live[..., None], pred / c[..., None], alpha[:, t - 1])
-        beta = np.ones((n, t_max, k, 2))
-        for t in range(t_max - 2, -1, -1):
-            back = np.einsum("fij,nfij,nfj->nfi", a, emit[:, t + 1], beta[:, t + 1])
-            back /= scale[:, t + 1, :, None]
-            beta[:, t] = np.where(valid[:, t + 1, None, None], back, beta[:, t + 1])
-        gamma = alpha[:, 0] * beta[:, 0]
-        gamma /= gamma.sum(-1, keepdims=True)
-        # xi[n, t, f, i, j] for the transitions t -> t + 1 inside each episode
-        xi = (
-            alpha[:, :-1, :, :, None]
-            * a[None, None]
-            * emit[:, 1:]
-            * (beta[:, 1:] / scale[:, 1:, :, None])[:, :, :, None, :]
-        )
-        xi *= valid[:, 1:, None, None, None]
-        moves = xi.sum(axis=(0, 1))  # [k, 2, 2]
-        start = np.clip(gamma[:, :, 1].mean(0), _FLOOR, 1 - _FLOOR)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            on = moves[:, 0, 1] / moves[:, 0].sum(-1)
-            off = moves[:, 1, 0] / moves[:, 1].sum(-1)
-        on = np.clip(np.nan_to_num(on, nan=0.0), _FLOOR, 1 - _FLOOR)
-        off = np.clip(np.nan_to_num(off, nan=0.0), _FLOOR, 1 - _FLOOR)
-    return FluentDynamics(start=start, on=on, off=off)
-
-
 def satisfaction_probabilities(
     dfa: DFA,
     fluents: Sequence[str],
@@ -437,50 +323,54 @@ def satisfaction_probabilities(
     fluents = tuple(fluents)
     cols = [fluents.index(f) for f in dfa.relevant_fluents]
     m = len(cols)
-    n_configs, n_q = 1 << m, dfa.n_states
+    # A configuration: each relevant fluent's chain state (off never on, on, off on
+    # before), the first fluent the most significant of m base-3 digits.
+    n_configs, n_q = 3**m, dfa.n_states
     configs = np.arange(n_configs, dtype=np.int64)
-    bits = (configs[:, None] >> np.arange(m)) & 1  # [C, m]
+    digits = (configs[:, None] // 3 ** np.arange(m - 1, -1, -1)) % 3  # [C, m]
+    bits = TRUTH[digits]  # [C, m]: each fluent's truth
     positions = np.array([dfa.fluents.index(fluents[c]) for c in cols], dtype=np.int64)
     letters = (bits << positions).sum(axis=1) if m else np.zeros(1, dtype=np.int64)
     states = np.repeat(np.arange(n_q), n_configs)
     nxt, _ = dfa.step_batch(states, np.tile(letters, n_q).astype(np.uint64))
     nxt = np.asarray(nxt, dtype=np.int64).reshape(n_q, n_configs)
-    # The truth chain over configurations, then the DFA's move on the new configuration.
-    on, off = dynamics.on[cols], dynamics.off[cols]
-    chain = np.ones((n_configs, n_configs))
-    for j in range(m):
-        a = np.array([[1 - on[j], on[j]], [off[j], 1 - off[j]]])
-        chain *= a[bits[:, j][:, None], bits[:, j][None, :]]
-    move = np.zeros((n_q, n_configs, n_q))  # [q, c', q'] = [delta(q, c') = q']
+    # The DFA's move on the new configuration: [q, c', q'] = [delta(q, c') = q'].
+    move = np.zeros((n_q, n_configs, n_q))
     move[np.repeat(np.arange(n_q), n_configs), np.tile(configs, n_q), nxt.ravel()] = 1.0
-    start_p = dynamics.start[cols]
-    prior = np.prod(np.where(bits == 1, start_p, 1 - start_p), axis=1) if m else np.ones(1)
+    first_state, chain = dynamics.select(cols).matrices()  # [m, 3], [m, 3, 3]
     accepting = np.asarray(dfa.accepting, dtype=np.float64)
     arrays = [np.asarray(e) for e in episodes]
     if arrays and np.issubdtype(arrays[0].dtype, np.floating):
         grid = np.array(edges, dtype=np.float64)
         arrays = [np.searchsorted(grid, a, side="right") for a in arrays]
-    x, lengths = _padded(arrays)
+    x, lengths = padded(arrays)
     x = x[:, :, cols]
     rates = rates[:, cols]
     pairs = None if pair_rates is None else pair_rates[:, cols]
     n_draws, n = rates.shape[0], len(arrays)
 
-    def evidence(t: int) -> np.ndarray:  # [S, n, C, C']: P(frame t | config before, now)
-        emit = _step_emissions(x, t, rates, pairs)  # [S, n, m, 2, 2]
-        total = np.ones((n_draws, n, n_configs, n_configs))
-        for j in range(m):
-            total *= emit[:, :, j][:, :, bits[:, j][:, None], bits[:, j][None, :]]
-        return total
+    def evidence(t: int) -> np.ndarray:  # [S, n, m, 3, 3]: P(frame t | state before, now)
+        emit = step_emissions(x, t, rates, pairs)  # [S, n, m, 2, 2] over truths
+        out: np.ndarray = emit[..., TRUTH[:, None], TRUTH[None, :]]
+        return out
 
     # belief [S, n, q, c]: after the first frame (the trace's first letter)
-    first = evidence(0)[:, :, 0, :] * prior  # [S, n, C]
+    seen = evidence(0)[:, :, :, 0, :] * first_state  # [S, n, m, 3]
+    first = np.ones((n_draws, n, n_configs))
+    for j in range(m):
+        first *= seen[:, :, j][:, :, digits[:, j]]
     belief = np.einsum("snc,cr->snrc", first, move[dfa.initial_state])
     belief /= belief.sum(axis=(2, 3), keepdims=True)
     for t in range(1, int(lengths.max())):
         live = (lengths > t)[None, :, None, None]
-        weights = chain * evidence(t)  # [S, n, C, C']
-        moved = np.einsum("snqc,sncd,qdr->snrd", belief, weights, move)
+        weights = chain * evidence(t)  # [S, n, m, 3, 3]
+        # The chains move one fluent at a time (they are independent): digit j of the
+        # configuration is axis 1 of [S * n, q * 3^j, 3, 3^(m - j - 1)].
+        moved = belief
+        for j in range(m):
+            shaped = moved.reshape(n_draws, n, n_q * 3**j, 3, 3 ** (m - j - 1))
+            moved = np.einsum("snpak,snab->snpbk", shaped, weights[:, :, j])
+        moved = np.einsum("snqc,qcr->snrc", moved.reshape(belief.shape), move)
         total = moved.sum(axis=(2, 3), keepdims=True)
         # Evidence that every hypothesis forbids (a rate drawn at 0): keep the belief.
         ok = total > 0
@@ -497,6 +387,7 @@ def estimate_compliance(
     error_model: ErrorModel,
     *,
     dynamics: FluentDynamics | None = None,
+    memory: bool = True,
     n_draws: int = 64,
     level: float = 0.9,
     seed: int = 0,
@@ -510,6 +401,8 @@ def estimate_compliance(
         error_model: the detector's error model (it must cover the specs' fluents).
         dynamics: the fluents' chains (over ``fluents``); None: learnt from ``episodes``
             (:func:`fit_dynamics`).
+        memory: the learnt chains tell coming on again after having been on from coming
+            on the first time (:class:`FluentDynamics`' ``again``); False: one rate.
         n_draws: draws of the error model.
         level: the intervals' probability.
         seed: seeds the draws.
@@ -553,9 +446,9 @@ def estimate_compliance(
     bands = [model.bands(a[:, cols]) for a in arrays]
     if dynamics is None:
         mean = model.rates()
-        dynamics = fit_dynamics(bands, mean, pair_rates=model.pair_rates(mean))
+        dynamics = fit_dynamics(bands, mean, pair_rates=model.pair_rates(mean), memory=memory)
     else:
-        dynamics = FluentDynamics(*(np.asarray(d)[cols] for d in dynamics))
+        dynamics = dynamics.select(cols)
     rng = np.random.default_rng(seed)
     rates = model.sample(rng, n_draws)
     pairs = model.sample_pairs(rng, rates)
