@@ -504,19 +504,20 @@ def main() -> None:
                 f"[{e.episodes_low:.1%}, {e.episodes_high:.1%}] |"
             )
         print()
-    print(
+    header = (
         "| world, camera | cases | within 3 pts | coverage | cov. these | per-episode ECE "
-        "| mean abs. err (pts) | worst (pts) | mean 90% width (pts) |"
+        "| mean abs. err (pts) | worst (pts) | mean 90% width (pts) |\n"
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print(header)
     groups: dict[str, list[Case]] = {}
     for c in cases:
         groups.setdefault(f"{c.world}, {c.camera}", []).append(c)
     for label, group in groups.items():
         print(summary_row(label, group))
     print(summary_row("all", cases))
-    print("\nthe same episodes, frames taken as independent given the truth (no successions):")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("\nthe same episodes, frames taken as independent given the truth (no successions):\n")
+    print(header)
     for label, group in groups.items():
         print(summary_row(label, [c.frames_independent() for c in group]))
     print(summary_row("all", [c.frames_independent() for c in cases]))
