@@ -369,8 +369,12 @@ def satisfaction_probabilities(
         moved = belief
         for j in range(m):
             shaped = moved.reshape(n_draws, n, n_q * 3**j, 3, 3 ** (m - j - 1))
-            moved = np.einsum("snpak,snab->snpbk", shaped, weights[:, :, j])
-        moved = np.einsum("snqc,qcr->snrc", moved.reshape(belief.shape), move)
+            moved = np.matmul(shaped.swapaxes(3, 4), weights[:, :, j, None]).swapaxes(3, 4)
+        moved = moved.reshape(belief.shape)
+        stepped = np.zeros_like(moved)
+        for q in range(n_q):  # from q, configuration c goes to delta(q, c): no two alike
+            stepped[:, :, nxt[q], configs] += moved[:, :, q]
+        moved = stepped
         total = moved.sum(axis=(2, 3), keepdims=True)
         # Evidence that every hypothesis forbids (a rate drawn at 0): keep the belief.
         ok = total > 0
