@@ -197,6 +197,11 @@ def start(
     return pid
 
 
+#: The background runs' priority (nice value, and their session's autogroup's): the
+#: lowest, so that they never slow what a person runs meanwhile.
+NICE = 19
+
+
 def _launch(name: str, train_args: list[str], runs: Path, pids: Path, tree: Path | None) -> int:
     """``noisybolt train train_args`` at nice 19 in a session of its own, its output
     appended to ``runs/bk-<name>.log`` and its pid to ``pids``; ``tree``: a checkout whose
@@ -204,7 +209,7 @@ def _launch(name: str, train_args: list[str], runs: Path, pids: Path, tree: Path
     env = dict(os.environ)
     if tree is not None:
         env["PYTHONPATH"] = str(tree.resolve() / "src")
-    command = ["nice", "-n", "19", sys.executable, "-m", "noisybolt", "train", *train_args]
+    command = ["nice", "-n", str(NICE), sys.executable, "-m", "noisybolt", "train", *train_args]
     runs.mkdir(parents=True, exist_ok=True)
     with open(runs / f"bk-{name}.log", "a") as log:
         process = subprocess.Popen(
@@ -223,7 +228,7 @@ def _lower_autogroup(pid: int) -> None:
     own at nice 19 takes as much CPU as a test suite at nice 0 (seen here: four such runs
     held the suite to a fifth of the cores). The session's nice is its autogroup's."""
     with contextlib.suppress(OSError):  # no autogroup scheduling: plain nice applies
-        Path(f"/proc/{pid}/autogroup").write_text("19")
+        Path(f"/proc/{pid}/autogroup").write_text(str(NICE))
 
 
 def stop(pids: Path, *, wait_s: float = 600.0) -> list[int]:
