@@ -70,6 +70,39 @@ def test_the_callback_prices_every_training_bolt_with_its_multiplier() -> None:
     env.close()
 
 
+def test_the_callback_hands_the_multiplier_each_episode_s_world_return() -> None:
+    """What the wait reads: each ended episode's world return, the bolt's payments left out,
+    as the Monitor below the bolt measured it."""
+    from stable_baselines3.common.monitor import Monitor
+
+    seen: list[float] = []
+
+    class Recording(LagrangianCallback):
+        def _on_rollout_end(self) -> None:
+            seen.extend(self._returns)
+            super()._on_rollout_end()
+
+    monitored: list[Monitor] = []
+
+    def lake_monitored() -> FluentLabels:
+        env = Monitor(gym.make("FrozenLake-v1", is_slippery=False, render_mode="rgb_array"))
+        monitored.append(env)
+        return FluentLabels(
+            env,
+            fluents={"at_goal": lambda e: e.s == 15, "right_col": lambda e: e.s % 4 == 3},
+            camera=lambda e: np.zeros((4, 4, 3), dtype=np.uint8),
+        )
+
+    env = make_bolted_vec_env(lake_monitored, 2, ["G(!right_col)"], "oracle", seed=3)
+    model = PPO("MultiInputPolicy", env, n_steps=256, batch_size=64, seed=0, device="cpu")
+    callback = Recording(CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=1.0), frames=1024)
+    model.learn(total_timesteps=1024, callback=callback)
+    truth = sorted(r for m in monitored for r in m.get_episode_rewards())
+    assert len(seen) > 10 and sorted(seen) == truth
+    assert callback.multiplier.updates == 2  # 1,024 frames: two rollouts of 2 x 256
+    env.close()
+
+
 def test_bolted_envs_are_found_through_groups_and_wrappers() -> None:
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -108,11 +141,14 @@ def test_the_multiplier_is_learned_checkpointed_and_resumed(tmp_path: Path) -> N
     config = json.loads((run / "config.json").read_text())
     assert config["bolt"]["reward"] == "constrained"
     assert config["bolt"]["constraint"] == {
-        "cost_limit": 0.02, "lr": 0.1, "kp": 1.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5
+        "cost_limit": 0.02, "lr": 0.1, "kp": 1.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5,
+        "wait": 0.5,
     }  # fmt: skip
     saved = _multiplier(run)
     # 8 games x 64 steps a rollout: 4 rollouts; G(on_edge) is broken by random play at once
     assert saved["updates"] == 4
+    # the gridworld's returns differ from the first rollout on (its step costs): no wait
+    assert saved["woke_at"] == 0.0
     assert saved["value"] > 0
     train(_config(frames=3072), run, resume=True, log=lambda _: None)
     resumed = _multiplier(run)
@@ -127,6 +163,7 @@ def test_the_multiplier_is_learned_checkpointed_and_resumed(tmp_path: Path) -> N
         ({"bolt.constraint.cost_limit": -0.1}, "cost_limit must be >= 0"),
         ({"bolt.constraint.cost_limit": float("nan")}, "cost_limit must be finite"),
         ({"bolt.constraint.lr": 0.0}, "learning rate"),
+        ({"bolt.constraint.wait": 2.0}, "wait must be in"),
         ({"bolt.constraint.budget": 0.1}, "unknown config key"),
     ],
 )

@@ -37,6 +37,9 @@ from noisybolt.errors import ConfigError
         ({"initial": 1.5}, "initial"),
         ({"anneal": -0.1}, "anneal"),
         ({"anneal": 2.0}, "anneal"),
+        ({"wait": 1.5}, "wait"),
+        ({"wait": -0.1}, "wait"),
+        ({"wait": "half"}, "wait"),
         ({"cost_limit": "0.1"}, "cost_limit"),
         ({"lr": True}, "lr"),
     ],
@@ -50,6 +53,94 @@ def test_unknown_constraint_keys_are_named() -> None:
     with pytest.raises(ConfigError, match="budget"):
         CostLimit.from_mapping({"budget": 0.1})
     assert CostLimit.from_mapping({"cost_limit": 0.2}).cost_limit == 0.2
+
+
+# ------------------------------------------------------------------ the wait for the task
+
+
+def test_a_waiting_multiplier_learns_nothing_until_the_world_returns_differ() -> None:
+    limit = CostLimit(cost_limit=0.0, lr=0.1, kp=1.0, anneal=0.5, wait=0.9)
+    lagrange = LagrangeMultiplier(limit)
+    assert lagrange.waiting
+    # Two rollouts whose episodes all returned 0 (a goal not found yet): no price, no
+    # first cost, however high the cost.
+    assert lagrange.update(0.8, frames=1000, progress=0.1, returns=[0.0, 0.0, 0.0]) == 0.0
+    assert lagrange.update(0.9, frames=1000, progress=0.2, returns=[0.0]) == 0.0
+    assert lagrange.waiting and lagrange.first_cost is None and lagrange.updates == 2
+    # The third's returns differ (a goal found): it learns from this cost, its budget
+    # annealed from here (0.6 at progress 0.3) over half of the run then left (0.35).
+    value = lagrange.update(0.6, frames=1000, progress=0.3, returns=[0.0, 1.0])
+    assert not lagrange.waiting and lagrange.woke_at == 0.3 and lagrange.first_cost == 0.6
+    # e = 0.6 - 0.6 = 0: integral 0, u = 0
+    assert value == 0.0
+    # At progress 0.475, a quarter of the run after waking: the budget is half-way down
+    # from 0.6 to 0 (0.3). e = 0.5 - 0.3 = 0.2: integral 0.1 * 0.2 = 0.02, u = 0.2 + 0.02
+    assert lagrange.budget(0.475) == pytest.approx(0.3)
+    assert lagrange.update(0.5, frames=1000, progress=0.475, returns=[0.0]) == pytest.approx(0.22)
+
+
+def test_returns_that_differ_across_rollouts_end_the_wait() -> None:
+    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=1.0))
+    assert lagrange.update(1.0, progress=0.1, returns=[-5.0]) == 0.0
+    assert lagrange.waiting
+    # one episode a rollout, each the same as itself, but not as the first rollout's
+    assert lagrange.update(1.0, progress=0.2, returns=[-7.0]) == 1.0
+    assert lagrange.woke_at == 0.2
+
+
+def test_the_wait_ends_at_its_share_of_the_run_whatever_the_returns() -> None:
+    lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=0.5))
+    assert lagrange.update(1.0, progress=0.49, returns=[0.0]) == 0.0
+    assert lagrange.update(1.0, progress=0.5, returns=[0.0]) == 1.0
+    assert lagrange.woke_at == 0.5
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    costs=st.lists(st.floats(0.0, 3.0), min_size=1, max_size=12),
+    wait=st.floats(0.01, 1.0),
+)
+def test_returns_that_differ_from_the_first_rollout_mean_no_wait(
+    costs: list[float], wait: float
+) -> None:
+    """A world whose returns differ from the start (the gridworld's, CliffWalking's) is
+    priced exactly as without the wait: the same values, the same annealed budget."""
+    base = dict(cost_limit=0.1, lr=0.3, kp=1.0, kd=0.5, anneal=0.5, decades=0.0)
+    waiting = LagrangeMultiplier(CostLimit(**base, wait=wait))
+    plain = LagrangeMultiplier(CostLimit(**base))
+    for i, cost in enumerate(costs):
+        progress = (i + 1) / len(costs)
+        assert waiting.update(cost, progress=progress, returns=[0.0, 1.0]) == plain.update(
+            cost, progress=progress
+        )
+    assert waiting.woke_at == 0.0
+
+
+def test_a_waiting_multiplier_resumes_where_it_stood() -> None:
+    limit = CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=1.0)
+    first = LagrangeMultiplier(limit)
+    first.update(1.0, progress=0.1, returns=[2.0])
+    state = first.state_dict()
+    assert state["woke_at"] is None and state["returns_seen"] == [2.0, 2.0]
+    resumed = LagrangeMultiplier(limit, state=state)
+    assert resumed.waiting
+    assert resumed.update(1.0, progress=0.2, returns=[3.0]) == 1.0  # 3 differs from 2
+
+
+def test_a_state_saved_before_the_wait_existed_loads_awake() -> None:
+    old = {"value": 0.3, "integral": 0.2, "last_cost": 0.5, "first_cost": 0.9, "updates": 4}
+    lagrange = LagrangeMultiplier(CostLimit(wait=0.5), state=old)
+    assert not lagrange.waiting and lagrange.woke_at == 0.0 and lagrange.value == 0.3
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [{"woke_at": 1.5}, {"woke_at": "0"}, {"returns_seen": [2.0, 1.0]}, {"returns_seen": [1.0]}],
+)
+def test_bad_wait_states_are_refused(extra: dict) -> None:
+    state = {"value": 0.3, "integral": 0.2, "last_cost": None, "first_cost": None, "updates": 1}
+    with pytest.raises(ConfigError, match="multiplier state"):
+        LagrangeMultiplier(CostLimit(), state={**state, **extra})
 
 
 # ------------------------------------------------------------------ the multiplier

@@ -7,6 +7,8 @@ for the scheme and its update rule). :class:`LagrangianCallback` does the bookke
 
 * every step it reads the cost of each episode that ended (``info["bolt_episode_cost"]``,
   the specs the episode leaves unsatisfied as the bolt sees them: never ground truth);
+* it sums each game's world rewards (``info["env_reward"]``), so that a multiplier that
+  waits for the world's returns to differ (``bolt.constraint.wait``) sees them;
 * at the end of each rollout it updates ``λ`` from the mean cost of those episodes, over
   the frames trained since the last update (none ended: no update, the frames count
   towards the next), and sets every training bolt's price to it, so the next rollout is
@@ -32,7 +34,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from noisybolt.agents.pipeline import GroupedVecEnv
 from noisybolt.bolt import CostLimit, LagrangeMultiplier
 from noisybolt.errors import ConfigError
-from noisybolt.wrappers import EPISODE_COST_KEY, BoltVecEnv
+from noisybolt.wrappers import ENV_REWARD_KEY, EPISODE_COST_KEY, BoltVecEnv
 
 __all__ = ["LagrangianCallback", "bolted_envs"]
 
@@ -81,6 +83,8 @@ class LagrangianCallback(BaseCallback):
         self.multiplier = LagrangeMultiplier(limit, state=state)
         self.frames = int(frames)
         self._costs: list[float] = []
+        self._returns: list[float] = []
+        self._running: np.ndarray | None = None  # each game's world return so far
         self._bolts: list[BoltVecEnv] = []
         self._last_update = 0
 
@@ -98,10 +102,15 @@ class LagrangianCallback(BaseCallback):
     def _on_step(self) -> bool:
         dones = np.asarray(self.locals["dones"], dtype=bool)
         infos = self.locals["infos"]
+        if self._running is None or len(self._running) != len(dones):
+            self._running = np.zeros(len(dones))
+        self._running += [float(info.get(ENV_REWARD_KEY, 0.0)) for info in infos]
         for row in np.flatnonzero(dones).tolist():
             cost = infos[row].get(EPISODE_COST_KEY)
             if cost is not None:
                 self._costs.append(float(cost))
+                self._returns.append(float(self._running[row]))
+            self._running[row] = 0.0
         return True
 
     def _on_rollout_end(self) -> None:
@@ -109,12 +118,12 @@ class LagrangianCallback(BaseCallback):
         if self._costs and frames > 0:
             cost = float(np.mean(self._costs))
             progress = int(self.model.num_timesteps) / max(self.frames, 1)
-            self.multiplier.update(cost, frames=frames, progress=progress)
-            budget = self.multiplier.limit.budget(progress, self.multiplier.first_cost)
-            self.logger.record("constraint/budget", budget)
+            self.multiplier.update(cost, frames=frames, progress=progress, returns=self._returns)
+            self.logger.record("constraint/budget", self.multiplier.budget(progress))
             self._last_update = int(self.model.num_timesteps)
             self.logger.record("constraint/episode_cost", cost)
-            self._costs = []
+            self.logger.record("constraint/waiting", float(self.multiplier.waiting))
+            self._costs, self._returns = [], []
         self._set_price()
         self.logger.record("constraint/multiplier", self.multiplier.value)
 

@@ -42,6 +42,21 @@ agree::
 
     d(t) = cost_limit + (J_c(first) - cost_limit) * max(0, 1 - t / (anneal * frames))
 
+**The multiplier waits for the task.** While every episode has returned the same (a
+sparse goal not found yet: FrozenLake, a lava room, Acrobot), the world gives the learner
+nothing to trade compliance against, and a price of any size is all it sees: reward
+normalisation divides by the deviation of returns the price alone makes, and PPO
+normalises its advantages, so a thousandth of the scale teaches as much as the whole
+scale, and it teaches avoiding the cost (standing still) before the goal is ever found.
+Measured on FrozenLake 8x8 (``G(!right_col | at_goal)``, PPO seed 2, 100k frames):
+priced from the first rollout, the agent first reached the goal at 70k frames and had
+lost it again by 100k; the same bolt priced at 0 reached it in 75 % of episodes at 20k
+frames, as the unbolted control of the seed did. So the multiplier (``wait``, a share of
+the run) stays at ``initial`` until the world's returns differ between episodes, or the
+wait is over, and then learns as above, its budget annealed over ``anneal`` of the frames
+left. Where the returns differ from the first rollout (step costs, falls, a pole that
+drops), nothing waits.
+
 The integral's rate is per 1,000 frames, not per update, so that a learner that updates
 every 40 frames (A2C) and one that updates every 1,024 (PPO) raise the price alike.
 ``kp`` (1 by default) prices at once a cost above the (annealed) budget, and takes the
@@ -92,7 +107,7 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -100,7 +115,14 @@ import numpy as np
 
 from noisybolt.errors import ConfigError
 
-__all__ = ["BOUND_DECADES", "CONSTRAINT_KEYS", "CostLimit", "LagrangeMultiplier", "episode_costs"]
+__all__ = [
+    "BOUND_DECADES",
+    "CONSTRAINT_KEYS",
+    "WAIT",
+    "CostLimit",
+    "LagrangeMultiplier",
+    "episode_costs",
+]
 
 #: The price's span where the compliance scale is the width of the world's return bounds
 #: (declared, or estimated by random play): a worst case that can exceed the price a
@@ -116,7 +138,25 @@ __all__ = ["BOUND_DECADES", "CONSTRAINT_KEYS", "CostLimit", "LagrangeMultiplier"
 BOUND_DECADES = 3.0
 
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
-CONSTRAINT_KEYS: tuple[str, ...] = ("cost_limit", "lr", "kp", "kd", "initial", "anneal", "decades")
+CONSTRAINT_KEYS: tuple[str, ...] = (
+    "cost_limit",
+    "lr",
+    "kp",
+    "kd",
+    "initial",
+    "anneal",
+    "decades",
+    "wait",
+)
+
+#: How long the multiplier waits, at most, for the world to pay returns that differ
+#: between episodes (a share of the run's frames), where a run does not say: see
+#: :attr:`CostLimit.wait`. Measured on FrozenLake 8x8 (``G(!right_col | at_goal)``, PPO
+#: seed 2, 100k frames): priced from the first rollout (over three decades), the agent
+#: first reached the goal at 70k frames and had lost it again at 100k; the same bolt paid
+#: nothing reached it in 75 % of episodes at 20k frames and 100 % from 40k, as the
+#: unbolted control of the seed did (95 % at 30k).
+WAIT = 0.5
 
 
 def _number(name: str, value: object) -> float:
@@ -159,6 +199,19 @@ class CostLimit:
             :func:`~noisybolt.runs.resolve` (:data:`BOUND_DECADES` where the scale is the
             width of the world's return bounds, a worst case; 0 where it is exact on the
             product of a tabular world); a multiplier given None prices linearly.
+        wait: the longest share of the run's frames, in ``[0, 1]``, that the multiplier
+            waits (at ``initial``, learning nothing, its budget's anneal not begun) for
+            the world to pay the learner returns that differ between episodes. While
+            every episode has returned the same (a sparse goal not yet found), there is
+            nothing to trade compliance against, and any price at all is the only signal
+            the learner gets: reward normalisation and PPO's advantage normalisation
+            make even a thousandth of the scale a full unit, and the learner learns to
+            avoid the cost (standing still) before it ever sees the task. Once the
+            returns differ, or the wait is over, the multiplier learns as without it,
+            its budget annealed over ``anneal`` of the frames then left. 0: no wait.
+            None (the default): :data:`WAIT` for a run :func:`~noisybolt.runs.resolve`
+            resolves afresh, 0 for a multiplier given None and for runs saved before the
+            setting existed.
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a
@@ -173,10 +226,11 @@ class CostLimit:
     initial: float = 0.0
     anneal: float = 0.5
     decades: float | None = None
+    wait: float | None = None
 
     def __post_init__(self) -> None:
         for name in CONSTRAINT_KEYS:
-            if name == "decades" and self.decades is None:
+            if name in ("decades", "wait") and getattr(self, name) is None:
                 continue
             object.__setattr__(self, name, _number(name, getattr(self, name)))
         if self.cost_limit < 0:
@@ -191,8 +245,9 @@ class CostLimit:
         for name in ("kp", "kd", "decades"):
             if getattr(self, name) is not None and getattr(self, name) < 0:
                 raise ConfigError(f"bolt.constraint.{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("initial", "anneal"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
+        for name in ("initial", "anneal", "wait"):
+            value = getattr(self, name)
+            if value is not None and not 0.0 <= value <= 1.0:
                 raise ConfigError(
                     f"bolt.constraint.{name} must be in [0, 1], got {getattr(self, name)}"
                 )
@@ -258,6 +313,10 @@ class LagrangeMultiplier:
         self._last_cost: float | None = None
         self._first_cost: float | None = None
         self._updates = 0
+        # Where (a share of the run) the multiplier began to learn; None while it waits.
+        self._woke_at: float | None = None if limit.wait else 0.0
+        # The least and most world returns seen while waiting.
+        self._returns_seen: tuple[float, float] | None = None
         if state is not None:
             self.load_state_dict(state)
 
@@ -268,8 +327,26 @@ class LagrangeMultiplier:
 
     @property
     def updates(self) -> int:
-        """How many measured costs the multiplier has learned from."""
+        """How many measured costs the multiplier has been given (waiting or learning)."""
         return self._updates
+
+    @property
+    def waiting(self) -> bool:
+        """Whether the multiplier still waits for the world's returns to differ
+        (:attr:`CostLimit.wait`)."""
+        return self._woke_at is None
+
+    @property
+    def woke_at(self) -> float | None:
+        """The share of the run at which the multiplier began to learn (None: waiting)."""
+        return self._woke_at
+
+    def budget(self, progress: float) -> float:
+        """The budget at ``progress`` (frames trained / the run's frames), annealed from
+        the first cost measured once awake over ``anneal`` of the frames then left."""
+        woke = self._woke_at if self._woke_at is not None else float(progress)
+        since = (float(progress) - woke) / (1.0 - woke) if woke < 1.0 else 1.0
+        return self.limit.budget(max(0.0, since), self._first_cost)
 
     @property
     def first_cost(self) -> float | None:
@@ -277,11 +354,20 @@ class LagrangeMultiplier:
         return self._first_cost
 
     def update(
-        self, mean_episode_cost: float, *, frames: int = 1000, progress: float = 1.0
+        self,
+        mean_episode_cost: float,
+        *,
+        frames: int = 1000,
+        progress: float = 1.0,
+        returns: Sequence[float] | np.ndarray | None = None,
     ) -> float:
         """Learns from the mean cost of the episodes ended over the last ``frames`` frames
         trained, at ``progress`` (frames trained / the run's frames: where the annealed
         budget stands); returns the new ``λ``.
+
+        ``returns``: those episodes' world returns (the bolt's payments left out). While
+        the multiplier waits (:attr:`CostLimit.wait`) it learns nothing until the returns
+        seen differ or ``progress`` reaches the wait; None counts as returns that differ.
 
         Raises:
             ConfigError: a cost that is negative or not finite, or ``frames`` < 1.
@@ -291,10 +377,12 @@ class LagrangeMultiplier:
             raise ConfigError(f"an episode cost must be finite and >= 0, got {mean_episode_cost!r}")
         if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
             raise ConfigError(f"frames must be an integer >= 1, got {frames!r}")
+        if self._woke_at is None and not self._wakes(returns, float(progress)):
+            return self._value
         limit = self.limit
         if self._first_cost is None:
             self._first_cost = cost
-        error = cost - limit.budget(float(progress), self._first_cost)
+        error = cost - self.budget(float(progress))
         step = limit.lr * error * (int(frames) / 1000)
         self._integral = min(max(0.0, self._integral + step), 1.0)
         rise = 0.0 if self._last_cost is None else max(0.0, cost - self._last_cost)
@@ -304,14 +392,40 @@ class LagrangeMultiplier:
         self._updates += 1
         return self._value
 
+    def _wakes(self, returns: Sequence[float] | np.ndarray | None, progress: float) -> bool:
+        """Whether the wait ends now (the returns seen differ, or the wait is over); if so,
+        notes where."""
+        if returns is None:
+            differ = True
+        else:
+            values = np.asarray(returns, dtype=np.float64).ravel()
+            values = values[np.isfinite(values)]
+            if values.size:
+                lo, hi = float(values.min()), float(values.max())
+                if self._returns_seen is not None:
+                    lo, hi = min(lo, self._returns_seen[0]), max(hi, self._returns_seen[1])
+                self._returns_seen = (lo, hi)
+            seen = self._returns_seen
+            differ = seen is not None and seen[1] - seen[0] > 1e-9 * max(1.0, abs(seen[0]))
+        wait = self.limit.wait or 0.0
+        if differ or progress >= wait:
+            # Returns that differ in the first rollout measured: no wait at all, the
+            # budget annealed from the run's start as without it.
+            self._woke_at = 0.0 if self._updates == 0 else min(max(progress, 0.0), 1.0)
+            return True
+        self._updates += 1  # a rollout measured while waiting
+        return False
+
     def state_dict(self) -> dict[str, Any]:
-        """JSON-able state (floats and an int): what a checkpoint keeps."""
+        """JSON-able state (floats, an int and None): what a checkpoint keeps."""
         return {
             "value": self._value,
             "integral": self._integral,
             "last_cost": self._last_cost,
             "first_cost": self._first_cost,
             "updates": self._updates,
+            "woke_at": self._woke_at,
+            "returns_seen": None if self._returns_seen is None else list(self._returns_seen),
         }
 
     def load_state_dict(self, state: Mapping[str, Any]) -> None:
@@ -320,16 +434,16 @@ class LagrangeMultiplier:
         Raises:
             ConfigError: a state with missing or unknown keys or out-of-range values.
         """
-        if not isinstance(state, Mapping) or set(state) != {
-            "value",
-            "integral",
-            "last_cost",
-            "first_cost",
-            "updates",
+        required = {"value", "integral", "last_cost", "first_cost", "updates"}
+        # woke_at and returns_seen: states saved before the wait existed lack them (their
+        # multiplier learned from the first rollout: awake from 0).
+        if not isinstance(state, Mapping) or not required <= set(state) <= required | {
+            "woke_at",
+            "returns_seen",
         }:
             raise ConfigError(
                 f"a Lagrange multiplier's saved state must hold value, integral, last_cost, "
-                f"first_cost and updates, got {state!r}"
+                f"first_cost and updates (and woke_at, returns_seen), got {state!r}"
             )
         numbers = {}
         for key in ("value", "integral"):
@@ -353,9 +467,35 @@ class LagrangeMultiplier:
         updates = state["updates"]
         if isinstance(updates, bool) or not isinstance(updates, int) or updates < 0:
             raise ConfigError(f"multiplier state updates must be an integer >= 0, got {updates!r}")
+        woke_at = state.get("woke_at", 0.0)
+        if woke_at is not None and (
+            isinstance(woke_at, bool)
+            or not isinstance(woke_at, (int, float))
+            or not 0.0 <= woke_at <= 1.0
+        ):
+            raise ConfigError(
+                f"multiplier state woke_at must be None or in [0, 1], got {woke_at!r}"
+            )
+        seen = state.get("returns_seen")
+        if seen is not None:
+            if (
+                not isinstance(seen, (list, tuple))
+                or len(seen) != 2
+                or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in seen
+                )
+                or seen[0] > seen[1]
+            ):
+                raise ConfigError(
+                    f"multiplier state returns_seen must be None or [least, most], got {seen!r}"
+                )
+            seen = (float(seen[0]), float(seen[1]))
         self._value, self._integral = numbers["value"], numbers["integral"]
         self._last_cost, self._first_cost = costs["last_cost"], costs["first_cost"]
         self._updates = updates
+        self._woke_at = None if woke_at is None else float(woke_at)
+        self._returns_seen = seen
 
 
 def episode_costs(accepting: np.ndarray, ended: np.ndarray) -> np.ndarray:

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
-from noisybolt.bolt.constraint import BOUND_DECADES
+from noisybolt.bolt.constraint import BOUND_DECADES, WAIT
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -178,6 +178,8 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it the
       span of the price (``bolt.constraint.decades``, where not given): linear on an
       exact scale, :data:`~noisybolt.bolt.constraint.BOUND_DECADES` on one from bounds;
+      and how long the multiplier waits for the world's returns to differ
+      (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint.WAIT`);
     - for a user's world (a factory path) whose uint8 images are small integers,
       ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
       :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
@@ -217,11 +219,18 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
     if config.bolt.reward != "paper" and config.bolt.reward_scale is None:
         choice = compliance_scale_choice(config)
         bolt = replace(config.bolt, reward_scale=choice.scale)
-        if bolt.reward == "constrained" and bolt.constraint.get("decades") is None:
-            # The price's span goes with the scale: a worst case from the bounds is
-            # searched down from; an exact scale is the right order already (BOUND_DECADES).
-            decades = 0.0 if choice.exact else BOUND_DECADES
-            bolt = replace(bolt, constraint={**bolt.constraint, "decades": decades})
+        if bolt.reward == "constrained":
+            constraint = dict(bolt.constraint)
+            if constraint.get("decades") is None:
+                # The price's span goes with the scale: a worst case from the bounds is
+                # searched down from; an exact scale is the right order already
+                # (BOUND_DECADES).
+                constraint["decades"] = 0.0 if choice.exact else BOUND_DECADES
+            if constraint.get("wait") is None:
+                # A fresh run waits for the world's returns to differ (WAIT); a saved one
+                # (its scale named) keeps what it was: no wait where the key is absent.
+                constraint["wait"] = WAIT
+            bolt = replace(bolt, constraint=constraint)
         config = replace(config, bolt=bolt)
         if choice.exact and log is not None:
             log(

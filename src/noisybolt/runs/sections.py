@@ -231,11 +231,13 @@ class BoltConfig:
             # saved run keeps its values if the defaults change).
             limit = CostLimit.from_mapping(self.constraint)
             values = asdict(limit)
-            if not values["decades"]:
-                # None (resolve() chooses it with the scale) or the linear price, which
-                # every run saved before decades existed paid and which a resolved run
-                # whose scale is exact pays: a budget without the key prices linearly.
-                del values["decades"]
+            for key in ("decades", "wait"):
+                if not values[key]:
+                    # None (resolve() chooses it with the scale) or 0: the linear price and
+                    # no wait, as every run saved before these settings existed paid and
+                    # as a resolved run whose scale is exact prices: a budget without the
+                    # key prices linearly and learns from the first rollout.
+                    del values[key]
             object.__setattr__(self, "constraint", freeze(values))
         elif self.constraint:
             raise ConfigError(
