@@ -58,8 +58,7 @@ SCHEMES = {
 
 
 def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Namespace) -> Any:
-    from noisybolt.experiments.checks import with_exact_scale
-    from noisybolt.runs import DetectorConfig, TrainConfig
+    from noisybolt.runs import DetectorConfig, TrainConfig, resolve
 
     config = TrainConfig.create(
         world="gridworld",
@@ -80,12 +79,9 @@ def trial_config(spec: Any, algo: str, seed: int, scheme: str, args: argparse.Na
         progress_bar=False,
         **SCHEMES[scheme],
     )
-    # What `noisybolt train` does by default: the compliance scale computed on the product.
-    return (
-        with_exact_scale(config, log=lambda _: None)
-        if config.bolt.reward == "compliance"
-        else config
-    )
+    # What `noisybolt train` does: resolved (the compliance scale computed on the product,
+    # under `constrained` too, whose classifier is prepared from this config).
+    return resolve(config, log=lambda _: None)
 
 
 def run_trial(
