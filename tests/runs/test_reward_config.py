@@ -383,11 +383,11 @@ def test_a_users_world_normalises_every_learners_rewards_by_default() -> None:
 def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from noisybolt.bolt.constraint import BOUND_DECADES
+    from noisybolt.bolt.constraint import BOUND_DECADES, LagrangeMultiplier
 
-    # The gridworld's scale is exact on the product: the price is linear (no key written).
+    # The gridworld's scale is exact on the product: the price is linear.
     exact = _config(["edge"], reward="constrained")
-    assert "decades" not in exact.bolt.constraint
+    assert exact.bolt.constraint["decades"] == 0.0
     assert exact.bolt.cost_limit.price(0.5) == 0.5
     # A world's declared bounds give a worst case: the price searches down from it.
     world = _lake_module(tmp_path, monkeypatch, "bounded_lake", "return_bounds=(0, 1)")
@@ -408,6 +408,20 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
         )
     )
     assert given.bolt.constraint["decades"] == 1.0
+    # 0 given (the linear price, no wait) is kept too, not read as "not given".
+    linear = resolve(
+        TrainConfig.build(
+            {
+                "world.name": world,
+                "bolt.specs": ["F(at_goal)"],
+                "bolt.reward": "constrained",
+                "bolt.constraint": {"decades": 0, "wait": 0},
+            }
+        )
+    )
+    assert linear.bolt.constraint["decades"] == 0.0 and linear.bolt.constraint["wait"] == 0.0
+    assert linear.bolt.cost_limit.price(0.5) == 0.5
+    assert not LagrangeMultiplier(linear.bolt.cost_limit).waiting
     scaled = resolve(
         TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained", reward_scale=5)
     )

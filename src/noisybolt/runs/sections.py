@@ -232,11 +232,10 @@ class BoltConfig:
             limit = CostLimit.from_mapping(self.constraint)
             values = asdict(limit)
             for key in ("decades", "wait"):
-                if not values[key]:
-                    # None (resolve() chooses it with the scale) or 0: the linear price and
-                    # no wait, as every run saved before these settings existed paid and
-                    # as a resolved run whose scale is exact prices: a budget without the
-                    # key prices linearly and learns from the first rollout.
+                if values[key] is None:
+                    # Not given: resolve() chooses it for a fresh run (with the scale); a
+                    # run saved before the setting existed has none, and prices linearly
+                    # and learns from the first rollout, as it did. A 0 given is kept.
                     del values[key]
             object.__setattr__(self, "constraint", freeze(values))
         elif self.constraint:
