@@ -384,6 +384,14 @@ def test_a_price_over_decades_spans_them_geometrically_from_the_pid_output() -> 
     assert CostLimit().price(0.4) == 0.4
 
 
+def test_the_span_guards_where_doing_nothing_complies_on_a_bound() -> None:
+    from noisybolt.bolt.constraint import BOUND_DECADES, price_decades
+
+    assert price_decades(exact=False, kept_by_doing_nothing=True) == BOUND_DECADES
+    assert price_decades(exact=False, kept_by_doing_nothing=False) == 0.0
+    assert price_decades(exact=True, kept_by_doing_nothing=True) == 0.0
+
+
 def test_negative_decades_are_refused_by_name() -> None:
     with pytest.raises(ConfigError, match=r"bolt\.constraint\.decades must be >= 0"):
         CostLimit(decades=-1)

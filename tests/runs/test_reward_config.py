@@ -389,13 +389,20 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
     exact = _config(["edge"], reward="constrained")
     assert exact.bolt.constraint["decades"] == 0.0
     assert exact.bolt.cost_limit.price(0.5) == 0.5
-    # A world's declared bounds give a worst case: the price searches down from it.
+    # A world's declared bounds give a worst case: where a spec is kept by doing nothing
+    # (G(!at_goal) accepts the empty trace), the price searches down from it ...
     world = _lake_module(tmp_path, monkeypatch, "bounded_lake", "return_bounds=(0, 1)")
-    bound = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
+    bound = resolve(
+        TrainConfig.create(world=world, specs=["F(at_goal)", "G(!at_goal)"], reward="constrained")
+    )
     assert bound.bolt.constraint["decades"] == BOUND_DECADES
     assert bound.bolt.cost_limit.price(0.5) == pytest.approx(10 ** (-BOUND_DECADES / 2))
     # Saved and read back, it stays: a resumed run prices as it started.
     assert TrainConfig.from_dict(bound.to_dict()).bolt.constraint["decades"] == BOUND_DECADES
+    # ... and where every spec asks for something (F(at_goal): standing still breaks it
+    # as surely as anything), the price cannot teach doing nothing: linear.
+    detour = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
+    assert detour.bolt.constraint["decades"] == 0.0
     # One given is kept, and a scale given leaves the linear price.
     given = resolve(
         TrainConfig.build(

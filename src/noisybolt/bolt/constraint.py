@@ -122,6 +122,7 @@ __all__ = [
     "CostLimit",
     "LagrangeMultiplier",
     "episode_costs",
+    "price_decades",
 ]
 
 #: The price's span where the compliance scale is the width of the world's return bounds
@@ -136,6 +137,42 @@ __all__ = [
 #: priced too little too late: three specs that comply by 30k frames with the linear
 #: price never did (the route had been learnt by the time the price mattered).
 BOUND_DECADES = 3.0
+
+
+def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
+    """The span of the price (:attr:`CostLimit.decades`) that
+    :func:`~noisybolt.runs.resolve` gives a run.
+
+    The span guards against one failure: a price that teaches doing nothing. That can
+    happen only where doing nothing complies, with a spec that an episode without events
+    keeps (its DFA accepts the empty trace: ``G(!in_lava)``, ``G(!cliff_row)``). There,
+    on a scale from the world's return bounds (a worst case), the price spans
+    :data:`BOUND_DECADES`: a violation is first priced at a thousandth of the bound and
+    the price rises by powers of ten only as far as the cost demands. Where every spec
+    asks the agent to do something (``F(bottom_left)``, ``!right_col U bottom_left``),
+    standing still breaks them as surely as the direct route does, so a price cannot
+    teach it; a detour must be priced before the policy settles on the direct route, and
+    the price is linear. On an exact scale (the product of a tabular world: the return
+    gap itself) the price is linear too.
+
+    Measured (PPO, synthetic detector, the world suite's budgets): MiniGrid's lava room
+    with ``G(!in_lava)``, seed 0, linear: priced 0.2 of the scale at 39k frames, before
+    the gap was found, the agent stood still to the time limit (goal 0 %); over three
+    decades it complied and reached the goal in every episode, as its control. The empty
+    room with ``F(bottom_left)``, seed 0, over three decades: priced in earnest only at
+    37k frames, after the direct route was learnt, the corner was found at 135k and the
+    goal was reached in 25 % of episodes; linear, 100 % and 100 % (return 0.93, the
+    control 0.96). On the gridworld's spec suite, three decades priced detours too late
+    (three specs never complied that comply by 30k frames linearly).
+
+    Example:
+        >>> price_decades(exact=False, kept_by_doing_nothing=True)
+        3.0
+        >>> price_decades(exact=False, kept_by_doing_nothing=False)
+        0.0
+    """
+    return BOUND_DECADES if kept_by_doing_nothing and not exact else 0.0
+
 
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
 CONSTRAINT_KEYS: tuple[str, ...] = (
@@ -195,10 +232,9 @@ class CostLimit:
             ``u`` in ``[0, 1]`` is priced ``10 ** (-decades * (1 - u))`` (0 at ``u = 0``),
             so that the price searches the order of magnitude a violation must cost, from
             ``10 ** -decades`` of the compliance scale up to the scale. 0: the price is
-            ``u`` itself, linear. None (the default): chosen with the scale, by
-            :func:`~noisybolt.runs.resolve` (:data:`BOUND_DECADES` where the scale is the
-            width of the world's return bounds, a worst case; 0 where it is exact on the
-            product of a tabular world); a multiplier given None prices linearly.
+            ``u`` itself, linear. None (the default): chosen by
+            :func:`~noisybolt.runs.resolve` (:func:`price_decades`); a multiplier given
+            None prices linearly.
         wait: the longest share of the run's frames, in ``[0, 1]``, that the multiplier
             waits (at ``initial``, learning nothing, its budget's anneal not begun) for
             the world to pay the learner returns that differ between episodes. While

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
-from noisybolt.bolt.constraint import BOUND_DECADES, WAIT
+from noisybolt.bolt.constraint import WAIT, price_decades
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -176,8 +176,9 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       DFAs, else from the world's return bounds (declared, or estimated by random play);
       the specs and spaces are checked against the world before anything costly
       (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it the
-      span of the price (``bolt.constraint.decades``, where not given): linear on an
-      exact scale, :data:`~noisybolt.bolt.constraint.BOUND_DECADES` on one from bounds;
+      span of the price (``bolt.constraint.decades``, where not given:
+      :func:`~noisybolt.bolt.constraint.price_decades`: over decades where a spec is kept
+      by doing nothing and the scale is from bounds, else linear);
       and how long the multiplier waits for the world's returns to differ
       (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint.WAIT`);
     - for a user's world (a factory path) whose uint8 images are small integers,
@@ -222,10 +223,11 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
         if bolt.reward == "constrained":
             constraint = dict(bolt.constraint)
             if constraint.get("decades") is None:
-                # The price's span goes with the scale: a worst case from the bounds is
-                # searched down from; an exact scale is the right order already
-                # (BOUND_DECADES).
-                constraint["decades"] = 0.0 if choice.exact else BOUND_DECADES
+                # The price's span: over decades where a price could teach doing nothing
+                # (a spec kept by an episode without events) on a scale from bounds.
+                constraint["decades"] = price_decades(
+                    exact=choice.exact, kept_by_doing_nothing=_kept_by_doing_nothing(config)
+                )
             if constraint.get("wait") is None:
                 # A fresh run waits for the world's returns to differ (WAIT); a saved one
                 # (its scale named) keeps what it was: no wait where the key is absent.
@@ -239,6 +241,15 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
                 f"(the bound from its return range: {choice.bound:g})"
             )
     return config
+
+
+def _kept_by_doing_nothing(config: TrainConfig) -> bool:
+    """Whether an episode without events keeps one of the run's specs (its DFA accepts the
+    empty trace): then standing still complies with it, and a price can teach that."""
+    return any(
+        bool(dfa.accepting[dfa.initial_state])
+        for dfa in (compile_ltlf(str(spec["formula"])) for spec in config.bolt.specs)
+    )
 
 
 def compliance_scale_choice(config: TrainConfig) -> ScaleChoice:
