@@ -184,8 +184,11 @@ def test_the_cli_refuses_a_bad_budget_with_exit_2(tmp_path: Path, capsys) -> Non
     assert code == 2
     assert "cost_limit must be >= 0" in capsys.readouterr().err
     assert not out.exists()
-    code = main(
-        ["train", "--spec", "edge", "--cost-limit", "0.1", "--frames", "1024", "--out", str(out)]
-    )
-    assert code == 2
-    assert "needs --reward constrained" in capsys.readouterr().err
+    # a budget under the compliance scheme (given, or DQN's default) is refused
+    for scheme in (["--reward", "compliance"], ["--algo", "dqn"]):
+        code = main(
+            ["train", "--spec", "edge", *scheme, "--cost-limit", "0.1", "--frames", "1024",
+             "--out", str(out)]
+        )  # fmt: skip
+        assert code == 2
+        assert "needs --reward constrained" in capsys.readouterr().err

@@ -62,10 +62,27 @@ def _lake_module(folder: Path, monkeypatch: pytest.MonkeyPatch, name: str, label
     return f"{name}:make"
 
 
-def test_compliance_is_the_default_with_a_scale_exact_on_the_gridworlds_product() -> None:
+def test_the_default_scheme_is_constrained_for_ppo_and_a2c_and_compliance_for_dqn() -> None:
+    built = {
+        algo: TrainConfig.build({"bolt.specs": ["edge"], "algorithm.name": algo}).bolt.reward
+        for algo in ("ppo", "a2c", "dqn")
+    }
+    assert built == {"ppo": "constrained", "a2c": "constrained", "dqn": "compliance"}
+    assert TrainConfig.create(specs=["edge"]).bolt.reward == "constrained"
+    # a scheme given is kept, whatever the learner
+    given = TrainConfig.build({"bolt.specs": ["edge"], "bolt.reward": "compliance"})
+    assert given.bolt.reward == "compliance"
+    # a budget given without a scheme is the default's (PPO: constrained)
+    budget = TrainConfig.build({"bolt.specs": ["edge"], "bolt.constraint.cost_limit": 0.1})
+    assert budget.bolt.cost_limit.cost_limit == 0.1
+    # a saved run keeps its scheme: the default changes no config that names one
+    assert TrainConfig.from_dict(given.to_dict()).bolt.reward == "compliance"
+
+
+def test_the_compliance_scale_is_exact_on_the_gridworlds_product() -> None:
     from noisybolt.runs.resolution import compliance_scale_choice
 
-    config = _config(["avoid_top_right"])
+    config = _config(["avoid_top_right"], reward="compliance")
     bounds = world_return_bounds(make_world("gridworld"))
     assert bounds is not None and (bounds.low, bounds.high) == (-1.5 * 144, 98.5)
     # The bound from the world's returns caps it; the product gives far less.
@@ -77,7 +94,7 @@ def test_compliance_is_the_default_with_a_scale_exact_on_the_gridworlds_product(
     )
     (spec,) = config.spec_objects()
     assert spec.terminal_reward == config.bolt.reward_scale and spec.reward_timing == "on_change"
-    at_end = _config(["avoid_top_right"], pay_on_change=False)
+    at_end = _config(["avoid_top_right"], reward="compliance", pay_on_change=False)
     assert at_end.spec_objects()[0].reward_timing == "episode_end"
     paper = _config(["avoid_top_right"], reward="paper", pay_on_change=True)
     assert paper.spec_objects()[0].terminal_reward == 1.0
@@ -249,7 +266,7 @@ def test_cli_reward_flags_and_spec_set(tmp_path: Path, capsys: pytest.CaptureFix
     printed = capsys.readouterr().out
     assert "compliance scale computed on the gridworld's product" in printed
     saved = json.loads((out / "config.json").read_text())
-    assert saved["bolt"]["reward"] == "compliance"
+    assert saved["bolt"]["reward"] == "constrained"  # PPO's default scheme
     assert saved["bolt"]["specs"][0]["reward_scale"] == 12
     assert main(["train", "--spec", "edge", "--reward", "bonus", "--out", str(tmp_path / "x")]) == 2
     assert (
@@ -319,7 +336,7 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
     common = {"world": "bare_lake:make", "specs": ["F(at_goal)"]}
     with pytest.warns(EstimatedBoundsWarning, match=r"declare the bounds.*--reward-scale"):
         config = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
-    assert config.bolt.reward == "compliance" and config.bolt.reward_scale == pytest.approx(1.65)
+    assert config.bolt.reward == "constrained" and config.bolt.reward_scale == pytest.approx(1.65)
     # The estimate is seeded: the same scale again; a given scale is taken as it is.
     with pytest.warns(EstimatedBoundsWarning):
         again = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))

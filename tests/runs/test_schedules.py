@@ -62,6 +62,7 @@ def _config(algo: str, frames: int, overrides: dict[str, object], checkpoint_fre
             eval_episodes=2,
             checkpoint_freq=checkpoint_freq,
             progress_bar=False,
+            keep_best=False,  # model.zip: the last model, whose rate the tests read
             overrides=overrides,
         )
     )

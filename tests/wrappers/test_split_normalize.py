@@ -231,7 +231,11 @@ def test_shares_that_do_not_add_up_to_the_reward_are_refused() -> None:
 
 @pytest.mark.parametrize(("value", "said"), [("split", True), (True, False)])
 def test_the_run_says_when_the_scale_no_longer_matters(value: Any, said: bool) -> None:
-    config = resolve(TrainConfig.create(specs=["edge"], overrides={"normalize_reward": value}))
+    config = resolve(
+        TrainConfig.create(
+            specs=["edge"], reward="compliance", overrides={"normalize_reward": value}
+        )
+    )
     assert ("the scale does not change what it learns" in describe_scheme(config)) is said
 
 
@@ -262,7 +266,9 @@ def test_bolt_weight_needs_split_and_a_positive_number(
     overrides: dict[str, Any], error: str | None
 ) -> None:
     if error is None:
-        config = resolve(TrainConfig.create(specs=["edge"], overrides=overrides))
+        config = resolve(
+            TrainConfig.create(specs=["edge"], reward="compliance", overrides=overrides)
+        )
         assert "the bolt's weighed 5 times the world's" in describe_scheme(config)
     else:
         with pytest.raises(ConfigError, match=error):

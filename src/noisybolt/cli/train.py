@@ -125,13 +125,13 @@ def register(subparsers: Any) -> None:
     )
     flag(
         "--reward",
-        help="reward scheme: compliance (default: complying is worth more than any gap "
+        help="reward scheme: constrained (the default for PPO and A2C: the world's return "
+        "subject to a cost budget, --cost-limit: the specs paid as under compliance at a "
+        "learned multiplier from 0 to 1 that rises only while episodes leave specs "
+        "unsatisfied); compliance (DQN's default: complying is worth more than any gap "
         "between two episodes' returns, paid as the spec comes to accept and taken back if "
         "it stops, with progress shaping; --set bolt.pay_on_change=false pays at the "
         "episode's end) "
-        "; constrained (the world's return subject to a cost budget, --cost-limit: the "
-        "specs paid as under compliance at a learned multiplier from 0 to 1 that rises "
-        "only while episodes leave specs unsatisfied; PPO and A2C) "
         "or paper (each spec's terminal_reward every accepting step: Algorithm 1 as "
         "reproduced)",
     )
