@@ -94,6 +94,10 @@ class Run:
     def train_args(self) -> list[str]:
         """``noisybolt train``'s arguments, all but ``--out``."""
         args = ["--world", WORLD, "--algo", self.algo, *self.specs()]
+        # The scheme named: the plan was made under compliance, DQN's scheme still, and
+        # PPO's default now being constrained would make the two learners' runs differ in
+        # more than the learner.
+        args += ["--reward", "compliance"]
         args += ["--detector", "classifier", "--noise", NOISE, "--tracking", "belief"]
         if not self.bolted:
             args.append("--unbolted")
