@@ -372,16 +372,30 @@ def test_a_bad_price_is_refused(price: object) -> None:
 
 def test_a_price_over_decades_spans_them_geometrically_from_the_pid_output() -> None:
     limit = CostLimit(decades=3)
-    # by hand: 10 ** (-3 * (1 - u)); none at u = 0, the whole scale at u = 1
+    # by hand: (10 ** (3u) - 1) / 999; none at u = 0, the whole scale at u = 1
     assert limit.price(0.0) == 0.0
     assert limit.price(1.0) == 1.0
-    assert limit.price(2 / 3) == pytest.approx(0.1)
-    assert limit.price(1 / 3) == pytest.approx(0.01)
+    assert limit.price(2 / 3) == pytest.approx(99 / 999)
+    assert limit.price(1 / 3) == pytest.approx(9 / 999)
+    # a cost just above the budget is priced just above 0 (continuous at 0)
+    assert 0 < limit.price(1e-6) < 1e-7
     # the multiplier applies it to what its PID gives: a cost 0.5 above a fixed budget
     lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, lr=0.5, kp=0.0, anneal=0.0, decades=3))
-    assert lagrange.update(0.5) == pytest.approx(10 ** (-3 * (1 - 0.25)))
-    # the linear price (decades 0) is the PID's output itself
+    assert lagrange.update(0.5) == pytest.approx((10**0.75 - 1) / 999)
+    # the linear price (decades 0) is the PID's output itself, and few decades are near it
     assert CostLimit().price(0.4) == 0.4
+    assert CostLimit(decades=0.01).price(0.4) == pytest.approx(0.4, abs=0.01)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(0.0, 6.0), st.floats(0.0, 1.0), st.floats(0.0, 1.0))
+def test_the_price_rises_with_the_pid_output_from_0_to_the_scale(
+    decades: float, u: float, v: float
+) -> None:
+    limit = CostLimit(decades=decades)
+    lo, hi = sorted((u, v))
+    assert 0.0 <= limit.price(lo) <= limit.price(hi) <= 1.0 + 1e-12
+    assert limit.price(0.0) == 0.0 and limit.price(1.0) == pytest.approx(1.0)
 
 
 def test_the_span_guards_where_doing_nothing_complies_on_a_bound() -> None:

@@ -413,7 +413,9 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
         TrainConfig.create(world=world, specs=["F(at_goal)", "G(!at_goal)"], reward="constrained")
     )
     assert bound.bolt.constraint["decades"] == BOUND_DECADES
-    assert bound.bolt.cost_limit.price(0.5) == pytest.approx(10 ** (-BOUND_DECADES / 2))
+    assert bound.bolt.cost_limit.price(0.5) == pytest.approx(
+        (10 ** (BOUND_DECADES / 2) - 1) / (10**BOUND_DECADES - 1)
+    )
     # Saved and read back, it stays: a resumed run prices as it started.
     assert TrainConfig.from_dict(bound.to_dict()).bolt.constraint["decades"] == BOUND_DECADES
     # ... and where every spec asks for something (F(at_goal): standing still breaks it

@@ -138,6 +138,8 @@ __all__ = [
 #: price never did (the route had been learnt by the time the price mattered).
 BOUND_DECADES = 3.0
 
+LN10 = math.log(10.0)
+
 
 def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
     """The span of the price (:attr:`CostLimit.decades`) that
@@ -229,10 +231,15 @@ class CostLimit:
             from the first measured cost to ``cost_limit`` (0: ``cost_limit`` from the
             start).
         decades: how many powers of ten the price spans (``>= 0``): the PID's output
-            ``u`` in ``[0, 1]`` is priced ``10 ** (-decades * (1 - u))`` (0 at ``u = 0``),
-            so that the price searches the order of magnitude a violation must cost, from
-            ``10 ** -decades`` of the compliance scale up to the scale. 0: the price is
-            ``u`` itself, linear. None (the default): chosen by
+            ``u`` in ``[0, 1]`` is priced ``(10 ** (decades * u) - 1) / (10 ** decades -
+            1)`` of the compliance scale, so that equal steps of ``u`` multiply the price
+            by about equal factors, searching the order of magnitude a violation must
+            cost, and a cost just above the budget is priced just above 0 (continuous at
+            0; ``10 ** (-decades * (1 - u))``, which jumps to a thousandth of the scale
+            for any ``u > 0``, kept FrozenLake's seed 1 from its compliant route, goal
+            5 %, and Acrobot's ``G(!fast)`` at the control's compliance: with this form
+            11 of the world suite's 12 PPO trials of a ``G`` spec keep the task, against
+            9). 0: the price is ``u`` itself, linear. None (the default): chosen by
             :func:`~noisybolt.runs.resolve` (:func:`price_decades`); a multiplier given
             None prices linearly.
         wait: the longest share of the run's frames, in ``[0, 1]``, that the multiplier
@@ -293,16 +300,17 @@ class CostLimit:
         (see ``decades``).
 
         Example:
-            >>> CostLimit(decades=3).price(0.5), CostLimit(decades=3).price(0.0)
-            (0.03162277660168379, 0.0)
+            >>> [round(CostLimit(decades=3).price(u), 4) for u in (0.0, 0.01, 0.5, 1.0)]
+            [0.0, 0.0001, 0.0307, 1.0]
             >>> CostLimit().price(0.5)  # linear
             0.5
         """
         if u <= 0:
             return 0.0
+        u = min(u, 1.0)
         if not self.decades:
-            return min(u, 1.0)
-        return float(10.0 ** (-self.decades * (1.0 - min(u, 1.0))))
+            return u
+        return float(math.expm1(self.decades * u * LN10) / math.expm1(self.decades * LN10))
 
     def budget(self, progress: float, first_cost: float | None) -> float:
         """The budget at ``progress`` (frames trained / the run's frames) for a run whose

@@ -287,7 +287,7 @@ class TrainConfig:
         if "bolt.reward" not in changes and algo in ON_POLICY:
             # The default scheme: compliance as a constraint for the on-policy learners,
             # which learn its price between rollouts (DQN keeps `compliance`: its replay
-            # buffer would mix prices). Measured on the world suite (task kept 23/30
+            # buffer would mix prices). Measured on the world suite (task kept 25/30
             # against 7/17 for `compliance`) and the gridworld's spec suite (PPO 23/24,
             # A2C 22/24 followed; `compliance` 22/24 and 24/24): benchmarks/README.md.
             data["bolt"]["reward"] = "constrained"
