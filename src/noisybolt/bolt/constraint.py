@@ -149,8 +149,9 @@ def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
     happen only where doing nothing complies, with a spec that an episode without events
     keeps (its DFA accepts the empty trace: ``G(!in_lava)``, ``G(!cliff_row)``). There,
     on a scale from the world's return bounds (a worst case), the price spans
-    :data:`BOUND_DECADES`: a violation is first priced at a thousandth of the bound and
-    the price rises by powers of ten only as far as the cost demands. Where every spec
+    :data:`BOUND_DECADES`: a violation is first priced near 0, a thousandth of the bound
+    a third of the way up, and the price rises by powers of ten only as far as the cost
+    demands. Where every spec
     asks the agent to do something (``F(bottom_left)``, ``!right_col U bottom_left``),
     standing still breaks them as surely as the direct route does, so a price cannot
     teach it; a detour must be priced before the policy settles on the direct route, and
