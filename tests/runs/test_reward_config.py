@@ -452,3 +452,39 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
         TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained", reward_scale=5)
     )
     assert "decades" not in scaled.bolt.constraint
+
+
+def test_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> None:
+    from noisybolt.bolt.constraint import ANNEAL, LagrangeMultiplier
+
+    # G(!top_right_corner) accepts the empty trace: early breaks priced before the task
+    # is found could teach standing still, so the budget falls over half the run ...
+    safety = _config(["G(!top_right_corner)"], reward="constrained")
+    assert safety.bolt.constraint["anneal"] == ANNEAL == 0.5
+    assert safety.bolt.cost_limit.budget(0.25, first_cost=1.0) == pytest.approx(0.02 + 0.98 * 0.5)
+    # ... and with an F spec beside it, still (standing still keeps the G spec).
+    mixed = _config(["G(!top_right_corner)", "F(bottom_left_corner)"], reward="constrained")
+    assert mixed.bolt.constraint["anneal"] == ANNEAL
+    # Where every spec asks for something, the budget is the limit from the first rollout:
+    # a cost of 1 is priced in full at once (kp = 1), before the direct route settles.
+    detour = _config(["F(top_right_corner) & F(bottom_left_corner)"], reward="constrained")
+    assert detour.bolt.constraint["anneal"] == 0.0
+    assert detour.bolt.cost_limit.budget(0.0, first_cost=1.0) == 0.02
+    lagrange = LagrangeMultiplier(detour.bolt.cost_limit)
+    lagrange.update(1.0, progress=0.0)  # the first cost measured
+    assert lagrange.update(1.0, progress=0.05) == 1.0
+    # Saved and read back, it stays; one given is kept, 0.5 on a detour included.
+    assert TrainConfig.from_dict(detour.to_dict()).bolt.constraint["anneal"] == 0.0
+    given = resolve(
+        TrainConfig.build(
+            {
+                "bolt.specs": ["F(top_right_corner)"],
+                "bolt.reward": "constrained",
+                "bolt.constraint": {"anneal": 0.5},
+            }
+        )
+    )
+    assert given.bolt.constraint["anneal"] == 0.5
+    # A run saved before the choice existed names its anneal (the section filled in the
+    # default then), and a resolved config is resolved again unchanged.
+    assert resolve(detour) is detour

@@ -42,6 +42,12 @@ agree::
 
     d(t) = cost_limit + (J_c(first) - cost_limit) * max(0, 1 - t / (anneal * frames))
 
+The anneal is for specs that standing still keeps (their DFA accepts the empty trace:
+``G(!in_lava)``); where every spec asks the agent to do something (``F(x)``, ``!a U b``),
+standing still breaks them too, a price cannot teach it, and the budget is the limit from
+the first rollout (:func:`budget_anneal`): annealed, it lets the direct route settle
+before the detour is priced, and a settled policy does not find the detour.
+
 **The multiplier waits for the task.** While every episode has returned the same (a
 sparse goal not found yet: FrozenLake, a lava room, Acrobot), the world gives the learner
 nothing to trade compliance against, and a price of any size is all it sees: reward
@@ -118,9 +124,11 @@ from noisybolt.errors import ConfigError
 __all__ = [
     "BOUND_DECADES",
     "CONSTRAINT_KEYS",
+    "ANNEAL",
     "WAIT",
     "CostLimit",
     "LagrangeMultiplier",
+    "budget_anneal",
     "episode_costs",
     "price_decades",
 ]
@@ -177,6 +185,41 @@ def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
     return BOUND_DECADES if kept_by_doing_nothing and not exact else 0.0
 
 
+#: The share of the run over which the budget falls from the first measured cost to the
+#: limit (:attr:`CostLimit.anneal`) where a spec is kept by doing nothing: see
+#: :func:`budget_anneal`.
+ANNEAL = 0.5
+
+
+def budget_anneal(*, kept_by_doing_nothing: bool) -> float:
+    """The budget's anneal (:attr:`CostLimit.anneal`) that :func:`~noisybolt.runs.resolve`
+    gives a run: :data:`ANNEAL` where some spec is kept by an episode without events (its
+    DFA accepts the empty trace), else 0, the budget at the limit from the first rollout.
+
+    The anneal guards against the failure the decades guard against: early breaks of a
+    spec that standing still keeps (a random policy walks into the lava) priced before
+    the task is found teach standing still. Where every spec asks the agent to do
+    something, standing still breaks them too, so the price cannot teach it, and an
+    annealed budget only delays the price until the direct route has settled, after
+    which a detour is no longer found. Measured on the gridworld with
+    ``F(top_right_corner) & F(bottom_left_corner)`` (a two-corner detour no suite holds;
+    PPO, ground truth, 60k frames, seeds 0-2): with the budget annealed over half the
+    run the price reached 0.4 of the scale at 20k frames, by when every seed went
+    straight to the goal in 7 steps, and no seed ever complied (compliance 0 % in every
+    evaluation); with the budget at the limit from the start (priced in full from the
+    first rollout), seeds 1 and 2 complied and reached the goal in every episode from
+    40k and 30k frames, and the compliance scheme (priced from the start, no
+    multiplier) in all three.
+
+    Example:
+        >>> budget_anneal(kept_by_doing_nothing=True)
+        0.5
+        >>> budget_anneal(kept_by_doing_nothing=False)
+        0.0
+    """
+    return ANNEAL if kept_by_doing_nothing else 0.0
+
+
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
 CONSTRAINT_KEYS: tuple[str, ...] = (
     "cost_limit",
@@ -230,7 +273,10 @@ class CostLimit:
             learned first, compliance is asked as the cost is measured).
         anneal: the share of the run's frames, in ``[0, 1]``, over which the budget falls
             from the first measured cost to ``cost_limit`` (0: ``cost_limit`` from the
-            start).
+            start). None (the default): chosen by :func:`~noisybolt.runs.resolve`
+            (:func:`budget_anneal`: :data:`ANNEAL` where a spec is kept by doing
+            nothing, else 0); a multiplier given None anneals over :data:`ANNEAL`, as
+            every run did before the choice existed.
         decades: how many powers of ten the price spans (``>= 0``): the PID's output
             ``u`` in ``[0, 1]`` is priced ``(10 ** (decades * u) - 1) / (10 ** decades -
             1)`` of the compliance scale, so that equal steps of ``u`` multiply the price
@@ -268,13 +314,13 @@ class CostLimit:
     kp: float = 1.0
     kd: float = 0.0
     initial: float = 0.0
-    anneal: float = 0.5
+    anneal: float | None = None
     decades: float | None = None
     wait: float | None = None
 
     def __post_init__(self) -> None:
         for name in CONSTRAINT_KEYS:
-            if name in ("decades", "wait") and getattr(self, name) is None:
+            if name in ("anneal", "decades", "wait") and getattr(self, name) is None:
                 continue
             object.__setattr__(self, name, _number(name, getattr(self, name)))
         if self.cost_limit < 0:
@@ -321,9 +367,10 @@ class CostLimit:
             >>> CostLimit(cost_limit=0.1, anneal=0.5).budget(0.25, first_cost=0.9)
             0.5
         """
-        if first_cost is None or self.anneal == 0 or first_cost <= self.cost_limit:
+        anneal = ANNEAL if self.anneal is None else self.anneal
+        if first_cost is None or anneal == 0 or first_cost <= self.cost_limit:
             return self.cost_limit
-        left = max(0.0, 1.0 - progress / self.anneal)
+        left = max(0.0, 1.0 - progress / anneal)
         return self.cost_limit + (first_cost - self.cost_limit) * left
 
     @classmethod

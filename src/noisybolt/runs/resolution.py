@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
-from noisybolt.bolt.constraint import WAIT, price_decades
+from noisybolt.bolt.constraint import WAIT, budget_anneal, price_decades
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -178,7 +178,10 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it the
       span of the price (``bolt.constraint.decades``, where not given:
       :func:`~noisybolt.bolt.constraint.price_decades`: over decades where a spec is kept
-      by doing nothing and the scale is from bounds, else linear);
+      by doing nothing and the scale is from bounds, else linear), and the budget's anneal
+      (``bolt.constraint.anneal``, where not given:
+      :func:`~noisybolt.bolt.constraint.budget_anneal`: over half the run where a spec is
+      kept by doing nothing, else none, the budget at the limit from the first rollout);
       and how long the multiplier waits for the world's returns to differ
       (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint.WAIT`);
     - for a user's world (a factory path) whose uint8 images are small integers,
@@ -222,12 +225,15 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
         bolt = replace(config.bolt, reward_scale=choice.scale)
         if bolt.reward == "constrained":
             constraint = dict(bolt.constraint)
+            kept = _kept_by_doing_nothing(config)
             if constraint.get("decades") is None:
                 # The price's span: over decades where a price could teach doing nothing
                 # (a spec kept by an episode without events) on a scale from bounds.
-                constraint["decades"] = price_decades(
-                    exact=choice.exact, kept_by_doing_nothing=_kept_by_doing_nothing(config)
-                )
+                constraint["decades"] = price_decades(exact=choice.exact, kept_by_doing_nothing=kept)
+            if constraint.get("anneal") is None:
+                # The budget's anneal: only where a price could teach doing nothing; a
+                # detour must be priced before the direct route settles.
+                constraint["anneal"] = budget_anneal(kept_by_doing_nothing=kept)
             if constraint.get("wait") is None:
                 # A fresh run waits for the world's returns to differ (WAIT); a saved one
                 # (its scale named) keeps what it was: no wait where the key is absent.

@@ -231,11 +231,12 @@ class BoltConfig:
             # saved run keeps its values if the defaults change).
             limit = CostLimit.from_mapping(self.constraint)
             values = asdict(limit)
-            for key in ("decades", "wait"):
+            for key in ("anneal", "decades", "wait"):
                 if values[key] is None:
                     # Not given: resolve() chooses it for a fresh run (with the scale); a
-                    # run saved before the setting existed has none, and prices linearly
-                    # and learns from the first rollout, as it did. A 0 given is kept.
+                    # run saved before the setting existed has none, and prices linearly,
+                    # learns from the first rollout and anneals over ANNEAL, as it did.
+                    # A 0 given is kept.
                     del values[key]
             object.__setattr__(self, "constraint", freeze(values))
         elif self.constraint:
