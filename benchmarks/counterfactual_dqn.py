@@ -13,6 +13,9 @@ and reaches the goal (``evaluation.stop_after=1``): what is measured is N_frames
 Resumable: a trial whose ``summary.json`` exists is read, not trained again.
 
     .venv/bin/python benchmarks/counterfactual_dqn.py --seeds 1 --arms plain,counterfactual
+
+``--set PATH=VALUE`` sets a config path in both arms (``--set bolt.shaping=false``: the
+compliance scheme without its progress shaping, where the bolt pays only on acceptance).
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ import sys
 import time
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -47,7 +52,7 @@ def run_trial(spec: Any, seed: int, arm: str, args: argparse.Namespace) -> dict[
         if out.exists():  # an unfinished trial: start it again
             shutil.rmtree(out)
         config = spec_suite.trial_config(spec, "dqn", seed, "compliance", args)
-        config = config.override({"evaluation.stop_after": 1, **ARMS[arm]})
+        config = config.override({"evaluation.stop_after": 1, **args.settings, **ARMS[arm]})
         train(config, out, argv=[sys.executable, *sys.argv], log=lambda _: None)
     data = json.loads(summary.read_text())
     final = data["final"]
@@ -76,7 +81,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--detector", default="classifier")
     parser.add_argument("--suite-seed", type=int, default=0)
     parser.add_argument("--out", default="runs/counterfactual_dqn")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PATH=VALUE",
+        help="a config path for both arms (e.g. bolt.shaping=false); repeat for several",
+    )
     args = parser.parse_args(argv)
+    args.settings = {}
+    for text in args.set:
+        path, sep, value = text.partition("=")
+        if not sep:
+            parser.error(f"--set takes PATH=VALUE, got {text!r}")
+        args.settings[path] = yaml.safe_load(value)
     args.frames = args.dqn_frames  # trial_config reads both budgets
 
     from noisybolt.experiments.spec_families import generate_spec_suite
