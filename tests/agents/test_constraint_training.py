@@ -142,7 +142,7 @@ def test_the_multiplier_is_learned_checkpointed_and_resumed(tmp_path: Path) -> N
     assert config["bolt"]["reward"] == "constrained"
     assert config["bolt"]["constraint"] == {
         "cost_limit": 0.02, "lr": 0.1, "kp": 1.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5,
-        "decades": 0.0, "wait": 0.5,
+        "decades": 0.0, "wait": 0.5, "start": 0.0,
     }  # fmt: skip
     saved = _multiplier(run)
     # 8 games x 64 steps a rollout: 4 rollouts; G(on_edge) is broken by random play at once

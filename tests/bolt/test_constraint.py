@@ -40,6 +40,9 @@ from noisybolt.errors import ConfigError
         ({"wait": 1.5}, "wait"),
         ({"wait": -0.1}, "wait"),
         ({"wait": "half"}, "wait"),
+        ({"start": 1.5}, "start"),
+        ({"start": -0.5}, "start"),
+        ({"start": math.nan}, "start"),
         ({"cost_limit": "0.1"}, "cost_limit"),
         ({"lr": True}, "lr"),
     ],
@@ -53,6 +56,36 @@ def test_unknown_constraint_keys_are_named() -> None:
     with pytest.raises(ConfigError, match="budget"):
         CostLimit.from_mapping({"budget": 0.1})
     assert CostLimit.from_mapping({"cost_limit": 0.2}).cost_limit == 0.2
+
+
+# ------------------------------------------------------------------ the price it starts from
+
+
+def test_the_integral_starts_at_start_from_the_first_cost_measured_awake() -> None:
+    # Linear price, no anneal, kp 1, lr 0.1 per 1,000 frames, the limit 0.02.
+    limit = CostLimit(cost_limit=0.02, lr=0.1, kp=1.0, anneal=0.0, start=1.0)
+    lagrange = LagrangeMultiplier(limit)
+    assert lagrange.value == 0.0  # the first rollout is paid at `initial`
+    # A cost of 0.6 measured over 1,000 frames: the integral starts at 1, then learns:
+    # 1 + 0.1 * (0.6 - 0.02) clipped to 1; the price kp * 0.58 + 1, clipped to 1.
+    assert lagrange.update(0.6, frames=1000, progress=0.0) == 1.0
+    # Without `start` the same cost is priced by the proportional term and an integral
+    # from 0: 0.58 + 0.1 * 0.58 = 0.638 (the price that falls as the agent complies).
+    plain = LagrangeMultiplier(CostLimit(cost_limit=0.02, lr=0.1, kp=1.0, anneal=0.0))
+    assert plain.update(0.6, frames=1000, progress=0.0) == pytest.approx(0.638)
+    # Complying (cost 0, below the limit) eases the price from 1 by the integral's rate
+    # and the proportional term: 1 - 0.1 * 0.02 * 10 - 0.02 = 0.96 after 10,000 frames.
+    assert lagrange.update(0.0, frames=10_000, progress=0.5) == pytest.approx(0.96)
+    # A waiting multiplier keeps `initial` and starts from `start` only once awake.
+    waiting = LagrangeMultiplier(
+        CostLimit(cost_limit=0.02, anneal=0.0, start=1.0, wait=0.5)
+    )
+    assert waiting.update(1.0, progress=0.1, returns=[0.0, 0.0]) == 0.0
+    assert waiting.waiting
+    assert waiting.update(1.0, progress=0.2, returns=[0.0, 0.9]) == 1.0
+    # A resumed multiplier goes on from its saved integral, not from `start` again.
+    resumed = LagrangeMultiplier(limit, state=lagrange.state_dict())
+    assert resumed.update(0.0, frames=10_000, progress=0.6) == pytest.approx(0.94)
 
 
 # ------------------------------------------------------------------ the wait for the task

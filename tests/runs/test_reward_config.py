@@ -488,3 +488,33 @@ def test_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> 
     # A run saved before the choice existed names its anneal (the section filled in the
     # default then), and a resolved config is resolved again unchanged.
     assert resolve(detour) is detour
+
+
+def test_the_price_starts_in_full_only_where_no_spec_is_kept_by_doing_nothing() -> None:
+    from noisybolt.bolt.constraint import LagrangeMultiplier
+
+    # Every spec asks for something: the integral starts at 1 from the first cost.
+    detour = _config(["F(top_right_corner) & F(bottom_left_corner)"], reward="constrained")
+    assert detour.bolt.constraint["start"] == 1.0
+    lagrange = LagrangeMultiplier(detour.bolt.cost_limit)
+    assert lagrange.value == 0.0
+    assert lagrange.update(0.5, frames=256, progress=0.0) == 1.0
+    # A spec that standing still keeps: from `initial` (0), priced as the cost demands.
+    safety = _config(["G(!top_right_corner)"], reward="constrained")
+    assert safety.bolt.constraint["start"] == 0.0
+    assert LagrangeMultiplier(safety.bolt.cost_limit).update(0.5, frames=256) < 0.5
+    # One given is kept; a saved run without the key goes on from `initial`, as it did.
+    given = resolve(
+        TrainConfig.build(
+            {
+                "bolt.specs": ["F(top_right_corner)"],
+                "bolt.reward": "constrained",
+                "bolt.constraint": {"start": 0.3},
+            }
+        )
+    )
+    assert given.bolt.constraint["start"] == 0.3
+    saved = detour.to_dict()
+    del saved["bolt"]["constraint"]["start"]
+    assert "start" not in TrainConfig.from_dict(saved).bolt.constraint
+    assert TrainConfig.from_dict(saved).bolt.cost_limit.start is None

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
-from noisybolt.bolt.constraint import WAIT, budget_anneal, price_decades
+from noisybolt.bolt.constraint import WAIT, budget_anneal, price_decades, start_price
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -234,6 +234,12 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
                 # The budget's anneal: only where a price could teach doing nothing; a
                 # detour must be priced before the direct route settles.
                 constraint["anneal"] = budget_anneal(kept_by_doing_nothing=kept)
+            if constraint.get("start") is None:
+                # The price asked once the multiplier learns: in full where no spec is
+                # kept by doing nothing (a detour priced as the agent first meets it).
+                constraint["start"] = start_price(
+                    kept_by_doing_nothing=kept, initial=float(constraint.get("initial", 0.0))
+                )
             if constraint.get("wait") is None:
                 # A fresh run waits for the world's returns to differ (WAIT); a saved one
                 # (its scale named) keeps what it was: no wait where the key is absent.

@@ -30,6 +30,7 @@ from noisybolt.bolt import (
     Thresholds,
 )
 from noisybolt.bolt.belief import check_tracking
+from noisybolt.bolt.constraint import OPTIONAL_KEYS
 from noisybolt.bolt.settings import PAPER
 from noisybolt.envs import DEFAULT_WORLD, check_world
 from noisybolt.errors import ConfigError, UnknownNameError
@@ -231,7 +232,7 @@ class BoltConfig:
             # saved run keeps its values if the defaults change).
             limit = CostLimit.from_mapping(self.constraint)
             values = asdict(limit)
-            for key in ("anneal", "decades", "wait"):
+            for key in OPTIONAL_KEYS:
                 if values[key] is None:
                     # Not given: resolve() chooses it for a fresh run (with the scale); a
                     # run saved before the setting existed has none, and prices linearly,
