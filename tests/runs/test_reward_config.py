@@ -490,10 +490,18 @@ def test_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> 
     assert resolve(detour) is detour
 
 
-def test_the_price_starts_in_full_only_where_no_spec_is_kept_by_doing_nothing() -> None:
+def test_the_price_starts_in_full_only_on_an_exact_scale_where_no_spec_is_kept_by_doing_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from noisybolt.bolt.constraint import LagrangeMultiplier
 
-    # Every spec asks for something: the integral starts at 1 from the first cost.
+    # A scale from the world's return bounds is a worst case: asked in full at once it
+    # would drown the world's reward, so the integral goes on from `initial` there.
+    world = _lake_module(tmp_path, monkeypatch, "bounded_lake_start", "return_bounds=(0, 1)")
+    bound = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
+    assert bound.bolt.constraint["start"] == 0.0
+    # The gridworld's scale is exact; every spec asks for something: the integral starts
+    # at 1 from the first cost.
     detour = _config(["F(top_right_corner) & F(bottom_left_corner)"], reward="constrained")
     assert detour.bolt.constraint["start"] == 1.0
     lagrange = LagrangeMultiplier(detour.bolt.cost_limit)

@@ -222,10 +222,11 @@ def budget_anneal(*, kept_by_doing_nothing: bool) -> float:
     return ANNEAL if kept_by_doing_nothing else 0.0
 
 
-def start_price(*, kept_by_doing_nothing: bool, initial: float = 0.0) -> float:
+def start_price(*, exact: bool, kept_by_doing_nothing: bool, initial: float = 0.0) -> float:
     """The integral the multiplier starts learning from (:attr:`CostLimit.start`) that
-    :func:`~noisybolt.runs.resolve` gives a run: ``initial`` where some spec is kept by an
-    episode without events, else 1, the compliance scheme's price.
+    :func:`~noisybolt.runs.resolve` gives a run: 1, the compliance scheme's price, where
+    no spec is kept by an episode without events and the scale is exact; else
+    ``initial``.
 
     Where every spec asks for something, a price cannot teach standing still, and the
     agent's first thousands of frames are when a random policy meets the detour most: a
@@ -233,18 +234,26 @@ def start_price(*, kept_by_doing_nothing: bool, initial: float = 0.0) -> float:
     0.6 at 0.6) pays less for the detour exactly as the agent begins to take it. Measured
     on the gridworld (PPO, classifier bolt, 60k frames, seed 0) over six liveness detours
     no suite holds, with the budget at the limit from the start: the integral from 0
-    (the price 0.76 at 1k frames, 0.81 at 5k while the cost fell to 0.6) complied with 3;
-    from 1 (the price 1 from the first update), as the compliance scheme, 6. The first
-    rollout is still paid at ``initial`` (the multiplier learns from a measured cost), and
-    a world whose returns do not differ yet keeps it there (``wait``).
+    (the price 0.76 at 1k frames, 0.81 at 5k while the cost fell to 0.6) complied with 3
+    (see ``benchmarks/README.md`` for the count from 1), as the compliance scheme did
+    with 5. But the full price is asked at once only where it is known to be just enough:
+    an exact scale (the return gap on a tabular product). A scale from the world's return
+    bounds is a worst case, and asked in full it drowns the world's reward: CliffWalking's
+    ``F(top_row)`` (scale 2,940; PPO seed 0, 300k frames) priced in full from the first
+    update complied and stood on the top row to the time limit (goal 0 %, return -100);
+    from 0 it complied and reached the goal in every episode (return -17). The first
+    rollout is paid at ``initial`` (the multiplier learns from a measured cost), and a
+    world whose returns do not differ yet keeps it there (``wait``).
 
     Example:
-        >>> start_price(kept_by_doing_nothing=False)
+        >>> start_price(exact=True, kept_by_doing_nothing=False)
         1.0
-        >>> start_price(kept_by_doing_nothing=True)
+        >>> start_price(exact=False, kept_by_doing_nothing=False)
+        0.0
+        >>> start_price(exact=True, kept_by_doing_nothing=True)
         0.0
     """
-    return float(initial) if kept_by_doing_nothing else 1.0
+    return 1.0 if exact and not kept_by_doing_nothing else float(initial)
 
 
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
@@ -337,9 +346,9 @@ class CostLimit:
         start: the integral (the price asked, in ``[0, 1]``) from the first cost measured
             once awake, until costs below the budget ease it. None (the default): the
             integral goes on from ``initial``. :func:`~noisybolt.runs.resolve` gives 1
-            where no spec is kept by doing nothing (:func:`start_price`: a detour asked
-            for in full from the first measured cost, as the compliance scheme asks it),
-            else ``initial``.
+            where no spec is kept by doing nothing and the scale is exact
+            (:func:`start_price`: a detour asked for in full from the first measured
+            cost, as the compliance scheme asks it), else ``initial``.
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a

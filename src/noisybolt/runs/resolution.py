@@ -236,9 +236,12 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
                 constraint["anneal"] = budget_anneal(kept_by_doing_nothing=kept)
             if constraint.get("start") is None:
                 # The price asked once the multiplier learns: in full where no spec is
-                # kept by doing nothing (a detour priced as the agent first meets it).
+                # kept by doing nothing and the scale is exact (a detour priced as the
+                # agent first meets it, at a price known to be just enough).
                 constraint["start"] = start_price(
-                    kept_by_doing_nothing=kept, initial=float(constraint.get("initial", 0.0))
+                    exact=choice.exact,
+                    kept_by_doing_nothing=kept,
+                    initial=float(constraint.get("initial", 0.0)),
                 )
             if constraint.get("wait") is None:
                 # A fresh run waits for the world's returns to differ (WAIT); a saved one
