@@ -77,9 +77,7 @@ def test_the_integral_starts_at_start_from_the_first_cost_measured_awake() -> No
     # and the proportional term: 1 - 0.1 * 0.02 * 10 - 0.02 = 0.96 after 10,000 frames.
     assert lagrange.update(0.0, frames=10_000, progress=0.5) == pytest.approx(0.96)
     # A waiting multiplier keeps `initial` and starts from `start` only once awake.
-    waiting = LagrangeMultiplier(
-        CostLimit(cost_limit=0.02, anneal=0.0, start=1.0, wait=0.5)
-    )
+    waiting = LagrangeMultiplier(CostLimit(cost_limit=0.02, anneal=0.0, start=1.0, wait=0.5))
     assert waiting.update(1.0, progress=0.1, returns=[0.0, 0.0]) == 0.0
     assert waiting.waiting
     assert waiting.update(1.0, progress=0.2, returns=[0.0, 0.9]) == 1.0

@@ -454,7 +454,9 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
     assert "decades" not in scaled.bolt.constraint
 
 
-def test_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> None:
+def test_on_an_exact_scale_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> (
+    None
+):
     from noisybolt.bolt.constraint import ANNEAL, LagrangeMultiplier
 
     # G(!top_right_corner) accepts the empty trace: early breaks priced before the task
@@ -500,6 +502,8 @@ def test_the_price_starts_in_full_only_on_an_exact_scale_where_no_spec_is_kept_b
     world = _lake_module(tmp_path, monkeypatch, "bounded_lake_start", "return_bounds=(0, 1)")
     bound = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
     assert bound.bolt.constraint["start"] == 0.0
+    # ... and its budget is annealed, whatever the specs ask.
+    assert bound.bolt.constraint["anneal"] == 0.5
     # The gridworld's scale is exact; every spec asks for something: the integral starts
     # at 1 from the first cost.
     detour = _config(["F(top_right_corner) & F(bottom_left_corner)"], reward="constrained")

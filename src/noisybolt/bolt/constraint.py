@@ -42,11 +42,13 @@ agree::
 
     d(t) = cost_limit + (J_c(first) - cost_limit) * max(0, 1 - t / (anneal * frames))
 
-The anneal is for specs that standing still keeps (their DFA accepts the empty trace:
-``G(!in_lava)``); where every spec asks the agent to do something (``F(x)``, ``!a U b``),
-standing still breaks them too, a price cannot teach it, and the budget is the limit from
-the first rollout (:func:`budget_anneal`): annealed, it lets the direct route settle
-before the detour is priced, and a settled policy does not find the detour.
+Where every spec asks the agent to do something (``F(x)``, ``!a U b``) and the scale is
+exact (the gridworld's product), standing still breaks the specs too, a price cannot teach
+it, and the full price is known to be just enough: the budget is the limit from the first
+rollout and the price starts in full (:func:`budget_anneal`, :func:`start_price`), since
+annealed it lets the direct route settle before the detour is priced, and a settled
+policy does not find the detour. On a scale from bounds (a worst case) the budget is
+annealed whatever the specs.
 
 **The multiplier waits for the task.** While every episode has returned the same (a
 sparse goal not found yet: FrozenLake, a lava room, Acrobot), the world gives the learner
@@ -193,10 +195,11 @@ def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
 ANNEAL = 0.5
 
 
-def budget_anneal(*, kept_by_doing_nothing: bool) -> float:
+def budget_anneal(*, exact: bool, kept_by_doing_nothing: bool) -> float:
     """The budget's anneal (:attr:`CostLimit.anneal`) that :func:`~noisybolt.runs.resolve`
-    gives a run: :data:`ANNEAL` where some spec is kept by an episode without events (its
-    DFA accepts the empty trace), else 0, the budget at the limit from the first rollout.
+    gives a run: 0, the budget at the limit from the first rollout, where no spec is kept
+    by an episode without events (its DFA accepts the empty trace) and the scale is exact;
+    else :data:`ANNEAL`.
 
     The anneal guards against the failure the decades guard against: early breaks of a
     spec that standing still keeps (a random policy walks into the lava) priced before
@@ -211,15 +214,24 @@ def budget_anneal(*, kept_by_doing_nothing: bool) -> float:
     evaluation); with the budget at the limit from the start (priced in full from the
     first rollout), seeds 1 and 2 complied and reached the goal in every episode from
     40k and 30k frames, and the compliance scheme (priced from the start, no
-    multiplier) in all three.
+    multiplier) in all three. But where the scale is a worst case from the world's return
+    bounds, the price it reaches at once is no measure of what a detour is worth: on
+    CartPole with ``F(left_side)`` (scale 550 from the declared bounds; PPO seed 0, 100k
+    frames) the budget at the limit from the start priced the left side in full within
+    a few rollouts, and the agent learnt to rush there and drop the pole (return 162,
+    compliance 100 %), where annealed it complied and balanced to the end (500, as its
+    control). So the budget is at the limit from the start only where the scale is
+    exact, the price then just enough (:func:`start_price` alike).
 
     Example:
-        >>> budget_anneal(kept_by_doing_nothing=True)
-        0.5
-        >>> budget_anneal(kept_by_doing_nothing=False)
+        >>> budget_anneal(exact=True, kept_by_doing_nothing=False)
         0.0
+        >>> budget_anneal(exact=False, kept_by_doing_nothing=False)
+        0.5
+        >>> budget_anneal(exact=True, kept_by_doing_nothing=True)
+        0.5
     """
-    return ANNEAL if kept_by_doing_nothing else 0.0
+    return 0.0 if exact and not kept_by_doing_nothing else ANNEAL
 
 
 def start_price(*, exact: bool, kept_by_doing_nothing: bool, initial: float = 0.0) -> float:

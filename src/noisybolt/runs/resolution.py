@@ -180,8 +180,11 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       :func:`~noisybolt.bolt.constraint.price_decades`: over decades where a spec is kept
       by doing nothing and the scale is from bounds, else linear), and the budget's anneal
       (``bolt.constraint.anneal``, where not given:
-      :func:`~noisybolt.bolt.constraint.budget_anneal`: over half the run where a spec is
-      kept by doing nothing, else none, the budget at the limit from the first rollout);
+      :func:`~noisybolt.bolt.constraint.budget_anneal`: none, the budget at the limit
+      from the first rollout, where no spec is kept by doing nothing and the scale is
+      exact, else over half the run) and the price the multiplier starts learning from
+      (``bolt.constraint.start``: :func:`~noisybolt.bolt.constraint.start_price`, in full
+      on those same runs, else ``initial``);
       and how long the multiplier waits for the world's returns to differ
       (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint.WAIT`);
     - for a user's world (a factory path) whose uint8 images are small integers,
@@ -229,11 +232,13 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
             if constraint.get("decades") is None:
                 # The price's span: over decades where a price could teach doing nothing
                 # (a spec kept by an episode without events) on a scale from bounds.
-                constraint["decades"] = price_decades(exact=choice.exact, kept_by_doing_nothing=kept)
+                constraint["decades"] = price_decades(
+                    exact=choice.exact, kept_by_doing_nothing=kept
+                )
             if constraint.get("anneal") is None:
-                # The budget's anneal: only where a price could teach doing nothing; a
-                # detour must be priced before the direct route settles.
-                constraint["anneal"] = budget_anneal(kept_by_doing_nothing=kept)
+                # The budget's anneal: none where every spec asks for something and the
+                # scale is exact (a detour priced before the direct route settles).
+                constraint["anneal"] = budget_anneal(exact=choice.exact, kept_by_doing_nothing=kept)
             if constraint.get("start") is None:
                 # The price asked once the multiplier learns: in full where no spec is
                 # kept by doing nothing and the scale is exact (a detour priced as the
