@@ -13,6 +13,10 @@ frames at which an evaluation first complied and reached the goal.
     .venv/bin/python benchmarks/liveness_detours.py --schemes default,compliance --seeds 1 \\
         --out runs/liveness_detours
 
+``--arm NAME:PATH=VALUE,...`` names a set of settings to run as one more column, e.g. the
+constrained scheme as it was before its budget's anneal and starting price were chosen by
+the scale (``annealed:bolt.constraint.anneal=0.5,bolt.constraint.start=0``).
+
 Finished trials are read, not trained again (their ``summary.json``).
 """
 
@@ -51,7 +55,9 @@ def run_trial(index: int, scheme: str, seed: int, args: argparse.Namespace) -> d
             "seed": seed,
             "progress_bar": False,
         }
-        if scheme != "default":
+        if scheme in args.arms:
+            settings.update(args.arms[scheme])
+        elif scheme != "default":
             settings["bolt.reward"] = scheme
         config = resolve(TrainConfig.build(settings))
         train(config, out, argv=[sys.executable, *sys.argv], log=lambda _: None)
@@ -76,11 +82,31 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=60_000)
     parser.add_argument("--only", type=int, nargs="*", default=None, help="detour indices")
     parser.add_argument("--out", default="runs/liveness_detours")
+    parser.add_argument(
+        "--arm",
+        action="append",
+        default=[],
+        metavar="NAME:PATH=VALUE[,PATH=VALUE]",
+        help="a named set of config settings, then usable in --schemes (e.g. "
+        "annealed:bolt.constraint.anneal=0.5,bolt.constraint.start=0)",
+    )
     args = parser.parse_args(argv)
+    import yaml
+
+    args.arms = {}
+    for text in args.arm:
+        name, _, pairs = text.partition(":")
+        try:
+            args.arms[name] = {
+                path: yaml.safe_load(value)
+                for path, value in (pair.split("=", 1) for pair in pairs.split(","))
+            }
+        except ValueError:
+            parser.error(f"--arm takes NAME:PATH=VALUE[,PATH=VALUE], got {text!r}")
     schemes = [s.strip() for s in args.schemes.split(",") if s.strip()]
     indices = args.only if args.only is not None else range(len(DETOURS))
     seeds = range(args.first_seed, args.first_seed + args.seeds)
-    records = [run_trial(i, s, seed, args) for i in indices for seed in seeds for s in schemes]
+    records = [run_trial(i, s, seed, args) for seed in seeds for i in indices for s in schemes]
     print(f"| spec | seed | {' | '.join(schemes)} |")
     print(f"|---|---:|{'---|' * len(schemes)}")
     cells = {(r["spec"], r["seed"], r["scheme"]): r for r in records}
