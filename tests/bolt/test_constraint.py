@@ -430,7 +430,7 @@ def test_the_price_rises_with_the_pid_output_from_0_to_the_scale(
 
 
 def test_the_span_guards_where_doing_nothing_complies_on_a_bound() -> None:
-    from noisybolt.bolt.constraint import BOUND_DECADES, price_decades
+    from noisybolt.bolt.constraint_choices import BOUND_DECADES, price_decades
 
     assert price_decades(exact=False, kept_by_doing_nothing=True) == BOUND_DECADES
     assert price_decades(exact=False, kept_by_doing_nothing=False) == 0.0

@@ -400,7 +400,8 @@ def test_a_users_world_normalises_every_learners_rewards_by_default() -> None:
 def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from noisybolt.bolt.constraint import BOUND_DECADES, LagrangeMultiplier
+    from noisybolt.bolt.constraint import LagrangeMultiplier
+    from noisybolt.bolt.constraint_choices import BOUND_DECADES
 
     # The gridworld's scale is exact on the product: the price is linear.
     exact = _config(["edge"], reward="constrained")
@@ -457,7 +458,8 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
 def test_on_an_exact_scale_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> (
     None
 ):
-    from noisybolt.bolt.constraint import ANNEAL, LagrangeMultiplier
+    from noisybolt.bolt.constraint import LagrangeMultiplier
+    from noisybolt.bolt.constraint_choices import ANNEAL
 
     # G(!top_right_corner) accepts the empty trace: early breaks priced before the task
     # is found could teach standing still, so the budget falls over half the run ...

@@ -45,7 +45,9 @@ agree::
 Where every spec asks the agent to do something (``F(x)``, ``!a U b``) and the scale is
 exact (the gridworld's product), standing still breaks the specs too, a price cannot teach
 it, and the full price is known to be just enough: the budget is the limit from the first
-rollout and the price starts in full (:func:`budget_anneal`, :func:`start_price`), since
+rollout and the price starts in full
+(:func:`~noisybolt.bolt.constraint_choices.budget_anneal`,
+:func:`~noisybolt.bolt.constraint_choices.start_price`), since
 annealed it lets the direct route settle before the detour is priced, and a settled
 policy does not find the detour. On a scale from bounds (a worst case) the budget is
 annealed whatever the specs.
@@ -121,151 +123,18 @@ from typing import Any
 
 import numpy as np
 
+from noisybolt.bolt.constraint_choices import ANNEAL
 from noisybolt.errors import ConfigError
 
 __all__ = [
-    "ANNEAL",
-    "BOUND_DECADES",
     "CONSTRAINT_KEYS",
     "OPTIONAL_KEYS",
-    "WAIT",
     "CostLimit",
     "LagrangeMultiplier",
-    "budget_anneal",
     "episode_costs",
-    "price_decades",
-    "start_price",
 ]
 
-#: The price's span where the compliance scale is the width of the world's return bounds
-#: (declared, or estimated by random play): a worst case that can exceed the price a
-#: violation needs by orders of magnitude. Measured on CliffWalking (``G(!cliff_row)``,
-#: PPO seed 0, 300k frames, scale 2,940 from random play): with the linear price the
-#: multiplier's first rises (0.16 of the scale: 450 a violation, where the world pays -1 a
-#: step) taught the agent to stand still and it never reached the goal, which the unbolted
-#: control of the same seed reached from 110k frames; over three decades the price stayed
-#: near 3 a violation, the goal was reached from 80k frames, and the cost fell to 0. On
-#: the gridworld, whose scale is exact (the return gap itself), the same three decades
-#: priced too little too late: three specs that comply by 30k frames with the linear
-#: price never did (the route had been learnt by the time the price mattered).
-BOUND_DECADES = 3.0
-
 LN10 = math.log(10.0)
-
-
-def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
-    """The span of the price (:attr:`CostLimit.decades`) that
-    :func:`~noisybolt.runs.resolve` gives a run.
-
-    The span guards against one failure: a price that teaches doing nothing. That can
-    happen only where doing nothing complies, with a spec that an episode without events
-    keeps (its DFA accepts the empty trace: ``G(!in_lava)``, ``G(!cliff_row)``). There,
-    on a scale from the world's return bounds (a worst case), the price spans
-    :data:`BOUND_DECADES`: a violation is first priced near 0, a thousandth of the bound
-    a third of the way up, and the price rises by powers of ten only as far as the cost
-    demands. Where every spec
-    asks the agent to do something (``F(bottom_left)``, ``!right_col U bottom_left``),
-    standing still breaks them as surely as the direct route does, so a price cannot
-    teach it; a detour must be priced before the policy settles on the direct route, and
-    the price is linear. On an exact scale (the product of a tabular world: the return
-    gap itself) the price is linear too.
-
-    Measured (PPO, synthetic detector, the world suite's budgets): MiniGrid's lava room
-    with ``G(!in_lava)``, seed 0, linear: priced 0.2 of the scale at 39k frames, before
-    the gap was found, the agent stood still to the time limit (goal 0 %); over three
-    decades it complied and reached the goal in every episode, as its control. The empty
-    room with ``F(bottom_left)``, seed 0, over three decades: priced in earnest only at
-    37k frames, after the direct route was learnt, the corner was found at 135k and the
-    goal was reached in 25 % of episodes; linear, 100 % and 100 % (return 0.93, the
-    control 0.96). On the gridworld's spec suite, three decades priced detours too late
-    (three specs never complied that comply by 30k frames linearly).
-
-    Example:
-        >>> price_decades(exact=False, kept_by_doing_nothing=True)
-        3.0
-        >>> price_decades(exact=False, kept_by_doing_nothing=False)
-        0.0
-    """
-    return BOUND_DECADES if kept_by_doing_nothing and not exact else 0.0
-
-
-#: The share of the run over which the budget falls from the first measured cost to the
-#: limit (:attr:`CostLimit.anneal`) where a spec is kept by doing nothing: see
-#: :func:`budget_anneal`.
-ANNEAL = 0.5
-
-
-def budget_anneal(*, exact: bool, kept_by_doing_nothing: bool) -> float:
-    """The budget's anneal (:attr:`CostLimit.anneal`) that :func:`~noisybolt.runs.resolve`
-    gives a run: 0, the budget at the limit from the first rollout, where no spec is kept
-    by an episode without events (its DFA accepts the empty trace) and the scale is exact;
-    else :data:`ANNEAL`.
-
-    The anneal guards against the failure the decades guard against: early breaks of a
-    spec that standing still keeps (a random policy walks into the lava) priced before
-    the task is found teach standing still. Where every spec asks the agent to do
-    something, standing still breaks them too, so the price cannot teach it, and an
-    annealed budget only delays the price until the direct route has settled, after
-    which a detour is no longer found. Measured on the gridworld with
-    ``F(top_right_corner) & F(bottom_left_corner)`` (a two-corner detour no suite holds;
-    PPO, ground truth, 60k frames, seeds 0-2): with the budget annealed over half the
-    run the price reached 0.4 of the scale at 20k frames, by when every seed went
-    straight to the goal in 7 steps, and no seed ever complied (compliance 0 % in every
-    evaluation); with the budget at the limit from the start (priced in full from the
-    first rollout), seeds 1 and 2 complied and reached the goal in every episode from
-    40k and 30k frames, and the compliance scheme (priced from the start, no
-    multiplier) in all three. But where the scale is a worst case from the world's return
-    bounds, the price it reaches at once is no measure of what a detour is worth: on
-    CartPole with ``F(left_side)`` (scale 550 from the declared bounds; PPO seed 0, 100k
-    frames) the budget at the limit from the start priced the left side in full within
-    a few rollouts, and the agent learnt to rush there and drop the pole (return 162,
-    compliance 100 %), where annealed it complied and balanced to the end (500, as its
-    control). So the budget is at the limit from the start only where the scale is
-    exact, the price then just enough (:func:`start_price` alike).
-
-    Example:
-        >>> budget_anneal(exact=True, kept_by_doing_nothing=False)
-        0.0
-        >>> budget_anneal(exact=False, kept_by_doing_nothing=False)
-        0.5
-        >>> budget_anneal(exact=True, kept_by_doing_nothing=True)
-        0.5
-    """
-    return 0.0 if exact and not kept_by_doing_nothing else ANNEAL
-
-
-def start_price(*, exact: bool, kept_by_doing_nothing: bool, initial: float = 0.0) -> float:
-    """The integral the multiplier starts learning from (:attr:`CostLimit.start`) that
-    :func:`~noisybolt.runs.resolve` gives a run: 1, the compliance scheme's price, where
-    no spec is kept by an episode without events and the scale is exact; else
-    ``initial``.
-
-    Where every spec asks for something, a price cannot teach standing still, and the
-    agent's first thousands of frames are when a random policy meets the detour most: a
-    price that starts low and follows the cost (the proportional term prices a cost of
-    0.6 at 0.6) pays less for the detour exactly as the agent begins to take it. Measured
-    on the gridworld (PPO, classifier bolt, 60k frames, seed 0) over six liveness detours
-    no suite holds, with the budget at the limit from the start: the integral from 0
-    (the price 0.76 at 1k frames, 0.81 at 5k while the cost fell to 0.6) complied with 3
-    (see ``benchmarks/README.md`` for the count from 1), as the compliance scheme did
-    with 5. But the full price is asked at once only where it is known to be just enough:
-    an exact scale (the return gap on a tabular product). A scale from the world's return
-    bounds is a worst case, and asked in full it drowns the world's reward: CliffWalking's
-    ``F(top_row)`` (scale 2,940; PPO seed 0, 300k frames) priced in full from the first
-    update complied and stood on the top row to the time limit (goal 0 %, return -100);
-    from 0 it complied and reached the goal in every episode (return -17). The first
-    rollout is paid at ``initial`` (the multiplier learns from a measured cost), and a
-    world whose returns do not differ yet keeps it there (``wait``).
-
-    Example:
-        >>> start_price(exact=True, kept_by_doing_nothing=False)
-        1.0
-        >>> start_price(exact=False, kept_by_doing_nothing=False)
-        0.0
-        >>> start_price(exact=True, kept_by_doing_nothing=True)
-        0.0
-    """
-    return 1.0 if exact and not kept_by_doing_nothing else float(initial)
 
 
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
@@ -284,15 +153,6 @@ CONSTRAINT_KEYS: tuple[str, ...] = (
 #: The settings of :class:`CostLimit` that may be None (chosen by
 #: :func:`~noisybolt.runs.resolve` for a fresh run; absent from runs saved before them).
 OPTIONAL_KEYS: tuple[str, ...] = ("anneal", "decades", "wait", "start")
-
-#: How long the multiplier waits, at most, for the world to pay returns that differ
-#: between episodes (a share of the run's frames), where a run does not say: see
-#: :attr:`CostLimit.wait`. Measured on FrozenLake 8x8 (``G(!right_col | at_goal)``, PPO
-#: seed 2, 100k frames): priced from the first rollout (over three decades), the agent
-#: first reached the goal at 70k frames and had lost it again at 100k; the same bolt paid
-#: nothing reached it in 75 % of episodes at 20k frames and 100 % from 40k, as the
-#: unbolted control of the seed did (95 % at 30k).
-WAIT = 0.5
 
 
 def _number(name: str, value: object) -> float:
@@ -327,9 +187,11 @@ class CostLimit:
         anneal: the share of the run's frames, in ``[0, 1]``, over which the budget falls
             from the first measured cost to ``cost_limit`` (0: ``cost_limit`` from the
             start). None (the default): chosen by :func:`~noisybolt.runs.resolve`
-            (:func:`budget_anneal`: :data:`ANNEAL` where a spec is kept by doing
-            nothing, else 0); a multiplier given None anneals over :data:`ANNEAL`, as
-            every run did before the choice existed.
+            (:func:`~noisybolt.bolt.constraint_choices.budget_anneal`: 0 where no spec is kept
+            by doing nothing and the scale is exact, else
+            :data:`~noisybolt.bolt.constraint_choices.ANNEAL`); a multiplier given None
+            anneals over :data:`~noisybolt.bolt.constraint_choices.ANNEAL`, as every run
+            did before the choice existed.
         decades: how many powers of ten the price spans (``>= 0``): the PID's output
             ``u`` in ``[0, 1]`` is priced ``(10 ** (decades * u) - 1) / (10 ** decades -
             1)`` of the compliance scale, so that equal steps of ``u`` multiply the price
@@ -340,8 +202,9 @@ class CostLimit:
             5 %, and Acrobot's ``G(!fast)`` at the control's compliance: with this form
             11 of the world suite's 12 PPO trials of a ``G`` spec keep the task, against
             9). 0: the price is ``u`` itself, linear. None (the default): chosen by
-            :func:`~noisybolt.runs.resolve` (:func:`price_decades`); a multiplier given
-            None prices linearly.
+            :func:`~noisybolt.runs.resolve`
+            (:func:`~noisybolt.bolt.constraint_choices.price_decades`); a multiplier
+            given None prices linearly.
         wait: the longest share of the run's frames, in ``[0, 1]``, that the multiplier
             waits (at ``initial``, learning nothing, its budget's anneal not begun) for
             the world to pay the learner returns that differ between episodes. While
@@ -352,15 +215,16 @@ class CostLimit:
             avoid the cost (standing still) before it ever sees the task. Once the
             returns differ, or the wait is over, the multiplier learns as without it,
             its budget annealed over ``anneal`` of the frames then left. 0: no wait.
-            None (the default): :data:`WAIT` for a run :func:`~noisybolt.runs.resolve`
-            resolves afresh, 0 for a multiplier given None and for runs saved before the
-            setting existed.
+            None (the default): :data:`~noisybolt.bolt.constraint_choices.WAIT` for a
+            run :func:`~noisybolt.runs.resolve` resolves afresh, 0 for a multiplier
+            given None and for runs saved before the setting existed.
         start: the integral (the price asked, in ``[0, 1]``) from the first cost measured
             once awake, until costs below the budget ease it. None (the default): the
             integral goes on from ``initial``. :func:`~noisybolt.runs.resolve` gives 1
             where no spec is kept by doing nothing and the scale is exact
-            (:func:`start_price`: a detour asked for in full from the first measured
-            cost, as the compliance scheme asks it), else ``initial``.
+            (:func:`~noisybolt.bolt.constraint_choices.start_price`: a detour asked for
+            in full from the first measured cost, as the compliance scheme asks it),
+            else ``initial``.
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a

@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
-from noisybolt.bolt.constraint import WAIT, budget_anneal, price_decades, start_price
+from noisybolt.bolt.constraint_choices import WAIT, budget_anneal, price_decades, start_price
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -177,16 +177,16 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       the specs and spaces are checked against the world before anything costly
       (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it the
       span of the price (``bolt.constraint.decades``, where not given:
-      :func:`~noisybolt.bolt.constraint.price_decades`: over decades where a spec is kept
+      :func:`~noisybolt.bolt.constraint_choices.price_decades`: over decades where a spec is kept
       by doing nothing and the scale is from bounds, else linear), and the budget's anneal
       (``bolt.constraint.anneal``, where not given:
-      :func:`~noisybolt.bolt.constraint.budget_anneal`: none, the budget at the limit
+      :func:`~noisybolt.bolt.constraint_choices.budget_anneal`: none, the budget at the limit
       from the first rollout, where no spec is kept by doing nothing and the scale is
       exact, else over half the run) and the price the multiplier starts learning from
-      (``bolt.constraint.start``: :func:`~noisybolt.bolt.constraint.start_price`, in full
+      (``bolt.constraint.start``: :func:`~noisybolt.bolt.constraint_choices.start_price`, in full
       on those same runs, else ``initial``);
       and how long the multiplier waits for the world's returns to differ
-      (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint.WAIT`);
+      (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint_choices.WAIT`);
     - for a user's world (a factory path) whose uint8 images are small integers,
       ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
       :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
@@ -228,24 +228,26 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
         bolt = replace(config.bolt, reward_scale=choice.scale)
         if bolt.reward == "constrained":
             constraint = dict(bolt.constraint)
-            kept = _kept_by_doing_nothing(config)
+            idle_keeps = _kept_by_doing_nothing(config)
             if constraint.get("decades") is None:
                 # The price's span: over decades where a price could teach doing nothing
                 # (a spec kept by an episode without events) on a scale from bounds.
                 constraint["decades"] = price_decades(
-                    exact=choice.exact, kept_by_doing_nothing=kept
+                    exact=choice.exact, kept_by_doing_nothing=idle_keeps
                 )
             if constraint.get("anneal") is None:
                 # The budget's anneal: none where every spec asks for something and the
                 # scale is exact (a detour priced before the direct route settles).
-                constraint["anneal"] = budget_anneal(exact=choice.exact, kept_by_doing_nothing=kept)
+                constraint["anneal"] = budget_anneal(
+                    exact=choice.exact, kept_by_doing_nothing=idle_keeps
+                )
             if constraint.get("start") is None:
                 # The price asked once the multiplier learns: in full where no spec is
                 # kept by doing nothing and the scale is exact (a detour priced as the
                 # agent first meets it, at a price known to be just enough).
                 constraint["start"] = start_price(
                     exact=choice.exact,
-                    kept_by_doing_nothing=kept,
+                    kept_by_doing_nothing=idle_keeps,
                     initial=float(constraint.get("initial", 0.0)),
                 )
             if constraint.get("wait") is None:
