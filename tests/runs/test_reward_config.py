@@ -397,6 +397,14 @@ def test_a_users_world_normalises_every_learners_rewards_by_default() -> None:
         assert params["normalize_reward"] is True
 
 
+def _constrained(specs: list, constraint: dict, world: str | None = None) -> TrainConfig:
+    """A constrained run's config with ``constraint`` given, resolved."""
+    settings: dict = {"bolt.specs": specs, "bolt.reward": "constrained"}
+    if world is not None:
+        settings["world.name"] = world
+    return resolve(TrainConfig.build({**settings, "bolt.constraint": constraint}))
+
+
 def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -424,28 +432,10 @@ def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
     detour = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
     assert detour.bolt.constraint["decades"] == 0.0
     # One given is kept, and a scale given leaves the linear price.
-    given = resolve(
-        TrainConfig.build(
-            {
-                "world.name": world,
-                "bolt.specs": ["F(at_goal)"],
-                "bolt.reward": "constrained",
-                "bolt.constraint": {"decades": 1.0},
-            }
-        )
-    )
+    given = _constrained(["F(at_goal)"], {"decades": 1.0}, world)
     assert given.bolt.constraint["decades"] == 1.0
     # 0 given (the linear price, no wait) is kept too, not read as "not given".
-    linear = resolve(
-        TrainConfig.build(
-            {
-                "world.name": world,
-                "bolt.specs": ["F(at_goal)"],
-                "bolt.reward": "constrained",
-                "bolt.constraint": {"decades": 0, "wait": 0},
-            }
-        )
-    )
+    linear = _constrained(["F(at_goal)"], {"decades": 0, "wait": 0}, world)
     assert linear.bolt.constraint["decades"] == 0.0 and linear.bolt.constraint["wait"] == 0.0
     assert linear.bolt.cost_limit.price(0.5) == 0.5
     assert not LagrangeMultiplier(linear.bolt.cost_limit).waiting
@@ -479,15 +469,7 @@ def test_on_an_exact_scale_the_budget_is_annealed_only_where_a_spec_is_kept_by_d
     assert lagrange.update(1.0, progress=0.05) == 1.0
     # Saved and read back, it stays; one given is kept, 0.5 on a detour included.
     assert TrainConfig.from_dict(detour.to_dict()).bolt.constraint["anneal"] == 0.0
-    given = resolve(
-        TrainConfig.build(
-            {
-                "bolt.specs": ["F(top_right_corner)"],
-                "bolt.reward": "constrained",
-                "bolt.constraint": {"anneal": 0.5},
-            }
-        )
-    )
+    given = _constrained(["F(top_right_corner)"], {"anneal": 0.5})
     assert given.bolt.constraint["anneal"] == 0.5
     # A run saved before the choice existed names its anneal (the section filled in the
     # default then), and a resolved config is resolved again unchanged.
@@ -518,15 +500,7 @@ def test_the_price_starts_in_full_only_on_an_exact_scale_where_no_spec_is_kept_b
     assert safety.bolt.constraint["start"] == 0.0
     assert LagrangeMultiplier(safety.bolt.cost_limit).update(0.5, frames=256) < 0.5
     # One given is kept; a saved run without the key goes on from `initial`, as it did.
-    given = resolve(
-        TrainConfig.build(
-            {
-                "bolt.specs": ["F(top_right_corner)"],
-                "bolt.reward": "constrained",
-                "bolt.constraint": {"start": 0.3},
-            }
-        )
-    )
+    given = _constrained(["F(top_right_corner)"], {"start": 0.3})
     assert given.bolt.constraint["start"] == 0.3
     saved = detour.to_dict()
     del saved["bolt"]["constraint"]["start"]

@@ -16,6 +16,7 @@ __all__ = [
     "BOUND_DECADES",
     "WAIT",
     "budget_anneal",
+    "full_price_known",
     "price_decades",
     "start_price",
 ]
@@ -76,6 +77,14 @@ def price_decades(*, exact: bool, kept_by_doing_nothing: bool) -> float:
 ANNEAL = 0.5
 
 
+def full_price_known(*, exact: bool, kept_by_doing_nothing: bool) -> bool:
+    """Whether the compliance scale's full price is known to be just enough and cannot teach
+    standing still: the scale is exact (the return gap on a tabular product) and no spec is
+    kept by an episode without events. There the budget is the limit from the first rollout
+    (:func:`budget_anneal`) and the price starts in full (:func:`start_price`)."""
+    return exact and not kept_by_doing_nothing
+
+
 def budget_anneal(*, exact: bool, kept_by_doing_nothing: bool) -> float:
     """The budget's anneal (:attr:`CostLimit.anneal`) that :func:`~noisybolt.runs.resolve`
     gives a run: 0, the budget at the limit from the first rollout, where no spec is kept
@@ -112,7 +121,11 @@ def budget_anneal(*, exact: bool, kept_by_doing_nothing: bool) -> float:
         >>> budget_anneal(exact=True, kept_by_doing_nothing=True)
         0.5
     """
-    return 0.0 if exact and not kept_by_doing_nothing else ANNEAL
+    return (
+        0.0
+        if full_price_known(exact=exact, kept_by_doing_nothing=kept_by_doing_nothing)
+        else ANNEAL
+    )
 
 
 def start_price(*, exact: bool, kept_by_doing_nothing: bool, initial: float = 0.0) -> float:
@@ -146,7 +159,11 @@ def start_price(*, exact: bool, kept_by_doing_nothing: bool, initial: float = 0.
         >>> start_price(exact=True, kept_by_doing_nothing=True)
         0.0
     """
-    return 1.0 if exact and not kept_by_doing_nothing else float(initial)
+    return (
+        1.0
+        if full_price_known(exact=exact, kept_by_doing_nothing=kept_by_doing_nothing)
+        else float(initial)
+    )
 
 
 #: How long the multiplier waits, at most, for the world to pay returns that differ
