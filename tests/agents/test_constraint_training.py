@@ -103,6 +103,37 @@ def test_the_callback_hands_the_multiplier_each_episode_s_world_return() -> None
     env.close()
 
 
+def test_the_callback_pools_the_episodes_of_a_window_into_one_measured_cost() -> None:
+    """A 128-frame rollout, a 300-frame window: the multiplier learns every third rollout,
+    from the mean cost of every episode ended over those 384 frames."""
+    ended: list[tuple[int, float]] = []  # (frames trained at the step, the episode's cost)
+    measured: list[tuple[int, float, int]] = []  # (frames trained, cost, frames pooled)
+
+    class Recording(LagrangianCallback):
+        def _on_step(self) -> bool:
+            for info in self.locals["infos"]:
+                if info.get(EPISODE_COST_KEY) is not None:
+                    ended.append((int(self.model.num_timesteps), info[EPISODE_COST_KEY]))
+            return super()._on_step()
+
+    env = make_bolted_vec_env(_lake, 4, ["G(!right_col)"], "oracle", seed=0)
+    model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=64, seed=0, device="cpu")
+    callback = Recording(CostLimit(cost_limit=0.0, anneal=0.0, window=300), frames=768)
+    update = callback.multiplier.update
+
+    def recorded(cost: float, *, frames: int, **kwargs: object) -> float:
+        measured.append((int(model.num_timesteps), cost, frames))
+        return update(cost, frames=frames, **kwargs)  # type: ignore[arg-type]
+
+    callback.multiplier.update = recorded  # type: ignore[method-assign]
+    model.learn(total_timesteps=768, callback=callback)
+    assert [(at, pooled) for at, _, pooled in measured] == [(384, 384), (768, 384)]
+    for (at, cost, _), since in zip(measured, (0, 384), strict=True):
+        window = [c for t, c in ended if since < t <= at]
+        assert len(window) > 3 and cost == pytest.approx(np.mean(window))
+    env.close()
+
+
 def test_bolted_envs_are_found_through_groups_and_wrappers() -> None:
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -142,7 +173,7 @@ def test_the_multiplier_is_learned_checkpointed_and_resumed(tmp_path: Path) -> N
     assert config["bolt"]["reward"] == "constrained"
     assert config["bolt"]["constraint"] == {
         "cost_limit": 0.02, "lr": 0.1, "kp": 1.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5,
-        "decades": 0.0, "wait": 0.5, "start": 0.0,
+        "decades": 0.0, "wait": 0.5, "start": 0.0, "release": 0.0, "window": 0.0,
     }  # fmt: skip
     saved = _multiplier(run)
     # 8 games x 64 steps a rollout: 4 rollouts; G(on_edge) is broken by random play at once

@@ -43,6 +43,10 @@ from noisybolt.errors import ConfigError
         ({"start": 1.5}, "start"),
         ({"start": -0.5}, "start"),
         ({"start": math.nan}, "start"),
+        ({"window": -1}, "window"),
+        ({"window": math.inf}, "window"),
+        ({"release": 1.5}, "release"),
+        ({"release": -0.1}, "release"),
         ({"cost_limit": "0.1"}, "cost_limit"),
         ({"lr": True}, "lr"),
     ],
@@ -84,6 +88,37 @@ def test_the_integral_starts_at_start_from_the_first_cost_measured_awake() -> No
     # A resumed multiplier goes on from its saved integral, not from `start` again.
     resumed = LagrangeMultiplier(limit, state=lagrange.state_dict())
     assert resumed.update(0.0, frames=10_000, progress=0.6) == pytest.approx(0.94)
+
+
+# ------------------------------------------------------------------ the release
+
+
+def test_released_the_integral_falls_as_fast_below_the_budget_as_it_rises_above() -> None:
+    # Integral alone (kp 0), linear price, lr 0.02 per 1,000 frames, the limit 0.02.
+    limit = CostLimit(cost_limit=0.02, lr=0.02, kp=0.0, anneal=0.0, release=1.0)
+    lagrange = LagrangeMultiplier(limit)
+    # A cost of 1 over 10,000 frames: 0.02 * 0.98 * 10 = 0.196.
+    assert lagrange.update(1.0, frames=10_000) == pytest.approx(0.196)
+    # Met at cost 0 over 5,000 frames: the error is -1 * (0.02 - 0) / 0.02 = -1, the
+    # integral falls 0.02 * 5 = 0.1 (unreleased: 0.02 * 0.02 * 5 = 0.002).
+    assert lagrange.update(0.0, frames=5_000) == pytest.approx(0.096)
+    # Half the budget: -0.5; 0.096 - 0.02 * 0.5 * 5 = 0.046.
+    assert lagrange.update(0.01, frames=5_000) == pytest.approx(0.046)
+    # Above the budget the error is the plain one, released or not.
+    assert lagrange.update(0.52, frames=1_000) == pytest.approx(0.046 + 0.02 * 0.5)
+    plain = LagrangeMultiplier(CostLimit(cost_limit=0.02, lr=0.02, kp=0.0, anneal=0.0))
+    plain.update(1.0, frames=10_000)
+    assert plain.update(0.0, frames=5_000) == pytest.approx(0.194)
+
+
+def test_a_multiplier_given_no_gains_learns_at_the_second_round_s() -> None:
+    from noisybolt.bolt.constraint import KP, LR
+
+    assert (LR, KP) == (0.1, 1.0)
+    given = LagrangeMultiplier(CostLimit(cost_limit=0.02, lr=0.1, kp=1.0, anneal=0.0))
+    default = LagrangeMultiplier(CostLimit(cost_limit=0.02, anneal=0.0))
+    for cost in (0.6, 0.3, 0.0, 1.0):
+        assert default.update(cost, frames=800) == given.update(cost, frames=800)
 
 
 # ------------------------------------------------------------------ the wait for the task

@@ -70,6 +70,16 @@ def test_runs_killed_at_random_moments_resume_whole(tmp_path: Path, algo: str) -
     rng = np.random.default_rng(14)
     run = tmp_path / "run"
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    # One whole run first, timed: the kills land at random shares of it (start-up
+    # included), so that they reach into training on a fast machine and a slow one alike.
+    started = time.monotonic()
+    whole = subprocess.run(_argv(run, algo, []), capture_output=True, env=env, check=False)
+    assert whole.returncode == 0, whole.stderr.decode()
+    duration = time.monotonic() - started
+    _check_whole(run)
+    import shutil
+
+    shutil.rmtree(run)
     outcomes = []
     for _ in range(CYCLES):
         proc = subprocess.Popen(
@@ -78,8 +88,7 @@ def test_runs_killed_at_random_moments_resume_whole(tmp_path: Path, algo: str) -
             stderr=subprocess.PIPE,
             env=env,
         )
-        # Startup (imports) takes a few seconds: delays up to 10 s reach into training.
-        deadline = time.monotonic() + float(rng.uniform(1.0, 10.0))
+        deadline = time.monotonic() + float(rng.uniform(0.1, 1.1)) * duration
         while time.monotonic() < deadline and proc.poll() is None:
             time.sleep(0.05)
         if proc.poll() is None:
@@ -92,8 +101,6 @@ def test_runs_killed_at_random_moments_resume_whole(tmp_path: Path, algo: str) -
             summary = json.loads((run / "summary.json").read_text())
             assert summary["frames"] == 4096
             _check_whole(run)
-            import shutil
-
             shutil.rmtree(run)
     assert outcomes.count(-signal.SIGKILL) >= CYCLES // 2  # the kills did land
     final = subprocess.run(_argv(run, algo, _mode(run)), capture_output=True, env=env, check=False)

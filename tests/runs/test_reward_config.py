@@ -506,3 +506,28 @@ def test_the_price_starts_in_full_only_on_an_exact_scale_where_no_spec_is_kept_b
     del saved["bolt"]["constraint"]["start"]
     assert "start" not in TrainConfig.from_dict(saved).bolt.constraint
     assert TrainConfig.from_dict(saved).bolt.cost_limit.start is None
+
+
+def test_the_price_is_searched_only_where_it_could_teach_standing_still(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    searched = {"kp": 0.0, "lr": 0.02, "release": 1.0, "window": 1000.0}
+    asserted = {"kp": 1.0, "lr": 0.1, "release": 0.0, "window": 0.0}
+    world = _lake_module(tmp_path, monkeypatch, "bounded_lake_search", "return_bounds=(0, 1)")
+    bound = resolve(TrainConfig.create(world=world, specs=["G(!at_goal)"], reward="constrained"))
+    assert {k: bound.bolt.constraint[k] for k in searched} == searched
+    # A spec that asks for something: standing still breaks it too; asserted.
+    detour = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
+    assert {k: detour.bolt.constraint[k] for k in asserted} == asserted
+    exact = _config(["G(!top_right_corner)"], reward="constrained")
+    assert {k: exact.bolt.constraint[k] for k in asserted} == asserted
+    # One given is kept.
+    given = _constrained(["F(top_right_corner)"], {"kp": 0.5, "window": 300})
+    assert (given.bolt.constraint["kp"], given.bolt.constraint["window"]) == (0.5, 300.0)
+    # A run saved before the choice names its gains (the section filled in the defaults
+    # then) and has no release or window: it learns every rollout, unreleased, as it did.
+    saved = exact.to_dict()
+    for key in ("release", "window"):
+        del saved["bolt"]["constraint"][key]
+    limit = TrainConfig.from_dict(saved).bolt.cost_limit
+    assert (limit.kp, limit.lr, limit.release, limit.window) == (1.0, 0.1, None, None)

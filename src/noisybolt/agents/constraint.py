@@ -9,10 +9,13 @@ for the scheme and its update rule). :class:`LagrangianCallback` does the bookke
   the specs the episode leaves unsatisfied as the bolt sees them: never ground truth);
 * it sums each game's world rewards (``info["env_reward"]``), so that a multiplier that
   waits for the world's returns to differ (``bolt.constraint.wait``) sees them;
-* at the end of each rollout it updates ``λ`` from the mean cost of those episodes, over
-  the frames trained since the last update (none ended: no update, the frames count
-  towards the next), and sets every training bolt's price to it, so the next rollout is
-  collected, and the update that follows learns, at the new price;
+* at the end of a rollout, once at least ``bolt.constraint.window`` frames have been
+  trained since the last update, it updates ``λ`` from the mean cost of the episodes
+  ended over them (none ended: no update, the frames count towards the next), and sets
+  every training bolt's price to it, so the next rollout is collected, and the update
+  that follows learns, at the new price. The window makes the measurement the same for
+  a learner that updates every 40 frames (A2C) and one that updates every 1,024 (PPO):
+  see :attr:`~noisybolt.bolt.CostLimit.window`;
 * it logs ``constraint/multiplier`` and ``constraint/episode_cost``, and its state is saved
   with the run's checkpoints (:meth:`state_dict`) and restored on resume.
 
@@ -115,7 +118,8 @@ class LagrangianCallback(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         frames = int(self.model.num_timesteps) - self._last_update
-        if self._costs and frames > 0:
+        window = self.multiplier.limit.window or 0
+        if self._costs and frames > 0 and frames >= window:
             cost = float(np.mean(self._costs))
             progress = int(self.model.num_timesteps) / max(self.frames, 1)
             self.multiplier.update(cost, frames=frames, progress=progress, returns=self._returns)

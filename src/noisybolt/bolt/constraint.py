@@ -86,6 +86,16 @@ against 30 % with the integral alone and 100 % for the unbolted control): a budg
 annealed over a share of the run asks for compliance on the clock, not on the task's
 progress, so a run must be long enough for the task to be found within the anneal.
 
+**Where a price could teach standing still, it is searched, not asserted.** On a scale
+from the world's return bounds with a spec that an episode without events keeps, the
+full price is a worst case: past about half of it a violation outweighs the whole task,
+and the learner's best reply is to stand still. There the proportional term is off, the
+integral climbs slowly (``lr`` 0.02), it falls back as fast as it rose once the cost is
+met (``release``: with a budget near 0 the plain error would leave a price in place for
+the rest of the run, the agent standing still), and each measured cost pools the
+episodes of at least 1,000 frames (``window``). Measured on FrozenLake 8x8 with A2C:
+:func:`~noisybolt.bolt.constraint_choices.price_search`.
+
 The multiplier is a small object of its own, apart from any learner (OmniSafe's layout);
 its state is a dict of floats, saved with a run's checkpoints and restored on resume.
 
@@ -148,11 +158,27 @@ CONSTRAINT_KEYS: tuple[str, ...] = (
     "decades",
     "wait",
     "start",
+    "window",
+    "release",
 )
 
 #: The settings of :class:`CostLimit` that may be None (chosen by
 #: :func:`~noisybolt.runs.resolve` for a fresh run; absent from runs saved before them).
-OPTIONAL_KEYS: tuple[str, ...] = ("anneal", "decades", "wait", "start")
+OPTIONAL_KEYS: tuple[str, ...] = (
+    "lr",
+    "kp",
+    "anneal",
+    "decades",
+    "wait",
+    "start",
+    "window",
+    "release",
+)
+
+#: The integral gain and the proportional gain of a multiplier given None (and of every
+#: run saved before :func:`~noisybolt.runs.resolve` chose them by the run's kind).
+LR = 0.1
+KP = 1.0
 
 
 def _number(name: str, value: object) -> float:
@@ -179,8 +205,13 @@ class CostLimit:
             fall is priced quickly: measured at 0.02 on MiniGrid's room with
             ``F(bottom_left)`` (PPO), the price reached 0.14 only at 37k frames, after the
             policy had settled on the direct route, and it never found the detour even at
-            price 1; the compliance scheme, priced from the start, had.
+            price 1; the compliance scheme, priced from the start, had. None (the
+            default): chosen by :func:`~noisybolt.runs.resolve`
+            (:func:`~noisybolt.bolt.constraint_choices.price_search`); a multiplier given
+            None learns at :data:`LR`.
         kp: the proportional gain (``>= 0``): a cost above the budget is priced at once.
+            None (the default): chosen by :func:`~noisybolt.runs.resolve`, as ``lr``; a
+            multiplier given None uses :data:`KP`.
         kd: the derivative gain, on rises of the cost only (``>= 0``).
         initial: the multiplier at the start of training, in ``[0, 1]`` (0: the task is
             learned first, compliance is asked as the cost is measured).
@@ -225,6 +256,27 @@ class CostLimit:
             (:func:`~noisybolt.bolt.constraint_choices.start_price`: a detour asked for
             in full from the first measured cost, as the compliance scheme asks it),
             else ``initial``.
+        window: the fewest frames (``>= 0``) whose ended episodes the multiplier pools
+            into one measured cost: the callback learns once that many frames have been
+            trained since the last update (and an episode ended), not every rollout. The
+            proportional term prices the error of one measurement at once, and the price
+            is convex over decades: a measurement from the one or two episodes a 40-frame
+            A2C rollout ends is a 0 or a 1, priced near nothing or in full at random, and
+            the mean price of such a walk is set by its spikes. None (the default):
+            :data:`~noisybolt.bolt.constraint_choices.WINDOW` for a run
+            :func:`~noisybolt.runs.resolve` resolves afresh, 0 (every rollout, as before
+            the setting existed) for a multiplier given None and for runs saved before it.
+        release: how fast the integral falls while the cost is under the budget
+            (``[0, 1]``): the error it learns from is then at most ``-release * (budget -
+            cost) / budget``, so that at a cost of 0 it falls at ``lr`` per 1,000 frames,
+            as fast as a cost one above the budget raises it. 0 (a multiplier given None,
+            runs saved before the setting): the plain error, ``cost - budget``, which
+            with a budget near 0 leaves a price in place for the rest of a run once the
+            cost is met, even where meeting it cost the task (the agent stood still):
+            the dual's own remedy, a price that falls where the constraint is slack,
+            then never comes. None (the default): chosen by
+            :func:`~noisybolt.runs.resolve`
+            (:func:`~noisybolt.bolt.constraint_choices.price_search`).
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a
@@ -233,14 +285,16 @@ class CostLimit:
     """
 
     cost_limit: float = 0.02
-    lr: float = 0.1
-    kp: float = 1.0
+    lr: float | None = None
+    kp: float | None = None
     kd: float = 0.0
     initial: float = 0.0
     anneal: float | None = None
     decades: float | None = None
     wait: float | None = None
     start: float | None = None
+    window: float | None = None
+    release: float | None = None
 
     def __post_init__(self) -> None:
         for name in CONSTRAINT_KEYS:
@@ -252,14 +306,14 @@ class CostLimit:
                 f"bolt.constraint.cost_limit must be >= 0 (the specs an episode may leave "
                 f"unsatisfied, on average), got {self.cost_limit}"
             )
-        if self.lr <= 0:
+        if self.lr is not None and self.lr <= 0:
             raise ConfigError(
                 f"bolt.constraint.lr (the multiplier's learning rate) must be > 0, got {self.lr}"
             )
-        for name in ("kp", "kd", "decades"):
+        for name in ("kp", "kd", "decades", "window"):
             if getattr(self, name) is not None and getattr(self, name) < 0:
                 raise ConfigError(f"bolt.constraint.{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("initial", "anneal", "wait", "start"):
+        for name in ("initial", "anneal", "wait", "start", "release"):
             value = getattr(self, name)
             if value is not None and not 0.0 <= value <= 1.0:
                 raise ConfigError(
@@ -400,11 +454,17 @@ class LagrangeMultiplier:
             self._first_cost = cost
             if limit.start is not None:
                 self._integral = limit.start
-        error = cost - self.budget(float(progress))
-        step = limit.lr * error * (int(frames) / 1000)
+        budget = self.budget(float(progress))
+        error = cost - budget
+        falling = error
+        if error < 0 and limit.release:
+            falling = min(error, -limit.release * (budget - cost) / budget)
+        lr = LR if limit.lr is None else limit.lr
+        kp = KP if limit.kp is None else limit.kp
+        step = lr * falling * (int(frames) / 1000)
         self._integral = min(max(0.0, self._integral + step), 1.0)
         rise = 0.0 if self._last_cost is None else max(0.0, cost - self._last_cost)
-        u = min(max(0.0, limit.kp * error + self._integral + limit.kd * rise), 1.0)
+        u = min(max(0.0, kp * error + self._integral + limit.kd * rise), 1.0)
         self._value = limit.price(u)
         self._last_cost = cost
         self._updates += 1

@@ -24,7 +24,13 @@ import gymnasium as gym
 import numpy as np
 
 from noisybolt.bolt import compliance_scale
-from noisybolt.bolt.constraint_choices import WAIT, budget_anneal, price_decades, start_price
+from noisybolt.bolt.constraint_choices import (
+    WAIT,
+    budget_anneal,
+    price_decades,
+    price_search,
+    start_price,
+)
 from noisybolt.bolt.product import exact_compliance_scale
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
@@ -254,6 +260,13 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
                 # A fresh run waits for the world's returns to differ (WAIT); a saved one
                 # (its scale named) keeps what it was: no wait where the key is absent.
                 constraint["wait"] = WAIT
+            search = price_search(exact=choice.exact, kept_by_doing_nothing=idle_keeps)
+            for key, value in search.items():
+                # How the multiplier moves: searched where a price could teach standing
+                # still on a scale from bounds, else asserted. A saved run keeps what it
+                # names (absent keys: as before).
+                if constraint.get(key) is None:
+                    constraint[key] = value
             bolt = replace(bolt, constraint=constraint)
         config = replace(config, bolt=bolt)
         if choice.exact and log is not None:
