@@ -111,6 +111,20 @@ def test_record_stops_at_the_first_window_of_k_qualifying_scores(
     assert stop.stopped_at == (None if expected is None else 1000 * (expected + 1))
 
 
+def test_no_streak_stops_training_before_not_before() -> None:
+    # Three solved evaluations by 3k frames, but the exploration runs to 4k: the streak
+    # goes on counting and the first solved evaluation from 4k on stops.
+    stop = StopWhenSolved(threshold=0.95, consecutive=3, not_before=4000)
+    assert [stop.record(1.0, frames=f) for f in (1000, 2000, 3000)] == [True] * 3
+    assert stop.streak == 3 and stop.stopped_at is None
+    assert stop.record(1.0, frames=4000) is False
+    assert stop.stopped_at == 4000
+    # A miss after not_before restarts the count as ever.
+    late = StopWhenSolved(threshold=0.95, consecutive=2, not_before=2000)
+    assert [late.record(s, frames=f) for s, f in ((1, 1000), (0, 2000), (1, 3000))] == [True] * 3
+    assert late.record(1.0, frames=4000) is False
+
+
 def test_a_resumed_streak_counts_towards_k() -> None:
     stop = StopWhenSolved(threshold=0.95, consecutive=3, streak=trailing_streak([1, 0, 1, 1], 0.95))
     assert stop.streak == 2
@@ -191,6 +205,21 @@ def test_train_stops_after_exactly_k_solved_evaluations(
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["stopped_at"] == 7 * 512 and summary["frames"] == 7 * 512
     assert summary["frames_to_comply"] == 2 * 512  # N_frames: the first solved evaluation
+
+
+def test_train_does_not_stop_while_the_entropy_bonus_still_falls(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from noisybolt.runs import train
+
+    # A2C with its entropy bonus falling over the first 2,048 frames: every evaluation is
+    # solved, but the first three (512-1,536) come before the schedule ends.
+    seen = _scripted_success(monkeypatch, [1.0] * 20)
+    config = _stopping_config(
+        algo="a2c", overrides={"n_steps": 64, "ent_coef_final": 0.0, "ent_coef_frames": 2048}
+    )
+    result = train(config, tmp_path / "run", log=lambda _: None)
+    assert len(seen) == 4 and result.frames == 4 * 512
 
 
 def test_train_without_the_rule_trains_its_whole_budget(

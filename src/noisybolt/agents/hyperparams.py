@@ -40,6 +40,7 @@ __all__ = [
     "check_budget",
     "check_hyperparameter_values",
     "constructor_defaults",
+    "exploration_ends",
     "frame_schedules",
     "known_hyperparameters",
     "load_hyperparams",
@@ -159,6 +160,38 @@ def frame_schedules(params: Mapping[str, Any], *, frames: int) -> dict[str, Any]
                 f"to (e.g. {name}_final=0), or drop {name}_frames"
             )
     return out
+
+
+def exploration_ends(params: Mapping[str, Any], *, algo: str, frames: int) -> int:
+    """The frame at which a run's exploration schedules end: the entropy bonus's
+    (``ent_coef_final`` given: over ``ent_coef_frames``, or the whole run) and DQN's epsilon
+    (``exploration_frames``, or SB3's ``exploration_fraction`` of the run); 0 where none
+    runs. Until then the policy is not yet the one the schedule ends with.
+
+    Example:
+        >>> exploration_ends({"ent_coef": 0.05, "ent_coef_final": 0.0,
+        ...                   "ent_coef_frames": 50_000}, algo="a2c", frames=40_000)
+        50000
+        >>> exploration_ends({"ent_coef": 0.01}, algo="ppo", frames=40_000)
+        0
+        >>> exploration_ends({"exploration_frames": 3000}, algo="dqn", frames=30_000)
+        3000
+        >>> exploration_ends({}, algo="dqn", frames=30_000)  # SB3's fraction, 0.1
+        3000
+    """
+    ends = 0
+    if params.get("ent_coef_final") is not None:
+        ends = int(params.get("ent_coef_frames") or frames)
+    if algo == "dqn":
+        given = params.get("exploration_frames")
+        if given is not None:
+            ends = max(ends, int(given))
+        else:
+            fraction = params.get("exploration_fraction")
+            if fraction is None:
+                fraction = constructor_defaults("dqn").get("exploration_fraction", 0.1)
+            ends = max(ends, round(float(fraction) * int(frames)))
+    return ends
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, Any]:

@@ -59,6 +59,14 @@ class StopWhenSolved(BaseCallback):
         score: reads the latest evaluation's score from the parent callback; default:
             ``parent.last_mean_reward`` (SB3's ``EvalCallback``).
         streak: evaluations already in a row at the threshold (a resumed run's).
+        not_before: frames before which no streak stops training (they still count
+            towards it): where an exploration schedule still runs (A2C's entropy bonus
+            falling, DQN's epsilon), the policy judged solved is not yet the one the
+            schedule ends with. Measured on Table 1's exclusive-corner row (A2C, its
+            entropy bonus falling from 0.05 to 0 over 50k frames, six seeds): stopped
+            when solved, at 29k frames on average, the seeds' sampled policies complied in
+            97 % of episodes on average and one seed fell below 95 %; trained to 60k, all
+            six complied in every episode, in the optimal 7 steps.
         verbose: 1 prints a line when it stops training.
 
     Attributes:
@@ -77,6 +85,7 @@ class StopWhenSolved(BaseCallback):
         consecutive: int = 1,
         score: Callable[[Any], float] | None = None,
         streak: int = 0,
+        not_before: int = 0,
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose=verbose)
@@ -91,6 +100,7 @@ class StopWhenSolved(BaseCallback):
         self.consecutive = int(consecutive)
         self.score = score or _mean_reward
         self.streak = int(streak)
+        self.not_before = int(not_before)
         self.evaluations = 0
         self.stopped_at: int | None = None
 
@@ -104,10 +114,11 @@ class StopWhenSolved(BaseCallback):
         model's count when last stepped); returns whether training should continue."""
         self.evaluations += 1
         self.streak = self.streak + 1 if float(score) >= self.threshold else 0
-        if not self.solved:
+        at = int(self.num_timesteps if frames is None else frames)
+        if not self.solved or at < self.not_before:
             return True
         if self.stopped_at is None:
-            self.stopped_at = int(self.num_timesteps if frames is None else frames)
+            self.stopped_at = at
             if self.verbose >= 1:
                 print(
                     f"stopping: {self.streak} evaluations in a row at or above "

@@ -49,6 +49,7 @@ from stable_baselines3.common.utils import configure_logger
 from stable_baselines3.common.vec_env import VecNormalize
 
 from noisybolt.agents.constraint import LagrangianCallback
+from noisybolt.agents.hyperparams import exploration_ends
 from noisybolt.errors import ConfigError, CorruptFileError, NoCheckpointError, UntrustedCodeError
 from noisybolt.io import atomic_write_bytes, atomic_write_json
 from noisybolt.runs.callbacks import (
@@ -415,6 +416,11 @@ def _learn(
             consecutive=config.evaluation.stop_after,
             score=lambda parent: parent.success_rate,
             streak=streak,
+            # Not while an exploration schedule still runs: the policy judged solved
+            # would not be the one the schedule ends with.
+            not_before=exploration_ends(
+                config.algorithm.hyperparams, algo=config.algorithm.name, frames=config.frames
+            ),
         )
     evaluation = EvaluationCallback(
         config=config,
