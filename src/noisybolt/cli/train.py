@@ -139,8 +139,9 @@ def register(subparsers: Any) -> None:
         "--cost-limit",
         type=float,
         help="constrained scheme: how many specs an episode may leave unsatisfied, on "
-        "average, as the bolt sees them (default 0: comply in every episode); "
-        "--set bolt.constraint.lr=... (and kp, kd, initial) tune the multiplier",
+        "average, as the bolt sees them (default 0.02: comply in 98%% of episodes); "
+        "--set bolt.constraint.lr=... (and kp, kd, initial, release, window) tune the "
+        "multiplier",
     )
     flag(
         "--reward-scale",
