@@ -464,14 +464,6 @@ def test_the_price_rises_with_the_pid_output_from_0_to_the_scale(
     assert limit.price(0.0) == 0.0 and limit.price(1.0) == pytest.approx(1.0)
 
 
-def test_the_span_guards_where_doing_nothing_complies_on_a_bound() -> None:
-    from noisybolt.bolt.constraint_choices import BOUND_DECADES, price_decades
-
-    assert price_decades(exact=False, kept_by_doing_nothing=True) == BOUND_DECADES
-    assert price_decades(exact=False, kept_by_doing_nothing=False) == 0.0
-    assert price_decades(exact=True, kept_by_doing_nothing=True) == 0.0
-
-
 def test_negative_decades_are_refused_by_name() -> None:
     with pytest.raises(ConfigError, match=r"bolt\.constraint\.decades must be >= 0"):
         CostLimit(decades=-1)

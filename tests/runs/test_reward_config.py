@@ -405,44 +405,39 @@ def _constrained(specs: list, constraint: dict, world: str | None = None) -> Tra
     return resolve(TrainConfig.build({**settings, "bolt.constraint": constraint}))
 
 
-def test_the_constrained_price_spans_decades_where_its_scale_is_a_bound(
+def test_the_constrained_price_is_linear_unless_a_span_is_given(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from noisybolt.bolt.constraint import LagrangeMultiplier
-    from noisybolt.bolt.constraint_choices import BOUND_DECADES
 
     # The gridworld's scale is exact on the product: the price is linear.
     exact = _config(["edge"], reward="constrained")
     assert exact.bolt.constraint["decades"] == 0.0
     assert exact.bolt.cost_limit.price(0.5) == 0.5
-    # A world's declared bounds give a worst case: where a spec is kept by doing nothing
-    # (G(!at_goal) accepts the empty trace), the price searches down from it ...
+    # A world's declared bounds with a spec kept by doing nothing (G(!at_goal) accepts
+    # the empty trace): the price is searched, and linear too.
     world = _lake_module(tmp_path, monkeypatch, "bounded_lake", "return_bounds=(0, 1)")
     bound = resolve(
         TrainConfig.create(world=world, specs=["F(at_goal)", "G(!at_goal)"], reward="constrained")
     )
-    assert bound.bolt.constraint["decades"] == BOUND_DECADES
-    assert bound.bolt.cost_limit.price(0.5) == pytest.approx(
-        (10 ** (BOUND_DECADES / 2) - 1) / (10**BOUND_DECADES - 1)
-    )
-    # Saved and read back, it stays: a resumed run prices as it started.
-    assert TrainConfig.from_dict(bound.to_dict()).bolt.constraint["decades"] == BOUND_DECADES
-    # ... and where every spec asks for something (F(at_goal): standing still breaks it
-    # as surely as anything), the price cannot teach doing nothing: linear.
-    detour = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
-    assert detour.bolt.constraint["decades"] == 0.0
-    # One given is kept, and a scale given leaves the linear price.
-    given = _constrained(["F(at_goal)"], {"decades": 1.0}, world)
-    assert given.bolt.constraint["decades"] == 1.0
+    assert bound.bolt.constraint["decades"] == 0.0
+    assert bound.bolt.constraint["kp"] == 0.0
+    # A span given is kept, and priced over its decades; saved and read back, it stays.
+    given = _constrained(["F(at_goal)"], {"decades": 3.0}, world)
+    assert given.bolt.constraint["decades"] == 3.0
+    assert given.bolt.cost_limit.price(0.5) == pytest.approx((10**1.5 - 1) / (10**3 - 1))
+    assert TrainConfig.from_dict(given.to_dict()).bolt.constraint["decades"] == 3.0
     # 0 given (the linear price, no wait) is kept too, not read as "not given".
     linear = _constrained(["F(at_goal)"], {"decades": 0, "wait": 0}, world)
     assert linear.bolt.constraint["decades"] == 0.0 and linear.bolt.constraint["wait"] == 0.0
     assert linear.bolt.cost_limit.price(0.5) == 0.5
     assert not LagrangeMultiplier(linear.bolt.cost_limit).waiting
+    # A scale given: nothing resolved, the price linear as a multiplier given None.
     scaled = resolve(
         TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained", reward_scale=5)
     )
     assert "decades" not in scaled.bolt.constraint
+    assert scaled.bolt.cost_limit.price(0.5) == 0.5
 
 
 def test_on_an_exact_scale_the_budget_is_annealed_only_where_a_spec_is_kept_by_doing_nothing() -> (

@@ -232,10 +232,11 @@ class CostLimit:
             for any ``u > 0``, kept FrozenLake's seed 1 from its compliant route, goal
             5 %, and Acrobot's ``G(!fast)`` at the control's compliance: with this form
             11 of the world suite's 12 PPO trials of a ``G`` spec keep the task, against
-            9). 0: the price is ``u`` itself, linear. None (the default): chosen by
-            :func:`~noisybolt.runs.resolve`
-            (:func:`~noisybolt.bolt.constraint_choices.price_decades`); a multiplier
-            given None prices linearly.
+            9, at the second round's gains). 0: the price is ``u`` itself, linear: what
+            :func:`~noisybolt.runs.resolve` gives a run since the price is searched where
+            it could teach standing still
+            (:func:`~noisybolt.bolt.constraint_choices.price_search`); None prices
+            linearly too.
         wait: the longest share of the run's frames, in ``[0, 1]``, that the multiplier
             waits (at ``initial``, learning nothing, its budget's anneal not begun) for
             the world to pay the learner returns that differ between episodes. While

@@ -27,7 +27,6 @@ from noisybolt.bolt import compliance_scale
 from noisybolt.bolt.constraint_choices import (
     WAIT,
     budget_anneal,
-    price_decades,
     price_search,
     start_price,
 )
@@ -181,10 +180,11 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       tabular world (the gridworld), exact on the product of the world and the specs'
       DFAs, else from the world's return bounds (declared, or estimated by random play);
       the specs and spaces are checked against the world before anything costly
-      (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it the
-      span of the price (``bolt.constraint.decades``, where not given:
-      :func:`~noisybolt.bolt.constraint_choices.price_decades`: over decades where a spec is kept
-      by doing nothing and the scale is from bounds, else linear), and the budget's anneal
+      (:func:`compliance_scale_choice`); under the ``constrained`` scheme, with it how the
+      multiplier moves (``bolt.constraint.lr``, ``kp``, ``release``, ``window``, where not
+      given: :func:`~noisybolt.bolt.constraint_choices.price_search`: searched where a spec
+      is kept by doing nothing and the scale is from bounds, else asserted; the price's
+      span ``decades`` 0, linear), and the budget's anneal
       (``bolt.constraint.anneal``, where not given:
       :func:`~noisybolt.bolt.constraint_choices.budget_anneal`: none, the budget at the limit
       from the first rollout, where no spec is kept by doing nothing and the scale is
@@ -236,11 +236,8 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
             constraint = dict(bolt.constraint)
             idle_keeps = _kept_by_doing_nothing(config)
             if constraint.get("decades") is None:
-                # The price's span: over decades where a price could teach doing nothing
-                # (a spec kept by an episode without events) on a scale from bounds.
-                constraint["decades"] = price_decades(
-                    exact=choice.exact, kept_by_doing_nothing=idle_keeps
-                )
+                # The price is linear in the multiplier (a saved run keeps its span).
+                constraint["decades"] = 0.0
             if constraint.get("anneal") is None:
                 # The budget's anneal: none where every spec asks for something and the
                 # scale is exact (a detour priced before the direct route settles).
