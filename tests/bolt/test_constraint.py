@@ -112,7 +112,7 @@ def test_released_the_integral_falls_as_fast_below_the_budget_as_it_rises_above(
 
 
 def test_a_multiplier_given_no_gains_learns_at_the_second_round_s() -> None:
-    from noisybolt.bolt.constraint import KP, LR
+    from noisybolt.bolt.constraint_choices import KP, LR
 
     assert (LR, KP) == (0.1, 1.0)
     given = LagrangeMultiplier(CostLimit(cost_limit=0.02, lr=0.1, kp=1.0, anneal=0.0))

@@ -133,7 +133,7 @@ from typing import Any
 
 import numpy as np
 
-from noisybolt.bolt.constraint_choices import ANNEAL
+from noisybolt.bolt.constraint_choices import ANNEAL, KP, LR
 from noisybolt.errors import ConfigError
 
 __all__ = [
@@ -146,21 +146,6 @@ __all__ = [
 
 LN10 = math.log(10.0)
 
-
-#: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
-CONSTRAINT_KEYS: tuple[str, ...] = (
-    "cost_limit",
-    "lr",
-    "kp",
-    "kd",
-    "initial",
-    "anneal",
-    "decades",
-    "wait",
-    "start",
-    "window",
-    "release",
-)
 
 #: The settings of :class:`CostLimit` that may be None (chosen by
 #: :func:`~noisybolt.runs.resolve` for a fresh run; absent from runs saved before them).
@@ -175,10 +160,8 @@ OPTIONAL_KEYS: tuple[str, ...] = (
     "release",
 )
 
-#: The integral gain and the proportional gain of a multiplier given None (and of every
-#: run saved before :func:`~noisybolt.runs.resolve` chose them by the run's kind).
-LR = 0.1
-KP = 1.0
+#: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
+CONSTRAINT_KEYS: tuple[str, ...] = ("cost_limit", "kd", "initial", *OPTIONAL_KEYS)
 
 
 def _number(name: str, value: object) -> float:
@@ -208,10 +191,10 @@ class CostLimit:
             price 1; the compliance scheme, priced from the start, had. None (the
             default): chosen by :func:`~noisybolt.runs.resolve`
             (:func:`~noisybolt.bolt.constraint_choices.price_search`); a multiplier given
-            None learns at :data:`LR`.
+            None learns at :data:`~noisybolt.bolt.constraint_choices.LR`.
         kp: the proportional gain (``>= 0``): a cost above the budget is priced at once.
             None (the default): chosen by :func:`~noisybolt.runs.resolve`, as ``lr``; a
-            multiplier given None uses :data:`KP`.
+            multiplier given None uses :data:`~noisybolt.bolt.constraint_choices.KP`.
         kd: the derivative gain, on rises of the cost only (``>= 0``).
         initial: the multiplier at the start of training, in ``[0, 1]`` (0: the task is
             learned first, compliance is asked as the cost is measured).

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 __all__ = [
     "ANNEAL",
+    "KP",
+    "LR",
     "WAIT",
     "WINDOW",
     "budget_anneal",
@@ -126,6 +128,13 @@ def start_price(*, exact: bool, kept_by_doing_nothing: bool, initial: float = 0.
 WAIT = 0.5
 
 
+#: The integral gain and the proportional gain where the price is asserted (see
+#: :func:`price_search`), and of a multiplier given None (every run saved before
+#: :func:`~noisybolt.runs.resolve` chose them by the run's kind).
+LR = 0.1
+KP = 1.0
+
+
 #: The fewest frames whose episodes the multiplier pools into one measured cost where the
 #: price is searched (:attr:`CostLimit.window`): the unit of its learning rate, so that
 #: the price moves alike whatever a learner's rollout (see :func:`price_search`).
@@ -194,4 +203,4 @@ def price_search(*, exact: bool, kept_by_doing_nothing: bool) -> dict[str, float
     """
     if kept_by_doing_nothing and not exact:
         return {"kp": 0.0, "lr": 0.02, "release": 1.0, "window": float(WINDOW)}
-    return {"kp": 1.0, "lr": 0.1, "release": 0.0, "window": 0.0}
+    return {"kp": KP, "lr": LR, "release": 0.0, "window": 0.0}
