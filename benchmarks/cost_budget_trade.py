@@ -15,6 +15,7 @@ unbolted control of each seed is trained too. Finished trials are skipped on a r
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import statistics
@@ -120,7 +121,7 @@ def main() -> None:
     means = {
         d: statistics.mean(r["last"]["return"] for r, _ in rows if r["d"] == d) for d in budgets
     }
-    rising = all(means[a] < means[b] for a, b in zip(budgets, budgets[1:], strict=False))
+    rising = all(means[a] < means[b] for a, b in itertools.pairwise(budgets))
     print()
     print(
         f"cost budget trade: {met}/{len(rows)} last models within 5 points of d; mean return "

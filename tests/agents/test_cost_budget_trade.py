@@ -33,7 +33,7 @@ def test_the_toll_road_pays_the_episodes_own_saving_and_only_when_taken(
         assert reward == pytest.approx(float(obs[0]) if take else 0.0)
         assert bool(info["true_fluents"][0]) == bool(take)
         savings.append(float(obs[0]))
-    assert 0.0 <= min(savings) and max(savings) <= 1.0 and len(set(savings)) == 20
+    assert min(savings) >= 0.0 and max(savings) <= 1.0 and len(set(savings)) == 20
     bounds = env.episode_return_bounds
     assert (bounds.low, bounds.high) == (0.0, 1.0)
 
