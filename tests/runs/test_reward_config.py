@@ -511,9 +511,11 @@ def test_the_price_is_searched_only_where_it_could_teach_standing_still(
     world = _lake_module(tmp_path, monkeypatch, "bounded_lake_search", "return_bounds=(0, 1)")
     bound = resolve(TrainConfig.create(world=world, specs=["G(!at_goal)"], reward="constrained"))
     assert {k: bound.bolt.constraint[k] for k in searched} == searched
-    # A spec that asks for something: standing still breaks it too; asserted.
+    # A spec that asks for something: standing still breaks it too; asserted, its costs
+    # pooled over the window as on every scale from bounds.
     detour = resolve(TrainConfig.create(world=world, specs=["F(at_goal)"], reward="constrained"))
-    assert {k: detour.bolt.constraint[k] for k in asserted} == asserted
+    assert {k: detour.bolt.constraint[k] for k in asserted} == {**asserted, "window": 1000.0}
+    # The exact scale (the gridworld): asserted, learning every rollout.
     exact = _config(["G(!top_right_corner)"], reward="constrained")
     assert {k: exact.bolt.constraint[k] for k in asserted} == asserted
     # One given is kept.

@@ -246,10 +246,13 @@ class CostLimit:
             proportional term prices the error of one measurement at once, and the price
             is convex over decades: a measurement from the one or two episodes a 40-frame
             A2C rollout ends is a 0 or a 1, priced near nothing or in full at random, and
-            the mean price of such a walk is set by its spikes. None (the default):
-            :data:`~noisybolt.bolt.constraint_choices.WINDOW` for a run
-            :func:`~noisybolt.runs.resolve` resolves afresh, 0 (every rollout, as before
-            the setting existed) for a multiplier given None and for runs saved before it.
+            the mean price of such a walk is set by its spikes. None (the default): for a
+            run :func:`~noisybolt.runs.resolve` resolves afresh,
+            :data:`~noisybolt.bolt.constraint_choices.WINDOW` where the compliance scale
+            is from the world's return bounds and 0 where it is exact (see
+            :func:`~noisybolt.bolt.constraint_choices.price_search`); 0 (every rollout, as
+            before the setting existed) for a multiplier given None and for runs saved
+            before it.
         release: how fast the integral falls while the cost is under the budget
             (``[0, 1]``): the error it learns from is then at most ``-release * (budget -
             cost) / budget``, so that at a cost of 0 it falls at ``lr`` per 1,000 frames,
