@@ -1,13 +1,13 @@
 """Compliance estimated from the bolt's evidence alone, checked against the ground truth.
 
-For each world and bolt camera, scripted policies of several compliance levels play
-episodes; every frame's detector probabilities and true fluents are recorded once. Each
-spec's compliance rate is then estimated from the probabilities alone
+For each world and bolt camera, policies of several compliance levels (scripted, and
+trained with the library, bolted and not) play episodes; every frame's detector
+probabilities and true fluents are recorded once (:func:`record`). Each spec's compliance
+rate is then estimated from the probabilities alone
 (:func:`noisybolt.bolt.compliance.estimate_compliance`: the detector's error model, the
 fluents' chains learnt from the same unlabelled episodes, with memory of whether a fluent
 has been on, an exact forward pass over each DFA) and set beside the true rate of the
-same episodes. A *case* is one (world,
-camera, policy, spec).
+same episodes. A *case* is one (world, camera, policy, spec).
 
 - **within 3 points**: ``|estimated - true| <= 0.03``;
 - **coverage**: the 90 % interval for the policy's rate (error-model draws and a
@@ -16,36 +16,57 @@ camera, policy, spec).
 - **ECE**: the per-episode expected calibration error (10 bins) of ``P(complied)``
   against each episode's truth, pooled over the cases' episodes.
 
-Worlds and cameras: the gridworld under the clean camera (``none``), the smudged corner
-(``regional``, the paper's case 4: ``bottom_left_corner`` blurred and dimmed), Gaussian
-noise (``gaussian:sigma=60``) and two occluding patches (``occlusion:count=2,size=0.3``),
-each with the classifier ``noisybolt train --noise ...`` would use (cached or trained on
-the fly); FrozenLake 8x8 (``benchmarks/unseen_worlds.py:lake8``) under its clean
-camera (its render, one pixel in eight), with its classifier. Breakout is not included.
+Worlds and cameras, each with the classifier ``noisybolt train --noise ...`` would use
+(cached or trained on the fly) unless said:
+
+- the gridworld under the clean camera (``none``), the smudged corner (``regional``, the
+  paper's case 4: ``bottom_left_corner`` blurred and dimmed), Gaussian noise
+  (``gaussian:sigma=60``) and two occluding patches (``occlusion:count=2,size=0.3``);
+- FrozenLake 8x8 (``benchmarks/unseen_worlds.py:lake8``) under its clean camera (its
+  render, one pixel in eight), with a classifier of its own (see
+  :func:`lake_detector_and_error_model`);
+- Breakout, the paper's (the ALE game, ``breakout-ram``: the agent reads the RAM, the
+  bolt an 84x84 colour camera) under ``gaussian:sigma=50``, the camera its trained agents
+  in ``results/breakout`` were watched through; games cut at 3,000 frames. The ALE game,
+  its classifier (4,000 images, 30 epochs: under a minute) and its play (about 2,000
+  steps a second) fit this benchmark on a CPU, so MinAtar's stand-in is not needed.
 
 The error model is measured on 2,000 fresh labelled images collected from the world
 (another seed than the classifier's), as ``noisybolt evaluate`` measures a classifier
-that recorded none.
+that recorded none, with successive frames' confusion counted on 200 labelled episodes
+of random play.
 
-Policies (scripted, not trained: each episode follows one of a few routes, chosen by a
-mixture, taking a uniformly random action instead with probability ``eps``):
+Policies (:mod:`compliance_policies`):
 
-- gridworld: ``top-right`` (along the top row, then down), ``bottom-left`` (down the
-  left column, then along the bottom) and ``interior`` (a staircase through the middle),
-  mixed as ``mostly-tr`` (0.8/0/0.2, eps 0.1), ``mixed`` (0.35/0.35/0.3, eps 0.2),
-  ``mostly-bl`` (0/0.7/0.3, eps 0.1), and ``random`` (uniformly random actions).
-- FrozenLake: ``right`` (along the top row and down the right column), ``detour`` (down
-  to the bottom-left cell, back up and round the holes) and ``interior``, mixed as
-  ``mostly-right`` (0.8/0/0.2), ``mixed`` (0.3/0.3/0.4) and ``mostly-detour``
-  (0/0.7/0.3), eps 0.1.
+- gridworld, scripted: ``top-right`` (along the top row, then down), ``bottom-left``
+  (down the left column, then along the bottom) and ``interior`` (a staircase through the
+  middle), mixed per episode as ``mostly-tr`` (0.8/0/0.2, eps 0.1), ``mixed``
+  (0.35/0.35/0.3, eps 0.2), ``mostly-bl`` (0/0.7/0.3, eps 0.1), and ``random``
+  (uniformly random actions);
+- gridworld, trained (``noisybolt.runs.train``, PPO, 40,000 frames, synthetic detector,
+  seeded; trained once into ``--work``): ``ppo-bolted`` (bolted with
+  ``F(bottom_left_corner)``: it passes the corner on its way to the goal), ``ppo-unbolted``
+  (the world's reward alone: the other way round) and ``ppo-mix`` (per episode one of the
+  two, even odds); actions sampled, their bolt's DFA states tracked on the benchmark
+  camera's classifier, as deployed;
+- FrozenLake, scripted: ``right`` (along the top row and down the right column),
+  ``detour`` (down to the bottom-left cell, back up and round the holes) and
+  ``interior``, mixed as ``mostly-right`` (0.8/0/0.2), ``mixed`` (0.3/0.3/0.4) and
+  ``mostly-detour`` (0/0.7/0.3), eps 0.1;
+- Breakout, scripted: ``random``; ``track`` (the paddle under the ball, eps 0.05),
+  ``track-left`` (offset to send the ball left, towards the fluents' column, eps 0.2),
+  ``mixed`` (per episode one of those offsets or one further left, eps 0.4).
 
 Specs: the gridworld's spec suite (``generate_spec_suite(n_specs=8, seed=0)``: Dwyer's
 patterns under three scopes) plus ``F(bottom_left_corner)`` and
 ``G(!bottom_left_corner)``; FrozenLake's ``G(!right_col | at_goal)``, ``F(bottom_left)``,
-``G(bottom_left -> F(at_goal))`` and ``!at_goal U bottom_left``.
+``G(bottom_left -> F(at_goal))`` and ``!at_goal U bottom_left``; Breakout's
+:data:`BREAKOUT_SPECS` over the left column's bricks (existence, absence, response,
+precedence).
 
     .venv/bin/python benchmarks/compliance_estimates.py [--episodes 200] \\
-        [--camera none --camera regional ...] [--no-lake] [--figure PATH] [--cases]
+        [--camera none --camera regional ...] [--no-lake] [--no-breakout] [--no-trained] \\
+        [--work runs/compliance_estimates] [--figure PATH] [--cases]
 
 The last line reads ``calibration: K/N cases within 3 points; coverage C%; ECE E``.
 """
@@ -55,7 +76,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -66,13 +87,21 @@ from noisybolt.bolt.compliance import ComplianceEstimate, ErrorModel, estimate_c
 from noisybolt.logic import compile_ltlf
 from noisybolt.perception.metrics import expected_calibration_error
 
-HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # its siblings, when loaded by path
+from compliance_policies import (  # the policies it plays
+    PaddlePolicy,
+    Policy,
+    RoutePolicy,
+    TrainedPolicy,
+    trained_grid_runs,
+)
+
+#: ``(n_envs, seed, fluents) -> policy``: a policy for one world's envs.
+PolicyMaker = Callable[[int, int, tuple[str, ...]], Policy]
 #: Labelled episodes of random play the successive frames' confusion is counted on.
 LABELLED_EPISODES = 200
 
 GRID_CAMERAS = ("none", "regional", "gaussian:sigma=60", "occlusion:count=2,size=0.3")
-# Gridworld headings in the order of its facing_* fluents' directions: E, S, W, N.
-_STEPS = {0: (1, 0), 1: (0, 1), 2: (-1, 0), 3: (0, -1)}
 GRID_ROUTES = {
     "top-right": [(4, 1), (4, 4)],
     "bottom-left": [(1, 4), (4, 4)],
@@ -101,6 +130,37 @@ LAKE_SPECS = (
     "G(bottom_left -> F(at_goal))",
     "!at_goal U bottom_left",
 )
+#: The gridworld's trained agents (:func:`compliance_policies.trained_grid_runs`), each
+#: episode played by one of them drawn with these weights.
+TRAINED_PREFIX = "ppo-"
+TRAINED_MIXTURES: dict[str, dict[str, float]] = {
+    "ppo-bolted": {"bolted": 1.0},
+    "ppo-unbolted": {"unbolted": 1.0},
+    "ppo-mix": {"bolted": 0.5, "unbolted": 0.5},
+}
+#: The paper's Breakout: the ALE game, the agent reading the RAM (which the scripted
+#: paddle reads too), the bolt's 84x84 colour camera with the noise its trained agents were
+#: watched through (results/breakout), FIRE after a reset and a lost life.
+BREAKOUT_WORLD = "breakout-ram"
+BREAKOUT_KWARGS: dict[str, Any] = {"noise": "gaussian:sigma=50", "fire_on_reset": True}
+#: Games cut at 3,000 frames (750 steps): a tracking paddle rarely loses its five balls,
+#: and uncut games would cost minutes each on a CPU.
+BREAKOUT_PLAY: dict[str, Any] = {"max_episode_frames": 3000}
+#: ``name: ({paddle offset: weight}, eps)`` (:class:`compliance_policies.PaddlePolicy`).
+BREAKOUT_POLICIES: dict[str, tuple[dict[int, float], float]] = {
+    "random": ({0: 1.0}, 1.0),
+    "track": ({0: 1.0}, 0.05),
+    "track-left": ({-6: 1.0}, 0.2),
+    "mixed": ({0: 0.5, -10: 0.5}, 0.4),
+}
+BREAKOUT_SPECS: dict[str, tuple[str, str]] = {
+    "left-row5": ("F(left_gone_row5)", "existence"),
+    "left-row3": ("F(left_gone_row3)", "existence"),
+    "keep-row4": ("G(!left_gone_row4)", "absence"),
+    "row5-then-row3": ("G(left_gone_row5 -> F(left_gone_row3))", "response"),
+    "row4-before-row3": ("G(!left_gone_row3) | (!left_gone_row3 U left_gone_row4)", "precedence"),
+}
+WORLD_LABELS = {"unseen_worlds:lake8": "lake8", BREAKOUT_WORLD: "breakout"}
 
 
 @dataclass(frozen=True)
@@ -111,79 +171,18 @@ class Episode:
     truth: np.ndarray  # bool [T, n_fluents]
 
 
-class RoutePolicy:
-    """Per episode, a route drawn from a mixture; greedy moves to its next waypoint, or a
-    uniformly random action with probability ``eps`` (seeded)."""
-
-    def __init__(
-        self,
-        routes: Mapping[str, list[tuple[int, int]]],
-        mixture: Mapping[str, float],
-        eps: float,
-        *,
-        n_envs: int,
-        n_actions: int,
-        turning: bool,
-        seed: int,
-    ) -> None:
-        self._names = list(mixture)
-        self._weights = np.array([mixture[n] for n in self._names], dtype=np.float64)
-        self._weights /= self._weights.sum()
-        self._routes = routes
-        self._eps = eps
-        self._n_actions = n_actions
-        self._turning = turning
-        self._rng = np.random.default_rng(seed)
-        self._route: list[list[tuple[int, int]]] = [[] for _ in range(n_envs)]
-        self._next = np.zeros(n_envs, dtype=int)
-        for i in range(n_envs):
-            self.restart(i)
-
-    def restart(self, i: int) -> None:
-        """A new episode in env ``i``: a new route."""
-        self._route[i] = self._routes[self._rng.choice(self._names, p=self._weights)]
-        self._next[i] = 0
-
-    def act(self, positions: np.ndarray, headings: np.ndarray | None) -> np.ndarray:
-        """Actions for the envs at ``positions`` (int ``[n, 2]``, ``(x, y)``)."""
-        actions = np.zeros(len(positions), dtype=np.int64)
-        for i, (x, y) in enumerate(positions.tolist()):
-            route = self._route[i]
-            while self._next[i] < len(route) - 1 and route[self._next[i]] == (x, y):
-                self._next[i] += 1
-            if self._rng.random() < self._eps:
-                actions[i] = self._rng.integers(self._n_actions)
-                continue
-            tx, ty = route[self._next[i]]
-            # E, S, W, N as the gridworld's headings
-            want = (0 if tx > x else 2) if tx != x else (1 if ty > y else 3)
-            if self._turning:
-                assert headings is not None
-                turn = (want - int(headings[i])) % 4
-                actions[i] = 2 if turn == 0 else (1 if turn == 1 else 0)
-            else:  # FrozenLake: 0 left, 1 down, 2 right, 3 up
-                actions[i] = {0: 2, 1: 1, 2: 0, 3: 3}[want]
-        return actions
-
-
-def _headings(truth: np.ndarray, fluents: Sequence[str]) -> np.ndarray:
-    cols = [fluents.index(f) for f in ("facing_right", "facing_down", "facing_left", "facing_up")]
-    return np.argmax(truth[:, cols], axis=1)
-
-
 def record(
     world: Any,
     detector: Any,
-    policy: RoutePolicy,
+    policy: Policy,
     episodes: int,
     seed: int,
-    turning: bool,
     *,
     views: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> list[Episode]:
     """Plays until ``episodes`` episodes ended; every frame's probabilities and truths
-    (and, given ``views``, every frame's image and truth appended to it)."""
-    fluents = list(world.fluent_names)
+    (and, given ``views``, every frame's image and truth appended to it). The policy is
+    told what the detector read after each step (:class:`compliance_policies.Policy`)."""
     n = world.num_envs
 
     def look(images: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -192,19 +191,17 @@ def record(
         out = detector.predict(images, truth=truth if detector.needs_truth else None)
         return np.asarray(out, dtype=np.float64)
 
-    _, info = world.reset(seed=seed)
+    obs, info = world.reset(seed=seed)
     truth = np.asarray(info["true_fluents"], dtype=bool)
-    positions = np.asarray(info["grid_position"])
     probs = look(np.asarray(info["bolt_image"]), truth)
+    policy.start(probs)
     current = [[(probs[i], truth[i])] for i in range(n)]
     done: list[Episode] = []
     while len(done) < episodes:
-        headings = _headings(truth, fluents) if turning else None
-        _, _, terminated, truncated, info = world.step(policy.act(positions, headings))
+        obs, _, terminated, truncated, info = world.step(policy.act(obs, info, truth))
         ended = np.flatnonzero(np.asarray(terminated) | np.asarray(truncated))
         images = np.asarray(info["bolt_image"])
         truth = np.asarray(info["true_fluents"], dtype=bool)
-        positions = np.asarray(info["grid_position"])
         last_truth = truth.copy()
         batch = images
         if ended.size:
@@ -214,6 +211,7 @@ def record(
         seen = look(batch, np.concatenate([truth, last_truth[ended]]))
         probs, last_probs = seen[:n].copy(), seen[:n].copy()
         last_probs[ended] = seen[n:]
+        policy.seen(last_probs, probs[ended], ended)
         for i in range(n):
             if i in ended:
                 current[i].append((last_probs[i], last_truth[i]))
@@ -222,7 +220,6 @@ def record(
                     Episode(np.stack([p for p, _ in steps]), np.stack([t for _, t in steps]))
                 )
                 current[i] = [(probs[i], truth[i])]
-                policy.restart(i)
             else:
                 current[i].append((probs[i], truth[i]))
     return done[:episodes]
@@ -313,7 +310,7 @@ def lake_detector_and_error_model(
         world = make_world(world_name, num_envs=16, seed=at)
         policy = RoutePolicy(routes, mixture, 0.2, n_envs=16, n_actions=4, turning=False, seed=at)
         try:
-            return record(world, detector, policy, episodes, at, False, views=views)
+            return record(world, detector, policy, episodes, at, views=views)
         finally:
             world.close()
 
@@ -348,38 +345,33 @@ def lake_detector_and_error_model(
 
 def measure_world(
     world_name: str,
-    camera: str | None,
-    policies: Mapping[str, tuple[dict[str, float], float]],
-    routes: Mapping[str, list[tuple[int, int]]],
+    camera: str,
+    detector: Any,
+    model: ErrorModel,
+    policies: Mapping[str, PolicyMaker],
     specs: Mapping[str, tuple[str, str]],
     *,
     episodes: int,
     seed: int,
     n_envs: int,
-    turning: bool,
-    n_actions: int,
+    world_kwargs: Mapping[str, Any],
 ) -> list[Case]:
-    """Every (policy, spec) case of one world and camera."""
+    """Every (policy, spec) case of one world and camera: each policy plays ``episodes``
+    episodes of ``make_world(world_name, **world_kwargs)`` (seeded by its place among
+    ``policies``), read by ``detector``, estimated with ``model``."""
     from noisybolt.envs import make_world
 
-    kwargs = {} if camera is None else {"noise": camera}
-    if world_name.endswith(":lake8"):
-        detector, model = lake_detector_and_error_model(world_name, routes, seed)
-    else:
-        detector, model = detector_and_error_model(world_name, kwargs, seed)
     # The same model without successive frames' confusion: frames independent given the truth.
     independent = ErrorModel(
         fluent_names=model.fluent_names, edges=model.edges, counts=model.counts
     )
     cases = []
-    for p, (policy_name, (mixture, eps)) in enumerate(policies.items()):
-        world = make_world(world_name, num_envs=n_envs, seed=seed + p, **kwargs)
+    for p, (policy_name, make_policy) in enumerate(policies.items()):
+        world = make_world(world_name, num_envs=n_envs, seed=seed + p, **world_kwargs)
         fluents = tuple(world.fluent_names)
-        policy = RoutePolicy(
-            routes, mixture, eps, n_envs=n_envs, n_actions=n_actions, turning=turning, seed=seed + p
-        )
+        policy = make_policy(n_envs, seed + p, fluents)
         start = time.perf_counter()
-        recorded = record(world, detector, policy, episodes, seed + p, turning)
+        recorded = record(world, detector, policy, episodes, seed + p)
         world.close()
         dfas = {name: compile_ltlf(formula, fluents) for name, (formula, _) in specs.items()}
         traces = [e.probs for e in recorded]
@@ -396,8 +388,8 @@ def measure_world(
             )
             cases.append(
                 Case(
-                    world=world_name.split(":")[-1],
-                    camera=camera or "clean",
+                    world=WORLD_LABELS.get(world_name, world_name),
+                    camera=camera,
                     policy=policy_name,
                     spec=name,
                     family=specs[name][1],
@@ -408,7 +400,7 @@ def measure_world(
                 )
             )
         print(
-            f"  {world_name} {camera or 'clean'} {policy_name}: {len(recorded)} episodes, "
+            f"  {world_name} {camera} {policy_name}: {len(recorded)} episodes, "
             f"{sum(len(e.probs) for e in recorded):,} frames, {time.perf_counter() - start:.0f} s",
             file=sys.stderr,
         )
@@ -431,6 +423,46 @@ def summary_row(label: str, cases: Sequence[Case]) -> str:
     )
 
 
+def route_policies(
+    routes: Mapping[str, list[tuple[int, int]]],
+    policies: Mapping[str, tuple[dict[str, float], float]],
+    *,
+    n_actions: int,
+    turning: bool,
+) -> dict[str, PolicyMaker]:
+    """Each scripted route mixture ``name: (mixture, eps)`` as a policy maker."""
+
+    def maker(mixture: dict[str, float], eps: float) -> PolicyMaker:
+        return lambda n, seed, fluents: RoutePolicy(
+            routes, mixture, eps, n_envs=n, n_actions=n_actions, turning=turning, seed=seed,
+            fluents=fluents,
+        )  # fmt: skip
+
+    return {name: maker(mixture, eps) for name, (mixture, eps) in policies.items()}
+
+
+def trained_policies(runs: Mapping[str, Path]) -> dict[str, PolicyMaker]:
+    """The trained agents of :data:`TRAINED_MIXTURES` over ``runs`` (label -> run)."""
+
+    def maker(weights: dict[str, float]) -> PolicyMaker:
+        chosen = [label for label in runs if weights.get(label, 0) > 0]
+        return lambda n, seed, fluents: TrainedPolicy.from_runs(
+            [runs[label] for label in chosen], [weights[label] for label in chosen],
+            fluents=fluents, n_envs=n, seed=seed,
+        )  # fmt: skip
+
+    return {name: maker(weights) for name, weights in TRAINED_MIXTURES.items()}
+
+
+def breakout_policies() -> dict[str, PolicyMaker]:
+    """:data:`BREAKOUT_POLICIES` as policy makers."""
+
+    def maker(offsets: dict[int, float], eps: float) -> PolicyMaker:
+        return lambda n, seed, fluents: PaddlePolicy(offsets, eps, n_envs=n, seed=seed)
+
+    return {name: maker(offsets, eps) for name, (offsets, eps) in BREAKOUT_POLICIES.items()}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=200)
@@ -439,13 +471,23 @@ def main() -> None:
     parser.add_argument("--camera", action="append", help="gridworld cameras (repeatable)")
     parser.add_argument("--no-lake", action="store_true", help="leave FrozenLake out")
     parser.add_argument("--no-grid", action="store_true", help="leave the gridworld out")
+    parser.add_argument("--no-breakout", action="store_true", help="leave Breakout out")
+    parser.add_argument(
+        "--no-trained", action="store_true", help="leave the gridworld's trained agents out"
+    )
+    parser.add_argument(
+        "--work",
+        type=Path,
+        default=Path("runs/compliance_estimates"),
+        help="where the trained agents are trained once and kept (default: %(default)s)",
+    )
     parser.add_argument("--figure", type=Path, default=None, help="reliability diagram (PNG)")
     parser.add_argument("--cases", action="store_true", help="print every case's row too")
+    parser.add_argument("--save", type=Path, default=None, help="pickle every case here")
     args = parser.parse_args()
     import torch
 
     torch.set_num_threads(1)
-    sys.path.insert(0, str(HERE))  # unseen_worlds, for the FrozenLake factory
     from noisybolt.experiments.spec_families import generate_spec_suite
 
     suite = generate_spec_suite(n_specs=8, seed=0)
@@ -456,19 +498,16 @@ def main() -> None:
             "never-bl": (GRID_EXTRA_SPECS[1], "absence"),
         }
     )
+    common = {"episodes": args.episodes, "seed": args.seed, "n_envs": args.n_envs}
+    grid = route_policies(GRID_ROUTES, GRID_POLICIES, n_actions=3, turning=True)
+    if not args.no_trained and not args.no_grid:
+        grid |= trained_policies(trained_grid_runs(args.work, args.seed))
     cases: list[Case] = []
     for camera in () if args.no_grid else args.camera or GRID_CAMERAS:
+        kwargs = {"noise": camera}
+        detector, model = detector_and_error_model("gridworld", kwargs, args.seed)
         cases += measure_world(
-            "gridworld",
-            camera,
-            GRID_POLICIES,
-            GRID_ROUTES,
-            grid_specs,
-            episodes=args.episodes,
-            seed=args.seed,
-            n_envs=args.n_envs,
-            turning=True,
-            n_actions=3,
+            "gridworld", camera, detector, model, grid, grid_specs, world_kwargs=kwargs, **common
         )
     if not args.no_lake:
         lake_specs = {
@@ -477,17 +516,24 @@ def main() -> None:
             "bl-then-goal": (LAKE_SPECS[2], "response"),
             "bl-before-goal": (LAKE_SPECS[3], "precedence"),
         }
+        lake = "unseen_worlds:lake8"
+        detector, model = lake_detector_and_error_model(lake, LAKE_ROUTES, args.seed)
+        policies = route_policies(LAKE_ROUTES, LAKE_POLICIES, n_actions=4, turning=False)
         cases += measure_world(
-            "unseen_worlds:lake8",
-            None,
-            LAKE_POLICIES,
-            LAKE_ROUTES,
-            lake_specs,
-            episodes=args.episodes,
-            seed=args.seed,
-            n_envs=args.n_envs,
-            turning=False,
-            n_actions=4,
+            lake, "clean", detector, model, policies, lake_specs, world_kwargs={}, **common
+        )
+    if not args.no_breakout:
+        kwargs = dict(BREAKOUT_KWARGS)
+        detector, model = detector_and_error_model(BREAKOUT_WORLD, kwargs, args.seed)
+        cases += measure_world(
+            BREAKOUT_WORLD,
+            BREAKOUT_KWARGS["noise"],
+            detector,
+            model,
+            breakout_policies(),
+            BREAKOUT_SPECS,
+            world_kwargs=kwargs | BREAKOUT_PLAY,
+            **common,
         )
     print(
         f"\n### compliance estimates: {args.episodes} episodes per (world, camera, policy), "
@@ -516,6 +562,15 @@ def main() -> None:
     for label, group in groups.items():
         print(summary_row(label, group))
     print(summary_row("all", cases))
+    kinds = {"scripted policies": False, "trained policies": True}
+    for label, trained in kinds.items():
+        group = [c for c in cases if c.policy.startswith(TRAINED_PREFIX) == trained]
+        if group:
+            print(summary_row(label, group))
+    if args.save is not None:
+        import pickle
+
+        args.save.write_bytes(pickle.dumps(cases))
     print("\nthe same episodes, frames taken as independent given the truth (no successions):\n")
     print(header)
     for label, group in groups.items():
