@@ -201,13 +201,13 @@ def price_search(*, exact: bool, kept_by_doing_nothing: bool) -> dict[str, float
     ends 0 to 3 episodes on MiniGrid's room: each measured cost a 0, a half or a 1, the
     price swinging between its integral and the full scale from one rollout to the next
     (PPO's 1,024-frame rollouts are over the window already: its runs are unchanged).
-    Measured on the world suite's A2C trials of specs that ask for something (150k-300k
-    frames, seeds as named; every earlier result in ``results/world_suite/defaults/``):
-    the room's ``!right_col U bottom_left`` seed 2 complied and reached the goal in every
-    episode (return 0.94; every rollout: 50 % / 85 %), ``F(bottom_left)`` seed 2 the same
-    (every rollout: 70 % / 85 %), the lava room's ``F(bottom_left)`` seed 0 kept the task
-    as before; the room's ``U`` seeds 0 and 1 failed either way (35 % / 85 % and 50 % /
-    70 %; before 60 % / 15 % and 45 % / 65 %: the price at the full scale all run and
+    Measured on the world suite's A2C trials of specs that ask for something (19 trials,
+    each world's budget, seeds 0-2; ``benchmarks/README.md``, "A budget that trades"):
+    of those whose control did the task, three kept it that had not (the room's
+    ``!right_col U bottom_left`` and ``F(bottom_left)`` seed 2, FrozenLake's
+    ``F(bottom_left)`` seed 1), one lost it (the room's ``F(bottom_left)`` seed 1: 65 % /
+    80 %, every rollout: 100 % / 100 %), and the rest kept what they had or failed either
+    way (the room's ``U`` seeds 0 and 1: the price at the full scale all run and
     the cost never met). On the exact scale (the gridworld) the window is 0 until it is
     measured there: its detours are priced in full from the first rollout, and its
     suites were measured learning every rollout.
