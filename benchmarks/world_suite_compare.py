@@ -2,7 +2,9 @@
 
 Reads finished trials (their ``summary.json``) from world-suite output folders laid out as
 ``world_suite.py`` writes them (``WORLD/ALGO/specN|unbolted/seedS``), one folder per
-scheme, and prints one row per (world, spec, algorithm, seed) that has a control:
+scheme (or ``FOLDER+FOLDER+...``: layers, a trial found in a later one replacing the
+earlier one's, as a round that re-ran some trials leaves them), and prints one row per
+(world, spec, algorithm, seed) that has a control:
 compliance / goal rate / return of the control, then of each scheme; then, per scheme, the
 "task kept" line of :func:`world_suite.task_kept` (each bolted trial against the control of
 its own seed).
@@ -10,6 +12,9 @@ its own seed).
     cd benchmarks && ../.venv/bin/python world_suite_compare.py \\
         --controls ../runs/ws-compliance \\
         compliance=../runs/ws-compliance constrained=../runs/ws-constrained4
+    ../.venv/bin/python world_suite_compare.py --algos ppo,a2c --seeds 3 \\
+        --controls ../results/world_suite/defaults/controls \\
+        now=../results/world_suite/defaults/constrained+../results/world_suite/searched+../results/world_suite/window
 """
 
 from __future__ import annotations
@@ -22,10 +27,15 @@ from typing import Any
 import world_suite as ws
 
 
-def _record(root: Path, world_path: str, spec: str | None, algo: str, seed: int) -> Any:
-    """The finished trial's record as ``world_suite.py`` reads it (None: not finished)."""
-    args = argparse.Namespace(out=str(root), collect=True)
-    return ws.run_trial(world_path, spec, algo, seed, args)
+def _record(roots: Sequence[Path], world_path: str, spec: str | None, algo: str, seed: int) -> Any:
+    """The finished trial's record as ``world_suite.py`` reads it, from the last of the
+    layered folders that holds it (None: not finished in any)."""
+    for root in reversed(roots):
+        args = argparse.Namespace(out=str(root), collect=True)
+        record = ws.run_trial(world_path, spec, algo, seed, args)
+        if record is not None:
+            return record
+    return None
 
 
 def _cell(record: dict[str, Any] | None) -> str:
@@ -44,9 +54,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     # absolute: run_trial reads from the folder holding unseen_worlds.py
     schemes = [
-        (text.partition("=")[0], Path(text.partition("=")[2]).resolve()) for text in args.schemes
+        (name, [Path(folder).resolve() for folder in folders.split("+")])
+        for name, _, folders in (text.partition("=") for text in args.schemes)
     ]
-    controls = args.controls.resolve()
+    controls = [args.controls.resolve()]
     ws._load_worlds()
     print(
         "| world | spec | algo | seed | control: compliance / goal / return | "

@@ -73,3 +73,27 @@ def test_a_slice_of_the_suite_a_constrained_agent_keeps_the_rooms_task_and_its_d
     record = suite.run_trial("unseen_worlds:room", "F(bottom_left)", "ppo", 0, args)
     assert record["compliance"] >= 0.95
     assert record["goal_rate"] >= 0.9
+
+
+def test_layered_folders_read_each_trial_from_the_last_layer_that_holds_it(
+    load_script: Callable[..., ModuleType], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    root = Path(__file__).resolve().parents[2]
+    monkeypatch.syspath_prepend(str(root / "benchmarks"))
+    compare = load_script("benchmarks/world_suite_compare.py")
+    compare.ws._load_worlds()
+    trial = Path("room/a2c/spec1/seed2")  # re-run in the window's round: 100 % compliant
+    older, newer = tmp_path / "older", tmp_path / "newer"
+    for layer, source in ((older, "defaults/constrained"), (newer, "window")):
+        (layer / trial).mkdir(parents=True)
+        for name in ("summary.json", "config.json"):
+            (layer / trial / name).write_bytes(
+                (root / "results/world_suite" / source / trial / name).read_bytes()
+            )
+    world, spec = "unseen_worlds:room", "!right_col U bottom_left"
+    first = compare._record([older], world, spec, "a2c", 2)
+    layered = compare._record([older, newer], world, spec, "a2c", 2)
+    assert (first["compliance"], layered["compliance"]) == (0.5, 1.0)
+    # a trial no later layer holds comes from the earlier one; none at all: None
+    assert compare._record([newer, older], world, spec, "a2c", 2)["compliance"] == 0.5
+    assert compare._record([older, newer], world, spec, "a2c", 1) is None
