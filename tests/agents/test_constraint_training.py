@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import pytest
 from stable_baselines3 import PPO
+from stable_baselines3.common.monitor import Monitor
 
 from noisybolt import FluentLabels, make_bolted_vec_env
 from noisybolt.agents.constraint import LagrangianCallback, bolted_envs
@@ -70,22 +72,31 @@ def test_the_callback_prices_every_training_bolt_with_its_multiplier() -> None:
     env.close()
 
 
-def test_the_callback_hands_the_multiplier_each_episode_s_world_return() -> None:
-    """What the wait reads: each ended episode's world return, the bolt's payments left out,
-    as the Monitor below the bolt measured it."""
-    from stable_baselines3.common.monitor import Monitor
+def _ended_at(monitor: Monitor) -> list[tuple[int, float]]:
+    """(the game's step at which each episode ended, its world return), from a Monitor."""
+    lengths = np.cumsum(monitor.get_episode_lengths()).tolist()
+    return list(zip(lengths, monitor.get_episode_rewards(), strict=True))
 
-    seen: list[float] = []
 
-    class Recording(LagrangianCallback):
-        def _on_rollout_end(self) -> None:
-            seen.extend(self._returns)
-            super()._on_rollout_end()
+def _recording(callback: LagrangianCallback, model: PPO) -> list[tuple[int, float, int, list]]:
+    """Each update the callback makes: (frames trained, cost, frames pooled, returns)."""
+    calls: list[tuple[int, float, int, list]] = []
+    update = callback.multiplier.update
 
-    monitored: list[Monitor] = []
+    def recorded(cost: float, *, frames: int, returns: Any = None, **kwargs: Any) -> float:
+        calls.append((int(model.num_timesteps), cost, frames, list(returns or [])))
+        return update(cost, frames=frames, returns=returns, **kwargs)
 
-    def lake_monitored() -> FluentLabels:
-        env = Monitor(gym.make("FrozenLake-v1", is_slippery=False, render_mode="rgb_array"))
+    callback.multiplier.update = recorded  # type: ignore[method-assign]
+    return calls
+
+
+def _lake_monitored(monitored: list[Monitor], *, rewarded: bool = True) -> Any:
+    def make() -> FluentLabels:
+        lake: Any = gym.make("FrozenLake-v1", is_slippery=False, render_mode="rgb_array")
+        if not rewarded:  # every episode returns 0: a goal never found
+            lake = gym.wrappers.TransformReward(lake, lambda r: 0.0)
+        env = Monitor(lake)
         monitored.append(env)
         return FluentLabels(
             env,
@@ -93,44 +104,82 @@ def test_the_callback_hands_the_multiplier_each_episode_s_world_return() -> None
             camera=lambda e: np.zeros((4, 4, 3), dtype=np.uint8),
         )
 
-    env = make_bolted_vec_env(lake_monitored, 2, ["G(!right_col)"], "oracle", seed=3)
-    model = PPO("MultiInputPolicy", env, n_steps=256, batch_size=64, seed=0, device="cpu")
-    callback = Recording(CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=1.0), frames=1024)
-    model.learn(total_timesteps=1024, callback=callback)
-    truth = sorted(r for m in monitored for r in m.get_episode_rewards())
-    assert len(seen) > 10 and sorted(seen) == truth
-    assert callback.multiplier.updates == 2  # 1,024 frames: two rollouts of 2 x 256
+    return make
+
+
+class CostsSeen(LagrangianCallback):
+    """Records each game's ended episodes: (the game's step, the episode's cost)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.costs: list[list[tuple[int, float]]] = []
+
+    def _on_step(self) -> bool:
+        infos = self.locals["infos"]
+        if not self.costs:
+            self.costs.extend([] for _ in infos)
+        for row, info in enumerate(infos):
+            if info.get(EPISODE_COST_KEY) is not None:
+                step = int(self.model.num_timesteps) // len(infos)
+                self.costs[row].append((step, info[EPISODE_COST_KEY]))
+        return super()._on_step()
+
+
+def test_the_first_cost_is_each_game_s_first_episode_then_windows_pool_the_rest() -> None:
+    """The first measured cost is one episode a game, each game's first (however long),
+    not the episodes a window happens to end first (the short ones); then every episode
+    ended over a window of at least 300 frames, each with its world return (the bolt's
+    payments left out, as the Monitor below the bolt measured it)."""
+    monitored: list[Monitor] = []
+    env = make_bolted_vec_env(_lake_monitored(monitored), 4, ["G(!right_col)"], "oracle", seed=0)
+    model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=64, seed=0, device="cpu")
+    callback = CostsSeen(CostLimit(cost_limit=0.0, anneal=0.0, window=300), frames=768)
+    costs = callback.costs
+    calls = _recording(callback, model)
+    model.learn(total_timesteps=768, callback=callback)
+    # Every game ended an episode within the first 32-step rollout (the lake is small),
+    # most more than one: the window's mean would have weighed the short ones.
+    assert all(game and game[0][0] <= 32 for game in costs)
+    assert sum(step <= 32 for game in costs for step, _ in game) > 4
+    first_at, first_cost, first_frames, first_returns = calls[0]
+    assert (first_at, first_frames) == (128, 128)
+    assert first_cost == pytest.approx(np.mean([game[0][1] for game in costs]))
+    ended = [_ended_at(m) for m in monitored]
+    assert sorted(first_returns) == sorted(game[0][1] for game in ended)
+    # Then windows: at 512 frames (384 since 128), the episodes ended over steps 33-128.
+    assert [(at, pooled) for at, _, pooled, _ in calls[1:]] == [(512, 384)]
+    window = [c for game in costs for step, c in game if 32 < step <= 128]
+    assert len(window) > 3 and calls[1][1] == pytest.approx(np.mean(window))
+    returns = [r for game in ended for step, r in game if 32 < step <= 128]
+    assert sorted(calls[1][3]) == sorted(returns)
     env.close()
 
 
-def test_the_callback_pools_the_episodes_of_a_window_into_one_measured_cost() -> None:
-    """A 128-frame rollout, a 300-frame window: the multiplier learns every third rollout,
-    from the mean cost of every episode ended over those 384 frames."""
-    ended: list[tuple[int, float]] = []  # (frames trained at the step, the episode's cost)
-    measured: list[tuple[int, float, int]] = []  # (frames trained, cost, frames pooled)
-
-    class Recording(LagrangianCallback):
-        def _on_step(self) -> bool:
-            for info in self.locals["infos"]:
-                if info.get(EPISODE_COST_KEY) is not None:
-                    ended.append((int(self.model.num_timesteps), info[EPISODE_COST_KEY]))
-            return super()._on_step()
-
-    env = make_bolted_vec_env(_lake, 4, ["G(!right_col)"], "oracle", seed=0)
-    model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=64, seed=0, device="cpu")
-    callback = Recording(CostLimit(cost_limit=0.0, anneal=0.0, window=300), frames=768)
-    update = callback.multiplier.update
-
-    def recorded(cost: float, *, frames: int, **kwargs: object) -> float:
-        measured.append((int(model.num_timesteps), cost, frames))
-        return update(cost, frames=frames, **kwargs)  # type: ignore[arg-type]
-
-    callback.multiplier.update = recorded  # type: ignore[method-assign]
-    model.learn(total_timesteps=768, callback=callback)
-    assert [(at, pooled) for at, _, pooled in measured] == [(384, 384), (768, 384)]
-    for (at, cost, _), since in zip(measured, (0, 384), strict=True):
-        window = [c for t, c in ended if since < t <= at]
-        assert len(window) > 3 and cost == pytest.approx(np.mean(window))
+def test_a_multiplier_woken_by_a_window_measures_its_first_cost_on_episodes_begun_after() -> None:
+    """The window whose end wakes the multiplier teaches it nothing; the first cost is
+    then of each game's next episode, begun after it woke."""
+    monitored: list[Monitor] = []
+    lake = _lake_monitored(monitored, rewarded=False)
+    env = make_bolted_vec_env(lake, 2, ["G(!right_col)"], "oracle", seed=3)
+    model = PPO("MultiInputPolicy", env, n_steps=256, batch_size=64, seed=0, device="cpu")
+    # Every return 0: the wait ends at 0.3 of the run (the rollout ending at 1,024 frames).
+    limit = CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=0.3, window=0)
+    callback = CostsSeen(limit, frames=2048)
+    calls = _recording(callback, model)
+    model.learn(total_timesteps=2048, callback=callback)
+    multiplier = callback.multiplier
+    assert multiplier.woke_at == 0.5
+    assert [at for at, *_ in calls] == [512, 1024, 1536, 2048]
+    # At 1,536 frames: each game's first episode begun at or after its step 512 (the
+    # episode under way then is not counted).
+    firsts = []
+    for game in callback.costs:
+        starts = [0] + [step for step, _ in game[:-1]]
+        firsts.append(next(c for (_, c), began in zip(game, starts, strict=True) if began >= 512))
+    assert calls[2][1] == pytest.approx(np.mean(firsts)) and len(calls[2][3]) == 2
+    assert multiplier.first_cost == calls[2][1]
+    # The window before (512-1,024) held other episodes, and taught nothing.
+    assert calls[1][3] and multiplier.updates == 4
     env.close()
 
 

@@ -84,7 +84,8 @@ def test_the_integral_starts_at_start_from_the_first_cost_measured_awake() -> No
     waiting = LagrangeMultiplier(CostLimit(cost_limit=0.02, anneal=0.0, start=1.0, wait=0.5))
     assert waiting.update(1.0, progress=0.1, returns=[0.0, 0.0]) == 0.0
     assert waiting.waiting
-    assert waiting.update(1.0, progress=0.2, returns=[0.0, 0.9]) == 1.0
+    assert waiting.update(1.0, progress=0.2, returns=[0.0, 0.9]) == 0.0  # awake now
+    assert waiting.update(1.0, progress=0.25, returns=[0.0]) == 1.0  # the first cost
     # A resumed multiplier goes on from its saved integral, not from `start` again.
     resumed = LagrangeMultiplier(limit, state=lagrange.state_dict())
     assert resumed.update(0.0, frames=10_000, progress=0.6) == pytest.approx(0.94)
@@ -99,11 +100,15 @@ def test_released_the_integral_falls_as_fast_below_the_budget_as_it_rises_above(
     lagrange = LagrangeMultiplier(limit)
     # A cost of 1 over 10,000 frames: 0.02 * 0.98 * 10 = 0.196.
     assert lagrange.update(1.0, frames=10_000) == pytest.approx(0.196)
-    # Met at cost 0 over 5,000 frames: the error is -1 * (0.02 - 0) / 0.02 = -1, the
+    # Met at cost 0 over 5,000 frames: the error is -1 * (0.01 - 0) / 0.01 = -1, the
     # integral falls 0.02 * 5 = 0.1 (unreleased: 0.02 * 0.02 * 5 = 0.002).
     assert lagrange.update(0.0, frames=5_000) == pytest.approx(0.096)
-    # Half the budget: -0.5; 0.096 - 0.02 * 0.5 * 5 = 0.046.
-    assert lagrange.update(0.01, frames=5_000) == pytest.approx(0.046)
+    # A quarter of the budget: -(0.01 - 0.005) / 0.01 = -0.5; 0.096 - 0.02 * 0.5 * 5.
+    assert lagrange.update(0.005, frames=5_000) == pytest.approx(0.046)
+    # Within half the budget of it, the plain error: 0.015 - 0.02 = -0.005, as slow as a
+    # cost 0.005 above the budget rises: 0.046 - 0.02 * 0.005 * 5 = 0.0455, then back.
+    assert lagrange.update(0.015, frames=5_000) == pytest.approx(0.0455)
+    assert lagrange.update(0.025, frames=5_000) == pytest.approx(0.046)
     # Above the budget the error is the plain one, released or not.
     assert lagrange.update(0.52, frames=1_000) == pytest.approx(0.046 + 0.02 * 0.5)
     plain = LagrangeMultiplier(CostLimit(cost_limit=0.02, lr=0.02, kp=0.0, anneal=0.0))
@@ -133,12 +138,15 @@ def test_a_waiting_multiplier_learns_nothing_until_the_world_returns_differ() ->
     assert lagrange.update(0.8, frames=1000, progress=0.1, returns=[0.0, 0.0, 0.0]) == 0.0
     assert lagrange.update(0.9, frames=1000, progress=0.2, returns=[0.0]) == 0.0
     assert lagrange.waiting and lagrange.first_cost is None and lagrange.updates == 2
-    # The third's returns differ (a goal found): it learns from this cost, its budget
-    # annealed from here (0.6 at progress 0.3) over half of the run then left (0.35).
-    value = lagrange.update(0.6, frames=1000, progress=0.3, returns=[0.0, 1.0])
-    assert not lagrange.waiting and lagrange.woke_at == 0.3 and lagrange.first_cost == 0.6
-    # e = 0.6 - 0.6 = 0: integral 0, u = 0
-    assert value == 0.0
+    # The third's returns differ (a goal found): it wakes, but learns nothing from this
+    # window's cost (its episodes began before it woke: no first cost, no price).
+    assert lagrange.update(0.1, frames=1000, progress=0.3, returns=[0.0, 1.0]) == 0.0
+    assert not lagrange.waiting and lagrange.woke_at == 0.3 and lagrange.first_cost is None
+    assert lagrange.updates == 3
+    # The next cost is the first: the budget annealed from it (0.6 at progress 0.3) over
+    # half of the run then left (0.35). e = 0.6 - 0.6 = 0: integral 0, u = 0
+    value = lagrange.update(0.6, frames=1000, progress=0.3, returns=[0.0])
+    assert lagrange.first_cost == 0.6 and value == 0.0
     # At progress 0.475, a quarter of the run after waking: the budget is half-way down
     # from 0.6 to 0 (0.3). e = 0.5 - 0.3 = 0.2: integral 0.1 * 0.2 = 0.02, u = 0.2 + 0.02
     assert lagrange.budget(0.475) == pytest.approx(0.3)
@@ -149,16 +157,19 @@ def test_returns_that_differ_across_rollouts_end_the_wait() -> None:
     lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=1.0))
     assert lagrange.update(1.0, progress=0.1, returns=[-5.0]) == 0.0
     assert lagrange.waiting
-    # one episode a rollout, each the same as itself, but not as the first rollout's
-    assert lagrange.update(1.0, progress=0.2, returns=[-7.0]) == 1.0
+    # one episode a rollout, each the same as itself, but not as the first rollout's:
+    # awake, priced from the next cost measured
+    assert lagrange.update(1.0, progress=0.2, returns=[-7.0]) == 0.0
     assert lagrange.woke_at == 0.2
+    assert lagrange.update(1.0, progress=0.25, returns=[-7.0]) == 1.0
 
 
 def test_the_wait_ends_at_its_share_of_the_run_whatever_the_returns() -> None:
     lagrange = LagrangeMultiplier(CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, wait=0.5))
     assert lagrange.update(1.0, progress=0.49, returns=[0.0]) == 0.0
-    assert lagrange.update(1.0, progress=0.5, returns=[0.0]) == 1.0
+    assert lagrange.update(1.0, progress=0.5, returns=[0.0]) == 0.0
     assert lagrange.woke_at == 0.5
+    assert lagrange.update(1.0, progress=0.51, returns=[0.0]) == 1.0
 
 
 @settings(max_examples=40, deadline=None)
@@ -190,7 +201,8 @@ def test_a_waiting_multiplier_resumes_where_it_stood() -> None:
     assert state["woke_at"] is None and state["returns_seen"] == [2.0, 2.0]
     resumed = LagrangeMultiplier(limit, state=state)
     assert resumed.waiting
-    assert resumed.update(1.0, progress=0.2, returns=[3.0]) == 1.0  # 3 differs from 2
+    assert resumed.update(1.0, progress=0.2, returns=[3.0]) == 0.0  # 3 differs from 2: awake
+    assert not resumed.waiting and resumed.update(1.0, progress=0.3, returns=[3.0]) == 1.0
 
 
 def test_a_state_saved_before_the_wait_existed_loads_awake() -> None:

@@ -405,7 +405,7 @@ def test_the_best_model_survives_a_resume(
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert [m["frames"] for m in metrics] == [512, 1024, 1536, 2048, 2560, 3072]
     kept = json.loads((tmp_path / "run" / "summary.json").read_text())["kept_model"]
-    assert kept["frames"] == best_at and kept["chosen_by"] == "best shaped return"
+    assert kept["frames"] == best_at and kept["chosen_by"] == "best return within the cost budget"
     model = PPO.load(tmp_path / "run" / "model.zip", device="cpu").policy.state_dict()
     assert all(torch.equal(model[k], evaluated[best_at][k]) for k in model)
     assert [f.name for f in (tmp_path / "run" / "best").iterdir()] == [f"step_{best_at:012d}"]

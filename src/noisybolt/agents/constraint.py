@@ -9,6 +9,11 @@ for the scheme and its update rule). :class:`LagrangianCallback` does the bookke
   the specs the episode leaves unsatisfied as the bolt sees them: never ground truth);
 * it sums each game's world rewards (``info["env_reward"]``), so that a multiplier that
   waits for the world's returns to differ (``bolt.constraint.wait``) sees them;
+* the *first* cost (where the annealed budget starts) is the mean of each game's first
+  episode begun once the multiplier learns (at a fresh run's start, or after the window
+  it woke in): one episode a game whatever its length, where a window's ended episodes
+  are the short ones first. A game whose episode has not ended after
+  :data:`FIRST_COST_PATIENCE` of the run's frames is left out of it;
 * at the end of a rollout, once at least ``bolt.constraint.window`` frames have been
   trained since the last update, it updates ``λ`` from the mean cost of the episodes
   ended over them (none ended: no update, the frames count towards the next), and sets
@@ -39,7 +44,12 @@ from noisybolt.bolt import CostLimit, LagrangeMultiplier
 from noisybolt.errors import ConfigError
 from noisybolt.wrappers import ENV_REWARD_KEY, EPISODE_COST_KEY, BoltVecEnv
 
-__all__ = ["LagrangianCallback", "bolted_envs"]
+__all__ = ["FIRST_COST_PATIENCE", "LagrangianCallback", "bolted_envs"]
+
+#: The longest share of the run's frames the first cost waits for every game's first
+#: episode (see :class:`LagrangianCallback`); past it, the games whose episode has ended
+#: make it (a world without a time limit need not end one).
+FIRST_COST_PATIENCE = 0.05
 
 
 def bolted_envs(venv: VecEnv) -> list[BoltVecEnv]:
@@ -90,13 +100,28 @@ class LagrangianCallback(BaseCallback):
         self._running: np.ndarray | None = None  # each game's world return so far
         self._bolts: list[BoltVecEnv] = []
         self._last_update = 0
+        # While the first cost is measured: each game's first episode begun since (its
+        # cost and world return), whether the game's running episode began since, and
+        # the frames at which the measurement began. None: not measuring it.
+        self._first: dict[int, tuple[float, float]] = {}
+        self._fresh: np.ndarray | None = None
+        self._first_since = 0
 
     def _init_callback(self) -> None:
         env = self.model.get_env()
         assert env is not None
         self._bolts = bolted_envs(env)
         self._last_update = int(self.model.num_timesteps)
+        multiplier = self.multiplier
+        if multiplier.updates == 0 or (not multiplier.waiting and multiplier.first_cost is None):
+            # learn() begins every game afresh (a new run, or a resumed one's reset)
+            self._measure_first(began=True, n_envs=env.num_envs)
         self._set_price()
+
+    def _measure_first(self, *, began: bool, n_envs: int) -> None:
+        self._first = {}
+        self._fresh = np.full(n_envs, began)
+        self._first_since = int(self.model.num_timesteps)
 
     def _set_price(self) -> None:
         for bolt in self._bolts:
@@ -108,28 +133,48 @@ class LagrangianCallback(BaseCallback):
         if self._running is None or len(self._running) != len(dones):
             self._running = np.zeros(len(dones))
         self._running += [float(info.get(ENV_REWARD_KEY, 0.0)) for info in infos]
+        fresh = self._fresh
         for row in np.flatnonzero(dones).tolist():
             cost = infos[row].get(EPISODE_COST_KEY)
             if cost is not None:
-                self._costs.append(float(cost))
-                self._returns.append(float(self._running[row]))
+                if fresh is None:
+                    self._costs.append(float(cost))
+                    self._returns.append(float(self._running[row]))
+                elif fresh[row] and row not in self._first:
+                    self._first[row] = (float(cost), float(self._running[row]))
+            if fresh is not None:
+                fresh[row] = True  # the game's next episode begins now
             self._running[row] = 0.0
         return True
 
     def _on_rollout_end(self) -> None:
-        frames = int(self.model.num_timesteps) - self._last_update
-        window = self.multiplier.limit.window or 0
-        if self._costs and frames > 0 and frames >= window:
-            cost = float(np.mean(self._costs))
-            progress = int(self.model.num_timesteps) / max(self.frames, 1)
-            self.multiplier.update(cost, frames=frames, progress=progress, returns=self._returns)
-            self.logger.record("constraint/budget", self.multiplier.budget(progress))
-            self._last_update = int(self.model.num_timesteps)
-            self.logger.record("constraint/episode_cost", cost)
-            self.logger.record("constraint/waiting", float(self.multiplier.waiting))
+        now = int(self.model.num_timesteps)
+        frames = now - self._last_update
+        multiplier = self.multiplier
+        if self._fresh is not None:
+            patience = now - self._first_since >= FIRST_COST_PATIENCE * self.frames
+            if self._first and frames > 0 and (len(self._first) == len(self._fresh) or patience):
+                costs, returns = zip(*self._first.values(), strict=True)
+                self._update(float(np.mean(costs)), frames, list(returns))
+                self._fresh = None
+                self._costs, self._returns = [], []
+        elif self._costs and frames > 0 and frames >= (multiplier.limit.window or 0):
+            waiting = multiplier.waiting
+            self._update(float(np.mean(self._costs)), frames, self._returns)
             self._costs, self._returns = [], []
+            if waiting and not multiplier.waiting and self._running is not None:
+                # Woken by this window: the first cost is of the games' next episodes.
+                self._measure_first(began=False, n_envs=len(self._running))
         self._set_price()
-        self.logger.record("constraint/multiplier", self.multiplier.value)
+        self.logger.record("constraint/multiplier", multiplier.value)
+
+    def _update(self, cost: float, frames: int, returns: list[float]) -> None:
+        progress = int(self.model.num_timesteps) / max(self.frames, 1)
+        self.multiplier.update(cost, frames=frames, progress=progress, returns=returns)
+        self.logger.record("constraint/budget", self.multiplier.budget(progress))
+        self.logger.record("constraint/episode_cost", cost)
+        self.logger.record("constraint/waiting", float(self.multiplier.waiting))
+        self._last_update = int(self.model.num_timesteps)
 
     def state_dict(self) -> dict[str, Any]:
         """What a checkpoint keeps: the multiplier's state (the costs of a rollout under

@@ -42,6 +42,7 @@ __all__ = [
     "LinearSchedule",
     "SaveBestModel",
     "UpdateThreads",
+    "budget_score",
     "linear_schedules",
     "shaped_return",
 ]
@@ -50,6 +51,36 @@ __all__ = [
 def shaped_return(result: EvalResult) -> float:
     """What the agent is trained to maximise, as measured: env + bolt return (means)."""
     return float(result.env_return_mean + result.bolt_return_mean)
+
+
+def budget_score(result: EvalResult, *, scale: float, cost_limit: float) -> float:
+    """What chooses the kept model under the ``constrained`` scheme: the world's mean
+    return, less ``scale`` for every spec an episode leaves unsatisfied (as the bolt
+    sees it: :attr:`~noisybolt.runs.evaluation.EvalResult.bolt_cost_mean`) beyond the
+    budget ``cost_limit``, on average.
+
+    The constrained learner maximises its return subject to its cost staying within the
+    budget; judged by the shaped return at the full price instead, every violation
+    within the budget is charged too, and a model that spends its budget loses to one
+    that complies more than asked: on the toll road (A2C seed 2, ``d`` 0.1, ground truth
+    as the cost), the shaped return kept an evaluation violating in 1 % of episodes
+    (return 0.005) where this keeps one at 12 % (0.106). At a budget near 0 the two
+    choose alike (the world suite's kept models are the same under either). An
+    evaluation that did not record the bolt's view falls back to the shaped return.
+
+    Example:
+        >>> from noisybolt.runs.evaluation import EvalResult
+        >>> def result(ret, cost):
+        ...     return EvalResult(20, ret, 0.0, 0.0, 10.0, None, {}, 0.0, bolt_cost_mean=cost)
+        >>> budget_score(result(0.3, 0.1), scale=1.1, cost_limit=0.1)  # within the budget
+        0.3
+        >>> round(budget_score(result(0.5, 0.3), scale=1.1, cost_limit=0.1), 2)  # 0.2 over
+        0.28
+    """
+    if result.bolt_cost_mean is None:
+        return shaped_return(result)
+    excess = max(0.0, result.bolt_cost_mean - cost_limit)
+    return float(result.env_return_mean - scale * excess)
 
 
 def next_multiple(value: int, step: int) -> int:
@@ -175,11 +206,27 @@ class EvaluationCallback(BaseCallback):
         for name, rate in result.compliance.items():
             model.logger.record(f"eval/compliance/{name}", rate)
         if self.callback_on_new_best is not None:
-            score = shaped_return(result)
-            if self.best is None or score >= self.best["shaped_return"]:
-                self.best = {"frames": frames, "shaped_return": score}
+            score = self.score(result)
+            best = self.best
+            if best is None or score >= best.get("score", best["shaped_return"]):
+                self.best = {"frames": frames, "shaped_return": shaped_return(result)}
+                self.best["score"] = score
                 self.callback_on_new_best.on_step()
         return result
+
+    def score(self, result: EvalResult) -> float:
+        """What chooses the kept model: :func:`budget_score` under the ``constrained``
+        scheme (the world's return within the cost budget), else :func:`shaped_return`."""
+        bolt = self.config.bolt
+        if not (bolt.bolted and bolt.reward == "constrained"):
+            return shaped_return(result)
+        # Over budget, an episode costs at least its dearest spec's scale.
+        scales = [
+            float(spec.get("reward_scale") or bolt.reward_scale or 1.0) for spec in bolt.specs
+        ]
+        return budget_score(
+            result, scale=max(scales, default=1.0), cost_limit=bolt.cost_limit.cost_limit
+        )
 
     def _on_step(self) -> bool:
         if self._stop:  # the caught-up evaluation ended the run

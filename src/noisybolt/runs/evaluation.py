@@ -63,6 +63,11 @@ class EvalResult:
     happened. With a noisy camera and an ``F(x)`` spec one false positive of ``x`` is
     enough (the DFA never leaves its accepting sink), so over long episodes this measures
     how far the bolt's rewards can be trusted. Empty where episodes did not record it.
+
+    ``bolt_cost_mean`` is the mean over episodes of the specs the bolt's own DFAs left
+    unsatisfied at the episode's end: the ``constrained`` scheme's episode cost as the bolt
+    sees it (never ground truth), what the kept model's budget is judged by
+    (:func:`~noisybolt.runs.callbacks.budget_score`). None where not recorded.
     """
 
     n_episodes: int
@@ -75,6 +80,7 @@ class EvalResult:
     success_rate: float
     episodes: tuple[EpisodeRecord, ...] = field(repr=False, default=())
     false_acceptance: dict[str, float] = field(default_factory=dict)
+    bolt_cost_mean: float | None = None
 
     def to_dict(self, *, with_episodes: bool = False) -> dict[str, Any]:
         """A JSON-able dict (episodes only when asked)."""
@@ -111,10 +117,12 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
         raise ValueError("some episodes record a goal and some do not: one world's episodes")
     goal = np.array([bool(e.goal) for e in episodes]) if all(declared) else None
     false_acceptance: dict[str, float] = {}
+    bolt_cost: float | None = None
     if all(len(e.bolt_accepting) == compliant.shape[1] for e in episodes):
         bolt = np.array([e.bolt_accepting for e in episodes], dtype=bool).reshape(compliant.shape)
         false = bolt & ~compliant
         false_acceptance = {name: float(false[:, i].mean()) for i, name in enumerate(spec_names)}
+        bolt_cost = float((~bolt).sum(axis=1).mean())
     return EvalResult(
         n_episodes=len(episodes),
         env_return_mean=float(returns.mean()),
@@ -128,6 +136,7 @@ def summarise(episodes: Sequence[EpisodeRecord], spec_names: Sequence[str]) -> E
         ),
         episodes=tuple(episodes),
         false_acceptance=false_acceptance,
+        bolt_cost_mean=bolt_cost,
     )
 
 

@@ -508,7 +508,11 @@ def _learn(
         best_frames = evaluation.best["frames"]
         record = next(r for r in reversed(history) if r["frames"] == best_frames)
         final = _result_from_record(record, spec_names)
-        kept = {"frames": best_frames, "chosen_by": "best shaped return", **evaluation.best}
+        constrained = config.bolt.bolted and config.bolt.reward == "constrained"
+        chosen_by = "best shaped return"
+        if constrained and "score" in evaluation.best:
+            chosen_by = "best return within the cost budget"
+        kept = {"frames": best_frames, "chosen_by": chosen_by, **evaluation.best}
         copy_model_files(best_folder(run, best_frames), run.path)
     else:
         save_model_files(model, env, run.path, algo=config.algorithm.name)
