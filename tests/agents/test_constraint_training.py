@@ -183,6 +183,26 @@ def test_a_multiplier_woken_by_a_window_measures_its_first_cost_on_episodes_begu
     env.close()
 
 
+def test_the_price_s_scale_rises_with_the_world_returns_seen_where_it_was_estimated() -> None:
+    """A scale of 0.25 (an estimate from random play that never reached the goal): once a
+    goal is reached the returns seen span 0 to 1, and the bolts are priced at the
+    multiplier times 1.1 / 0.25, the compliance scale over the gap they show."""
+    env = make_bolted_vec_env(_lake, 4, ["G(!right_col)"], "oracle", seed=0)
+    model = PPO("MultiInputPolicy", env, n_steps=256, batch_size=64, seed=0, device="cpu")
+    limit = CostLimit(cost_limit=0.0, kp=1.0, anneal=0.0, rescale=1.1)
+    callback = LagrangianCallback(limit, frames=4096, scale=0.25)
+    model.learn(total_timesteps=4096, callback=callback)
+    multiplier = callback.multiplier
+    assert multiplier.returns_seen == (0.0, 1.0)  # random play found the goal by then
+    assert callback.scale_factor == pytest.approx(4.4)
+    assert env.price == pytest.approx(multiplier.value * 4.4) and multiplier.value > 0
+    # Without rescale (bounds declared, or a scale given) the price is the multiplier.
+    plain = LagrangianCallback(CostLimit(cost_limit=0.0, anneal=0.0), frames=4096, scale=0.25)
+    plain.multiplier.update(1.0, returns=[0.0, 1.0])
+    assert plain.scale_factor == 1.0
+    env.close()
+
+
 def test_bolted_envs_are_found_through_groups_and_wrappers() -> None:
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -222,7 +242,7 @@ def test_the_multiplier_is_learned_checkpointed_and_resumed(tmp_path: Path) -> N
     assert config["bolt"]["reward"] == "constrained"
     assert config["bolt"]["constraint"] == {
         "cost_limit": 0.02, "lr": 0.1, "kp": 1.0, "kd": 0.0, "initial": 0.0, "anneal": 0.5,
-        "decades": 0.0, "wait": 0.5, "start": 0.0, "release": 0.0, "window": 0.0,
+        "decades": 0.0, "wait": 0.5, "start": 0.0, "release": 0.0, "window": 0.0, "rescale": 0.0,
     }  # fmt: skip
     saved = _multiplier(run)
     # 8 games x 64 steps a rollout: 4 rollouts; G(on_edge) is broken by random play at once

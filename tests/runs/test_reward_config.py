@@ -337,6 +337,8 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
     with pytest.warns(EstimatedBoundsWarning, match=r"declare the bounds.*--reward-scale"):
         config = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
     assert config.bolt.reward == "constrained" and config.bolt.reward_scale == pytest.approx(1.65)
+    # An estimated scale is kept above the returns training sees; a given one is not.
+    assert config.bolt.constraint["rescale"] == pytest.approx(1.1)
     # The estimate is seeded: the same scale again; a given scale is taken as it is.
     with pytest.warns(EstimatedBoundsWarning):
         again = resolve(TrainConfig.create(**common, detector=DetectorConfig(kind="oracle")))
@@ -345,6 +347,7 @@ def test_a_world_without_bounds_trains_on_an_estimated_scale_with_a_warning(
         TrainConfig.create(**common, reward_scale=3.0, detector=DetectorConfig(kind="oracle"))
     )
     assert given.reward_scale == 3.0
+    assert given.bolt.cost_limit.rescale is None  # a multiplier given None: not raised
 
 
 def test_check_says_what_a_spec_with_its_own_scale_is_paid(

@@ -21,7 +21,11 @@ for the scheme and its update rule). :class:`LagrangianCallback` does the bookke
   that follows learns, at the new price. The window makes the measurement the same for
   a learner that updates every 40 frames (A2C) and one that updates every 1,024 (PPO):
   see :attr:`~noisybolt.bolt.CostLimit.window`;
-* it logs ``constraint/multiplier`` and ``constraint/episode_cost``, and its state is saved
+* where the compliance scale rests on bounds estimated by random play
+  (``bolt.constraint.rescale``), the price is raised as the world's returns seen in
+  training outrun the scale (:meth:`~noisybolt.bolt.LagrangeMultiplier.scale_factor`);
+* it logs ``constraint/multiplier``, ``constraint/scale_factor`` and
+  ``constraint/episode_cost``, and its state is saved
   with the run's checkpoints (:meth:`state_dict`) and restored on resume.
 
 The price is applied to the rewards as they are collected (the multiplier moves once per
@@ -84,17 +88,26 @@ class LagrangianCallback(BaseCallback):
         limit: the cost budget and the multiplier's gains.
         frames: the run's frames (the budget is annealed over a share of them).
         state: a saved :meth:`state_dict` (a resumed run's); None starts afresh.
+        scale: the resolved compliance scale (the bolts' payments at price 1): with
+            ``limit.rescale``, the price is raised as the world's returns outrun it
+            (:meth:`~noisybolt.bolt.LagrangeMultiplier.scale_factor`); None: never raised.
 
     Attributes:
         multiplier: the :class:`~noisybolt.bolt.LagrangeMultiplier`.
     """
 
     def __init__(
-        self, limit: CostLimit, *, frames: int, state: Mapping[str, Any] | None = None
+        self,
+        limit: CostLimit,
+        *,
+        frames: int,
+        state: Mapping[str, Any] | None = None,
+        scale: float | None = None,
     ) -> None:
         super().__init__(verbose=0)
         self.multiplier = LagrangeMultiplier(limit, state=state)
         self.frames = int(frames)
+        self.base_scale = scale
         self._costs: list[float] = []
         self._returns: list[float] = []
         self._running: np.ndarray | None = None  # each game's world return so far
@@ -123,9 +136,17 @@ class LagrangianCallback(BaseCallback):
         self._fresh = np.full(n_envs, began)
         self._first_since = int(self.model.num_timesteps)
 
+    @property
+    def scale_factor(self) -> float:
+        """How far the price's scale stands above the resolved one (1: not raised)."""
+        if self.base_scale is None:
+            return 1.0
+        return self.multiplier.scale_factor(self.base_scale)
+
     def _set_price(self) -> None:
+        price = self.multiplier.value * self.scale_factor
         for bolt in self._bolts:
-            bolt.price = self.multiplier.value
+            bolt.price = price
 
     def _on_step(self) -> bool:
         dones = np.asarray(self.locals["dones"], dtype=bool)
@@ -167,6 +188,7 @@ class LagrangianCallback(BaseCallback):
                 self._measure_first(began=False, n_envs=len(self._running))
         self._set_price()
         self.logger.record("constraint/multiplier", multiplier.value)
+        self.logger.record("constraint/scale_factor", self.scale_factor)
 
     def _update(self, cost: float, frames: int, returns: list[float]) -> None:
         progress = int(self.model.num_timesteps) / max(self.frames, 1)

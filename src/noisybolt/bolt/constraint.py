@@ -169,6 +169,7 @@ OPTIONAL_KEYS: tuple[str, ...] = (
     "start",
     "window",
     "release",
+    "rescale",
 )
 
 #: The settings of :class:`CostLimit`, as ``bolt.constraint`` in a run's config names them.
@@ -280,6 +281,20 @@ class CostLimit:
             then never comes. None (the default): chosen by
             :func:`~noisybolt.runs.resolve`
             (:func:`~noisybolt.bolt.constraint_choices.price_search`).
+        rescale: where the compliance scale rests on bounds estimated by random play,
+            the margin (``>= 0``) by which the price's scale is kept above the widest gap
+            between two training episodes' world returns seen so far
+            (:meth:`LagrangeMultiplier.scale_factor`): the price at ``λ = 1`` then stays
+            the compliance scheme's, worth more than the task, however far a trained
+            agent's returns outrun random play's. On FrozenLake 8x8 random play never
+            reaches the goal, its returns are all 0 and the scale fell to 1, a violation
+            at the full price worth no more than the goal it bought: PPO with
+            ``G(!right_col | at_goal)`` swung between the right column to the goal and
+            complying without it, and the model it kept broke the spec in every
+            episode. 0 (a multiplier given None, runs saved before the setting, bounds
+            declared or the scale given): the scale as resolved. None (the default):
+            chosen by :func:`~noisybolt.runs.resolve` (the compliance margin, 1.1, where
+            the bounds were estimated).
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a
@@ -298,6 +313,7 @@ class CostLimit:
     start: float | None = None
     window: float | None = None
     release: float | None = None
+    rescale: float | None = None
 
     def __post_init__(self) -> None:
         for name in CONSTRAINT_KEYS:
@@ -313,7 +329,7 @@ class CostLimit:
             raise ConfigError(
                 f"bolt.constraint.lr (the multiplier's learning rate) must be > 0, got {self.lr}"
             )
-        for name in ("kp", "kd", "decades", "window"):
+        for name in ("kp", "kd", "decades", "window", "rescale"):
             if getattr(self, name) is not None and getattr(self, name) < 0:
                 raise ConfigError(f"bolt.constraint.{name} must be >= 0, got {getattr(self, name)}")
         for name in ("initial", "anneal", "wait", "start", "release"):
@@ -450,6 +466,7 @@ class LagrangeMultiplier:
             raise ConfigError(f"an episode cost must be finite and >= 0, got {mean_episode_cost!r}")
         if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
             raise ConfigError(f"frames must be an integer >= 1, got {frames!r}")
+        self._see(returns)
         if self._woke_at is None:
             if not self._wakes(returns, float(progress)):
                 return self._value
@@ -482,19 +499,50 @@ class LagrangeMultiplier:
         self._updates += 1
         return self._value
 
+    def _see(self, returns: Sequence[float] | np.ndarray | None) -> None:
+        """Widens the least and most world returns seen by those of the episodes given."""
+        if returns is None:
+            return
+        values = np.asarray(returns, dtype=np.float64).ravel()
+        values = values[np.isfinite(values)]
+        if values.size:
+            lo, hi = float(values.min()), float(values.max())
+            if self._returns_seen is not None:
+                lo, hi = min(lo, self._returns_seen[0]), max(hi, self._returns_seen[1])
+            self._returns_seen = (lo, hi)
+
+    @property
+    def returns_seen(self) -> tuple[float, float] | None:
+        """The least and most world returns of the episodes measured so far (None: none)."""
+        return self._returns_seen
+
+    def scale_factor(self, scale: float) -> float:
+        """How far the price's scale is raised above ``scale`` (the resolved compliance
+        scale) by the returns seen: ``max(1, rescale * gap / scale)``, ``gap`` the widest
+        difference between two measured episodes' world returns (1 without ``rescale``).
+
+        Example:
+            >>> lagrange = LagrangeMultiplier(CostLimit(rescale=1.1, anneal=0.0))
+            >>> lagrange.scale_factor(1.0)  # nothing seen yet
+            1.0
+            >>> _ = lagrange.update(1.0, returns=[0.0, 0.0, 1.0])  # a goal found
+            >>> round(lagrange.scale_factor(1.0), 2)  # 1.1 times the gap of 1
+            1.1
+            >>> lagrange.scale_factor(5.0)  # a scale above the gap stays
+            1.0
+        """
+        margin = self.limit.rescale or 0.0
+        if not margin or self._returns_seen is None or scale <= 0:
+            return 1.0
+        gap = self._returns_seen[1] - self._returns_seen[0]
+        return max(1.0, margin * gap / scale)
+
     def _wakes(self, returns: Sequence[float] | np.ndarray | None, progress: float) -> bool:
         """Whether the wait ends now (the returns seen differ, or the wait is over); if so,
         notes where."""
         if returns is None:
             differ = True
         else:
-            values = np.asarray(returns, dtype=np.float64).ravel()
-            values = values[np.isfinite(values)]
-            if values.size:
-                lo, hi = float(values.min()), float(values.max())
-                if self._returns_seen is not None:
-                    lo, hi = min(lo, self._returns_seen[0]), max(hi, self._returns_seen[1])
-                self._returns_seen = (lo, hi)
             seen = self._returns_seen
             differ = seen is not None and seen[1] - seen[0] > 1e-9 * max(1.0, abs(seen[0]))
         wait = self.limit.wait or 0.0

@@ -135,6 +135,9 @@ class EvaluationCallback(BaseCallback):
             if child is not None:
                 child.parent = self
         self.last_result: EvalResult | None = None
+        #: The constrained scheme's callback, whose raised scale (where the world's
+        #: returns outran an estimated one) judges the kept model; None: the config's.
+        self.constraint: LagrangianCallback | None = None
         self._next_eval = 0
         self._stop = False
 
@@ -224,8 +227,11 @@ class EvaluationCallback(BaseCallback):
         scales = [
             float(spec.get("reward_scale") or bolt.reward_scale or 1.0) for spec in bolt.specs
         ]
+        factor = 1.0 if self.constraint is None else self.constraint.scale_factor
         return budget_score(
-            result, scale=max(scales, default=1.0), cost_limit=bolt.cost_limit.cost_limit
+            result,
+            scale=max(scales, default=1.0) * factor,
+            cost_limit=bolt.cost_limit.cost_limit,
         )
 
     def _on_step(self) -> bool:

@@ -31,6 +31,7 @@ from noisybolt.bolt.constraint_choices import (
     start_price,
 )
 from noisybolt.bolt.product import exact_compliance_scale
+from noisybolt.bolt.schemes import COMPLIANCE_MARGIN
 from noisybolt.envs import make_world
 from noisybolt.envs.bounds import estimate_return_bounds, world_return_bounds
 from noisybolt.envs.gridworld_tabular import tabular_model
@@ -191,8 +192,11 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
       exact, else over half the run) and the price the multiplier starts learning from
       (``bolt.constraint.start``: :func:`~noisybolt.bolt.constraint_choices.start_price`, in full
       on those same runs, else ``initial``);
-      and how long the multiplier waits for the world's returns to differ
-      (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint_choices.WAIT`);
+      how long the multiplier waits for the world's returns to differ
+      (``bolt.constraint.wait``, where not given: :data:`~noisybolt.bolt.constraint_choices.WAIT`),
+      and whether the price's scale is kept above the returns seen in training
+      (``bolt.constraint.rescale``: the compliance margin where the bounds were estimated
+      by random play, else 0);
     - for a user's world (a factory path) whose uint8 images are small integers,
       ``algorithm.hyperparams.policy_kwargs.normalize_images`` false (with a
       :class:`~noisybolt.errors.SmallIntegerImagesWarning`), unless the hyperparameters
@@ -264,6 +268,10 @@ def resolve(config: TrainConfig, *, log: Callable[[str], None] | None = None) ->
                 # names (absent keys: as before).
                 if constraint.get(key) is None:
                     constraint[key] = value
+            if constraint.get("rescale") is None:
+                # The price's scale kept above the returns seen where random play's
+                # estimate is all the run knows of them.
+                constraint["rescale"] = COMPLIANCE_MARGIN if choice.estimated else 0.0
             bolt = replace(bolt, constraint=constraint)
         config = replace(config, bolt=bolt)
         if choice.exact and log is not None:

@@ -439,10 +439,17 @@ def _learn(
     # rollouts; evaluation's bolts keep price 1 (the compliance scheme's payments), so the
     # shaped returns that choose the kept model are measured on one scale.
     constraint = (
-        LagrangianCallback(config.bolt.cost_limit, frames=config.frames, state=multiplier)
+        LagrangianCallback(
+            config.bolt.cost_limit,
+            frames=config.frames,
+            state=multiplier,
+            scale=config.bolt.reward_scale,
+        )
         if config.bolt.bolted and config.bolt.reward == "constrained"
         else None
     )
+    # The kept model is judged at the price's scale, raised as the multiplier's is.
+    evaluation.constraint = constraint
     checkpoints = CheckpointCallback(
         config=config, run=run, evaluation=evaluation, constraint=constraint
     )
