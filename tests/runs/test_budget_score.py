@@ -118,3 +118,16 @@ def test_the_kept_model_is_judged_at_the_price_s_raised_scale() -> None:
     callback.constraint = constraint
     assert callback.score(breaks) == pytest.approx(1.0 - 1.1 * 0.98)
     assert callback.score(complies) == 0.0 > callback.score(breaks)
+
+
+def test_a_best_saved_without_a_score_is_scored_again_from_its_record() -> None:
+    """A run resumed from a checkpoint written before scores were kept: its best
+    evaluation is judged as the new ones are, not by its shaped return."""
+    spends = summarise(_episodes(20, violating=2, bolt_missed=0, ret=0.5), ["edge"])
+    callback = _callback(
+        reward="constrained", reward_scale=1.1, **{"bolt.constraint.cost_limit": 0.02}
+    )
+    callback.history.append({"frames": 4096, **spends.to_dict()})
+    old_best = {"frames": 4096, "shaped_return": 123.0}
+    assert callback._best_score(old_best) == pytest.approx(0.5 - 1.1 * 0.08)
+    assert callback._best_score({"frames": 1, "shaped_return": 7.0}) == 7.0  # no record

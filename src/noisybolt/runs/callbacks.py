@@ -210,12 +210,22 @@ class EvaluationCallback(BaseCallback):
             model.logger.record(f"eval/compliance/{name}", rate)
         if self.callback_on_new_best is not None:
             score = self.score(result)
-            best = self.best
-            if best is None or score >= best.get("score", best["shaped_return"]):
+            if self.best is None or score >= self._best_score(self.best):
                 self.best = {"frames": frames, "shaped_return": shaped_return(result)}
                 self.best["score"] = score
                 self.callback_on_new_best.on_step()
         return result
+
+    def _best_score(self, best: Mapping[str, Any]) -> float:
+        """The kept evaluation's score; a run resumed from a checkpoint written before
+        scores were kept has its best evaluation scored again from the history."""
+        if "score" in best:
+            return float(best["score"])
+        for record in self.history:
+            if record["frames"] == best["frames"]:
+                fields = {k: v for k, v in record.items() if k in EvalResult.__dataclass_fields__}
+                return self.score(EvalResult(**fields))
+        return float(best["shaped_return"])
 
     def score(self, result: EvalResult) -> float:
         """What chooses the kept model: :func:`budget_score` under the ``constrained``
