@@ -108,7 +108,8 @@ def _lake_monitored(monitored: list[Monitor], *, rewarded: bool = True) -> Any:
 
 
 class CostsSeen(LagrangianCallback):
-    """Records each game's ended episodes: (the game's step, the episode's cost)."""
+    """Records each game's ended episodes: (the game's step, the episode's cost), the
+    step as :func:`_ended_at` counts it (the games step together)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -125,33 +126,62 @@ class CostsSeen(LagrangianCallback):
         return super()._on_step()
 
 
-def test_the_first_cost_is_each_game_s_first_episode_then_windows_pool_the_rest() -> None:
-    """The first measured cost is one episode a game, each game's first (however long),
-    not the episodes a window happens to end first (the short ones); then every episode
-    ended over a window of at least 300 frames, each with its world return (the bolt's
-    payments left out, as the Monitor below the bolt measured it)."""
+def _begun_before(game: list[tuple[int, float]], frames: int, n_envs: int) -> list[int]:
+    """The indices of a game's episodes begun before ``frames`` frames of ``n_envs`` games
+    (the first begins at 0, each next one as the one before ends)."""
+    starts = [0] + [step * n_envs for step, _ in game[:-1]]
+    return [i for i, start in enumerate(starts) if start < frames]
+
+
+def test_the_first_cost_pools_the_episodes_begun_in_the_window_then_windows_pool_the_rest() -> None:
+    """The first measured cost pools every episode *begun* in the first 300 frames (each
+    game's first among them), each waited for to its end, not the episodes a window
+    happens to end first (the short ones); then every episode ended over a window of at
+    least 300 frames, each with its world return (the bolt's payments left out, as the
+    Monitor below the bolt measured it)."""
     monitored: list[Monitor] = []
     env = make_bolted_vec_env(_lake_monitored(monitored), 4, ["G(!right_col)"], "oracle", seed=0)
     model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=64, seed=0, device="cpu")
-    callback = CostsSeen(CostLimit(cost_limit=0.0, anneal=0.0, window=300), frames=768)
+    # A run of 100k frames (the first cost waits 5k past its window for the episodes it
+    # counts), of which the first 768 are trained here.
+    callback = CostsSeen(CostLimit(cost_limit=0.0, anneal=0.0, window=300), frames=100_000)
     costs = callback.costs
     calls = _recording(callback, model)
     model.learn(total_timesteps=768, callback=callback)
-    # Every game ended an episode within the first 32-step rollout (the lake is small),
-    # most more than one: the window's mean would have weighed the short ones.
-    assert all(game and game[0][0] <= 32 for game in costs)
-    assert sum(step <= 32 for game in costs for step, _ in game) > 4
-    first_at, first_cost, first_frames, first_returns = calls[0]
-    assert (first_at, first_frames) == (128, 128)
-    assert first_cost == pytest.approx(np.mean([game[0][1] for game in costs]))
     ended = [_ended_at(m) for m in monitored]
-    assert sorted(first_returns) == sorted(game[0][1] for game in ended)
-    # Then windows: at 512 frames (384 since 128), the episodes ended over steps 33-128.
-    assert [(at, pooled) for at, _, pooled, _ in calls[1:]] == [(512, 384)]
-    window = [c for game in costs for step, c in game if 32 < step <= 128]
+    counted = [_begun_before(game, 300, 4) for game in costs]
+    assert sum(map(len, counted)) > 4  # more than one episode a game
+    last_end = max(costs[g][i][0] * 4 for g, indices in enumerate(counted) for i in indices)
+    # Learnt at the first rollout's end (every 128 frames) past the window and past the
+    # end of every counted episode, from their costs and returns.
+    first_at, first_cost, first_frames, first_returns = calls[0]
+    assert first_at == first_frames == max(384, -(-last_end // 128) * 128)
+    cost_counted = [costs[g][i][1] for g, indices in enumerate(counted) for i in indices]
+    assert first_cost == pytest.approx(np.mean(cost_counted))
+    returns_counted = [ended[g][i][1] for g, indices in enumerate(counted) for i in indices]
+    assert sorted(first_returns) == sorted(returns_counted)
+    # Then windows of at least 300 frames: the episodes ended after the first update.
+    assert [(at, pooled) for at, _, pooled, _ in calls[1:]] == [(first_at + 384, 384)]
+    window = [c for game in costs for step, c in game if first_at < step * 4 <= first_at + 384]
     assert len(window) > 3 and calls[1][1] == pytest.approx(np.mean(window))
-    returns = [r for game in ended for step, r in game if 32 < step <= 128]
+    returns = [r for game in ended for step, r in game if first_at < step * 4 <= first_at + 384]
     assert sorted(calls[1][3]) == sorted(returns)
+    env.close()
+
+
+def test_with_no_window_the_first_cost_is_each_game_s_first_episode() -> None:
+    monitored: list[Monitor] = []
+    env = make_bolted_vec_env(_lake_monitored(monitored), 4, ["G(!right_col)"], "oracle", seed=0)
+    model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=64, seed=0, device="cpu")
+    callback = CostsSeen(CostLimit(cost_limit=0.0, anneal=0.0, window=0), frames=256)
+    calls = _recording(callback, model)
+    model.learn(total_timesteps=256, callback=callback)
+    # Every game ended an episode within the first 32-step rollout (the lake is small),
+    # most more than one: one episode a game, not the short ones a rollout ends first.
+    assert all(game and game[0][0] <= 32 for game in callback.costs)
+    assert sum(step <= 32 for game in callback.costs for step, _ in game) > 4
+    assert calls[0][:3] == (128, pytest.approx(np.mean([g[0][1] for g in callback.costs])), 128)
+    assert sorted(calls[0][3]) == sorted(game[0][1] for game in map(_ended_at, monitored))
     env.close()
 
 

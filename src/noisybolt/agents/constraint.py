@@ -9,11 +9,13 @@ for the scheme and its update rule). :class:`LagrangianCallback` does the bookke
   the specs the episode leaves unsatisfied as the bolt sees them: never ground truth);
 * it sums each game's world rewards (``info["env_reward"]``), so that a multiplier that
   waits for the world's returns to differ (``bolt.constraint.wait``) sees them;
-* the *first* cost (where the annealed budget starts) is the mean of each game's first
-  episode begun once the multiplier learns (at a fresh run's start, or after the window
-  it woke in): one episode a game whatever its length, where a window's ended episodes
-  are the short ones first. A game whose episode has not ended after
-  :data:`FIRST_COST_PATIENCE` of the run's frames is left out of it;
+* the *first* cost (where the annealed budget starts) is the mean over the episodes
+  *begun* in the first ``window`` frames once the multiplier learns (at a fresh run's
+  start, or after the window it woke in), and at least each game's first begun then,
+  every one of them waited for to its end: chosen by when they began, not by when they
+  ended, since a window's ended episodes are the short ones first. With ``window`` 0,
+  each game's first episode. Episodes not ended :data:`FIRST_COST_PATIENCE` of the
+  run's frames after the window are left out of it;
 * at the end of a rollout, once at least ``bolt.constraint.window`` frames have been
   trained since the last update, it updates ``λ`` from the mean cost of the episodes
   ended over them (none ended: no update, the frames count towards the next), and sets
@@ -50,9 +52,9 @@ from noisybolt.wrappers import ENV_REWARD_KEY, EPISODE_COST_KEY, BoltVecEnv
 
 __all__ = ["FIRST_COST_PATIENCE", "LagrangianCallback", "bolted_envs"]
 
-#: The longest share of the run's frames the first cost waits for every game's first
-#: episode (see :class:`LagrangianCallback`); past it, the games whose episode has ended
-#: make it (a world without a time limit need not end one).
+#: The longest share of the run's frames the first cost waits, past its window, for the
+#: episodes it counts to end (see :class:`LagrangianCallback`); then those that have
+#: ended make it (a world without a time limit need not end one).
 FIRST_COST_PATIENCE = 0.05
 
 
@@ -113,11 +115,13 @@ class LagrangianCallback(BaseCallback):
         self._running: np.ndarray | None = None  # each game's world return so far
         self._bolts: list[BoltVecEnv] = []
         self._last_update = 0
-        # While the first cost is measured: each game's first episode begun since (its
-        # cost and world return), whether the game's running episode began since, and
-        # the frames at which the measurement began. None: not measuring it.
-        self._first: dict[int, tuple[float, float]] = {}
-        self._fresh: np.ndarray | None = None
+        # While the first cost is measured (see _measure_first): the counted episodes'
+        # (cost, world return), whether each game's running episode counts, whether each
+        # game has ended a counted one, and the frames at which the measurement began.
+        # _counting None: not measuring it.
+        self._first: list[tuple[float, float]] = []
+        self._counting: np.ndarray | None = None
+        self._counted = np.zeros(0, dtype=bool)
         self._first_since = 0
 
     def _init_callback(self) -> None:
@@ -132,9 +136,21 @@ class LagrangianCallback(BaseCallback):
         self._set_price()
 
     def _measure_first(self, *, began: bool, n_envs: int) -> None:
-        self._first = {}
-        self._fresh = np.full(n_envs, began)
+        """Begins measuring the first cost: over the episodes *begun* in the next
+        ``window`` frames (whatever their length, each waited for to its end), and at
+        least each game's first begun from now. ``began``: the games' running episodes
+        begin now (a fresh run's first reset), else they began before and do not count."""
+        self._first = []
+        self._counting = np.full(n_envs, began)
+        self._counted = np.zeros(n_envs, dtype=bool)
         self._first_since = int(self.model.num_timesteps)
+
+    def _first_measured(self, now: int) -> bool:
+        """Whether every episode the first cost counts has ended."""
+        assert self._counting is not None
+        window = self.multiplier.limit.window or 0
+        done = now >= self._first_since + window and bool(self._counted.all())
+        return done and not self._counting.any()
 
     @property
     def scale_factor(self) -> float:
@@ -154,17 +170,24 @@ class LagrangianCallback(BaseCallback):
         if self._running is None or len(self._running) != len(dones):
             self._running = np.zeros(len(dones))
         self._running += [float(info.get(ENV_REWARD_KEY, 0.0)) for info in infos]
-        fresh = self._fresh
-        for row in np.flatnonzero(dones).tolist():
+        counting = self._counting
+        ended = np.flatnonzero(dones).tolist()
+        if ended and counting is not None:
+            # The next episode of a game that ends one now begins within the window (or
+            # is the first the game begins since the measurement began): it counts.
+            window = self.multiplier.limit.window or 0
+            within = int(self.model.num_timesteps) < self._first_since + window
+        for row in ended:
             cost = infos[row].get(EPISODE_COST_KEY)
-            if cost is not None:
-                if fresh is None:
+            if counting is None:
+                if cost is not None:
                     self._costs.append(float(cost))
                     self._returns.append(float(self._running[row]))
-                elif fresh[row] and row not in self._first:
-                    self._first[row] = (float(cost), float(self._running[row]))
-            if fresh is not None:
-                fresh[row] = True  # the game's next episode begins now
+            else:
+                if counting[row] and cost is not None:
+                    self._first.append((float(cost), float(self._running[row])))
+                    self._counted[row] = True
+                counting[row] = within or not self._counted[row]
             self._running[row] = 0.0
         return True
 
@@ -172,12 +195,13 @@ class LagrangianCallback(BaseCallback):
         now = int(self.model.num_timesteps)
         frames = now - self._last_update
         multiplier = self.multiplier
-        if self._fresh is not None:
-            patience = now - self._first_since >= FIRST_COST_PATIENCE * self.frames
-            if self._first and frames > 0 and (len(self._first) == len(self._fresh) or patience):
-                costs, returns = zip(*self._first.values(), strict=True)
+        if self._counting is not None:
+            window = self.multiplier.limit.window or 0
+            patience = now - self._first_since >= window + FIRST_COST_PATIENCE * self.frames
+            if self._first and frames > 0 and (self._first_measured(now) or patience):
+                costs, returns = zip(*self._first, strict=True)
                 self._update(float(np.mean(costs)), frames, list(returns))
-                self._fresh = None
+                self._counting = None
                 self._costs, self._returns = [], []
         elif self._costs and frames > 0 and frames >= (multiplier.limit.window or 0):
             waiting = multiplier.waiting

@@ -74,9 +74,14 @@ the short ones: on MiniGrid's room (``!right_col U bottom_left``, A2C seed 0) th
 started at the limit and the price stood at the full scale from 15k frames to the end
 (compliance 35 %), where seed 2, its first cost 0.95, annealed and kept the task. So the
 window in which the multiplier wakes teaches it nothing (its episodes began before), and
-the first cost is the mean of each game's first episode begun afterwards
-(:class:`~noisybolt.agents.constraint.LagrangianCallback`: one episode a game, whatever its length;
-at the run's start, each game's first episode).
+the first cost pools the episodes *begun* over the next ``window`` frames, each game's
+first among them, every one waited for to its end
+(:class:`~noisybolt.agents.constraint.LagrangianCallback`; at the run's start, from its
+first frame): chosen by when they began, not by when they ended. (One episode a game
+alone is unbiased too, but eight episodes are a noisy first cost: on FrozenLake 8x8,
+PPO seed 2 measured 0 of 8 breaking ``G(!right_col | at_goal)`` where a window's 35
+episodes measured 0.086, its budget started at the limit, and it never found the
+goal, which the same seed found priced from the larger sample.)
 
 The integral's rate is per 1,000 frames, not per update, so that a learner that updates
 every 40 frames (A2C) and one that updates every 1,024 (PPO) raise the price alike.
