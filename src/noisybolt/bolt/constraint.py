@@ -67,21 +67,13 @@ wait is over, and then learns as above, its budget annealed over ``anneal`` of t
 left. Where the returns differ from the first rollout (step costs, falls, a pole that
 drops), nothing waits.
 
-**The first cost is measured on whole episodes begun once awake.** Where the budget
-starts decides how hard the anneal asks, and the episodes that end first in a window are
-the short ones: on MiniGrid's room (``!right_col U bottom_left``, A2C seed 0) the first
-1,000 frames ended a few quick compliant episodes, the first cost was 0, the budget
-started at the limit and the price stood at the full scale from 15k frames to the end
-(compliance 35 %), where seed 2, its first cost 0.95, annealed and kept the task. So the
-window in which the multiplier wakes teaches it nothing (its episodes began before), and
-the first cost pools the episodes *begun* over the next ``window`` frames, each game's
-first among them, every one waited for to its end
-(:class:`~noisybolt.agents.constraint.LagrangianCallback`; at the run's start, from its
-first frame): chosen by when they began, not by when they ended. (One episode a game
-alone is unbiased too, but eight episodes are a noisy first cost: on FrozenLake 8x8,
-PPO seed 2 measured 0 of 8 breaking ``G(!right_col | at_goal)`` where a window's 35
-episodes measured 0.086, its budget started at the limit, and it never found the
-goal, which the same seed found priced from the larger sample.)
+**The first cost is measured on whole episodes begun once awake**, where the annealed
+budget starts: the episodes a window ends first are the short ones (MiniGrid's room,
+``!right_col U bottom_left``, A2C seed 0: a first cost of 0 from a few quick compliant
+episodes put the price at the full scale from 15k frames on, compliance 35 %). So the
+window in which the multiplier wakes teaches it nothing, and the first cost pools the
+episodes begun over the next ``window`` frames, each waited for to its end
+(:class:`~noisybolt.agents.constraint.LagrangianCallback`).
 
 The integral's rate is per 1,000 frames, not per update, so that a learner that updates
 every 40 frames (A2C) and one that updates every 1,024 (PPO) raise the price alike.
@@ -289,17 +281,12 @@ class CostLimit:
         rescale: where the compliance scale rests on bounds estimated by random play,
             the margin (``>= 0``) by which the price's scale is kept above the widest gap
             between two training episodes' world returns seen so far
-            (:meth:`LagrangeMultiplier.scale_factor`): the price at ``λ = 1`` then stays
-            the compliance scheme's, worth more than the task, however far a trained
-            agent's returns outrun random play's. On FrozenLake 8x8 random play never
-            reaches the goal, its returns are all 0 and the scale fell to 1, a violation
-            at the full price worth no more than the goal it bought: PPO with
-            ``G(!right_col | at_goal)`` swung between the right column to the goal and
-            complying without it, and the model it kept broke the spec in every
-            episode. 0 (a multiplier given None, runs saved before the setting, bounds
-            declared or the scale given): the scale as resolved. None (the default):
-            chosen by :func:`~noisybolt.runs.resolve` (the compliance margin, 1.1, where
-            the bounds were estimated).
+            (:meth:`LagrangeMultiplier.scale_factor`), so that at ``λ = 1`` complying
+            still outweighs the task (FrozenLake 8x8: random play never reaches the
+            goal, the scale fell to 1, and the model a run kept broke ``G(!right_col |
+            at_goal)`` in every episode). 0 (a multiplier given None, runs saved before
+            it, bounds declared, a scale given): as resolved. None (the default): chosen
+            by :func:`~noisybolt.runs.resolve` (1.1 where the bounds were estimated).
 
     Raises:
         ConfigError: a value that is not a finite number, a negative limit or gain, a
