@@ -145,11 +145,15 @@ class LagrangianCallback(BaseCallback):
         self._counted = np.zeros(n_envs, dtype=bool)
         self._first_since = int(self.model.num_timesteps)
 
+    @property
+    def _window(self) -> float:
+        """The fewest frames a measured cost pools (``bolt.constraint.window``; 0: none)."""
+        return self.multiplier.limit.window or 0
+
     def _first_measured(self, now: int) -> bool:
         """Whether every episode the first cost counts has ended."""
         assert self._counting is not None
-        window = self.multiplier.limit.window or 0
-        done = now >= self._first_since + window and bool(self._counted.all())
+        done = now >= self._first_since + self._window and bool(self._counted.all())
         return done and not self._counting.any()
 
     @property
@@ -175,8 +179,7 @@ class LagrangianCallback(BaseCallback):
         if ended and counting is not None:
             # The next episode of a game that ends one now begins within the window (or
             # is the first the game begins since the measurement began): it counts.
-            window = self.multiplier.limit.window or 0
-            within = int(self.model.num_timesteps) < self._first_since + window
+            within = int(self.model.num_timesteps) < self._first_since + self._window
         for row in ended:
             cost = infos[row].get(EPISODE_COST_KEY)
             if counting is None:
@@ -196,14 +199,13 @@ class LagrangianCallback(BaseCallback):
         frames = now - self._last_update
         multiplier = self.multiplier
         if self._counting is not None:
-            window = self.multiplier.limit.window or 0
-            patience = now - self._first_since >= window + FIRST_COST_PATIENCE * self.frames
+            patience = now - self._first_since >= self._window + FIRST_COST_PATIENCE * self.frames
             if self._first and frames > 0 and (self._first_measured(now) or patience):
                 costs, returns = zip(*self._first, strict=True)
                 self._update(float(np.mean(costs)), frames, list(returns))
                 self._counting = None
                 self._costs, self._returns = [], []
-        elif self._costs and frames > 0 and frames >= (multiplier.limit.window or 0):
+        elif self._costs and frames > 0 and frames >= self._window:
             waiting = multiplier.waiting
             self._update(float(np.mean(self._costs)), frames, self._returns)
             self._costs, self._returns = [], []

@@ -465,7 +465,7 @@ class LagrangeMultiplier:
                 # Woken by this window's returns: its episodes began before, so its cost is
                 # no first cost (the short episodes end first, and a first cost measured on
                 # them starts the anneal low). The caller measures the first cost on
-                # episodes begun from now (LagrangianCallback: each game's first).
+                # episodes begun from now (LagrangianCallback: those begun in its window).
                 self._updates += 1
                 return self._value
         limit = self.limit

@@ -223,8 +223,7 @@ class EvaluationCallback(BaseCallback):
             return float(best["score"])
         for record in self.history:
             if record["frames"] == best["frames"]:
-                fields = {k: v for k, v in record.items() if k in EvalResult.__dataclass_fields__}
-                return self.score(EvalResult(**fields))
+                return self.score(EvalResult.from_record(record))
         return float(best["shaped_return"])
 
     def score(self, result: EvalResult) -> float:

@@ -82,6 +82,12 @@ class EvalResult:
     false_acceptance: dict[str, float] = field(default_factory=dict)
     bolt_cost_mean: float | None = None
 
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> EvalResult:
+        """The result a ``metrics.json`` record holds (:meth:`to_dict`; its other keys,
+        such as ``frames``, left out)."""
+        return cls(**{k: v for k, v in record.items() if k in cls.__dataclass_fields__})
+
     def to_dict(self, *, with_episodes: bool = False) -> dict[str, Any]:
         """A JSON-able dict (episodes only when asked)."""
         data = asdict(self)

@@ -37,7 +37,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -508,13 +508,13 @@ def _learn(
         )
         raise
     if final is None:
-        final = _result_from_record(history[-1], spec_names)
+        final = EvalResult.from_record(history[-1])
     checkpoints.checkpoint()
     kept: dict[str, Any] = {"frames": int(model.num_timesteps), "chosen_by": "last"}
     if config.evaluation.keep_best and evaluation.best is not None:
         best_frames = evaluation.best["frames"]
         record = next(r for r in reversed(history) if r["frames"] == best_frames)
-        final = _result_from_record(record, spec_names)
+        final = EvalResult.from_record(record)
         constrained = config.bolt.bolted and config.bolt.reward == "constrained"
         chosen_by = "best shaped return"
         if constrained and "score" in evaluation.best:
@@ -539,8 +539,3 @@ def _learn(
         frames_to_comply=evaluation.frames_to_comply,
         history=tuple(history),
     )
-
-
-def _result_from_record(record: Mapping[str, Any], spec_names: Sequence[str]) -> EvalResult:
-    fields = {k: v for k, v in record.items() if k in EvalResult.__dataclass_fields__}
-    return EvalResult(**fields)
